@@ -1,0 +1,38 @@
+#pragma once
+// Cholesky factorisation with a bounded jitter fallback. Numerical code reports
+// failure through a status and a message; it does not throw.
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+
+namespace gipdyn {
+
+struct JitterPolicy {
+  // Jitter is relative to the mean of the diagonal: first try none, then
+  // initial_relative, growing by `growth`, up to max_relative.
+  double initial_relative = 1e-10;
+  double growth = 10.0;
+  double max_relative = 1e-4;
+};
+
+struct CholeskyResult {
+  enum class Status { Ok, NotPositiveDefinite, NonFinite };
+  Status status = Status::Ok;
+  double jitter = 0.0;  // absolute value added to the diagonal (0 if none was needed)
+  std::string message;
+  bool ok() const { return status == Status::Ok; }
+};
+
+// Factorises the symmetric matrix whose lower triangle is in K into K = L L^T
+// in place (lower triangle). If LAPACK's potrf fails, rebuild(K) restores the
+// lower triangle and the factorisation is retried with growing jitter.
+CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
+                                    const JitterPolicy& policy = {});
+
+// Solves (L L^T) x = b in place, L from cholesky_with_jitter.
+void cholesky_solve(const Eigen::MatrixXd& L, Eigen::Ref<Eigen::MatrixXd> b);
+
+// Replaces the Cholesky factor (lower) by the lower triangle of (L L^T)^{-1} (LAPACK potri).
+bool cholesky_inverse_in_place(Eigen::MatrixXd& L);
+
+}  // namespace gipdyn

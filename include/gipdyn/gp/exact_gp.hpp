@@ -1,0 +1,88 @@
+#pragma once
+// Exact GP regression for one output (METHOD.md §3).
+//
+//   K = k(X, X) + sigma_n^2 I (+ jitter only if Cholesky fails), alpha = K^{-1} y
+//   mean(x*) = k(x*, X) alpha,  var(x*) = k(x*, x*) - k(x*, X) K^{-1} k(X, x*)
+//   NLL = 1/2 y^T alpha + sum_i log L_ii + N/2 log(2 pi)
+//   dNLL/dtheta = -1/2 tr((alpha alpha^T - K^{-1}) dK/dtheta)
+//
+// The hyperparameter vector of a GP is [kernel log-parameters..., log sigma_n^2].
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+
+#include "gipdyn/gp/cholesky.hpp"
+#include "gipdyn/kernels/kernel.hpp"
+
+namespace gipdyn {
+
+// Mutable buffers for NLL evaluations and fits (one per thread). The N x N
+// matrix K is reused across calls, so an optimiser allocates it once.
+struct GpWorkspace {
+  Eigen::MatrixXd K;
+  Eigen::VectorXd alpha;
+  KernelScratch scratch;
+};
+
+struct NllEvaluation {
+  bool ok = false;
+  double nll = 0.0;
+  Eigen::VectorXd gradient;  // w.r.t. [kernel log-params, log noise variance]
+  double jitter = 0.0;
+  std::string message;
+};
+
+// Negative log marginal likelihood of y and (optionally) its gradient.
+NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
+                           const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,
+                           const JitterPolicy& jitter = {});
+
+// A GP conditioned on training data. The training features Z are owned by the
+// caller (an inverse dynamics model shares them among its joints).
+class GpRegressor {
+ public:
+  GpRegressor() = default;
+  GpRegressor(std::unique_ptr<Kernel> kernel, double log_noise_variance);
+  GpRegressor(const GpRegressor& other);
+  GpRegressor& operator=(const GpRegressor& other);
+  GpRegressor(GpRegressor&&) = default;
+  GpRegressor& operator=(GpRegressor&&) = default;
+
+  // Computes alpha (and keeps the Cholesky factor if keep_factor, needed for
+  // variances). Returns the factorisation status; on failure the GP is unusable.
+  CholeskyResult fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd& y, bool keep_factor, GpWorkspace& ws,
+                     const JitterPolicy& jitter = {});
+  // Restores a fitted state from stored alpha (the factor is recomputed on demand).
+  void set_state(const Eigen::VectorXd& alpha, double jitter, double nll);
+  // Recomputes the Cholesky factor from Z for predictive variances.
+  CholeskyResult compute_factor(const Eigen::MatrixXd& Z, GpWorkspace& ws);
+
+  void predict_mean(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& mean) const;
+  // Latent (noise-free) predictive variance; requires has_factor().
+  void predict_variance(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& var) const;
+  // One query: k(z, Z) into krow (size N, preallocated) and the mean; no allocation
+  // for kernels that implement Kernel::row without it.
+  double predict_mean_one(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> krow,
+                          KernelScratch& scratch) const;
+  // Variance for the krow computed by predict_mean_one (v is an N-vector buffer).
+  double predict_variance_one(const double* z, int feature_dim, const Eigen::Ref<const Eigen::VectorXd>& krow,
+                              Eigen::Ref<Eigen::VectorXd> v) const;
+
+  const Kernel& kernel() const { return *kernel_; }
+  Kernel& kernel() { return *kernel_; }
+  double log_noise_variance() const { return log_noise_; }
+  const Eigen::VectorXd& alpha() const { return alpha_; }
+  bool has_factor() const { return L_.size() > 0; }
+  double jitter() const { return jitter_; }
+  double nll() const { return nll_; }
+
+ private:
+  std::unique_ptr<Kernel> kernel_;
+  double log_noise_ = 0.0;
+  Eigen::VectorXd alpha_;
+  Eigen::MatrixXd L_;  // lower Cholesky factor of K (empty until needed)
+  double jitter_ = 0.0;
+  double nll_ = 0.0;
+};
+
+}  // namespace gipdyn

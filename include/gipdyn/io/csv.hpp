@@ -1,0 +1,26 @@
+#pragma once
+// Numeric CSV with a header row. Only the requested columns are parsed, so
+// extra (even non-numeric) columns are ignored. Errors name the file, the line
+// and the column.
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+namespace gipdyn {
+
+struct CsvHeader {
+  std::vector<std::string> names;
+  bool has(const std::string& name) const;
+};
+
+CsvHeader read_csv_header(const std::string& path);
+
+// Reads the named columns (in the given order) into a rows x columns matrix.
+// Throws gipdyn::Error for a missing file or column, a non-numeric cell, NaN/Inf
+// or a row with too few cells.
+Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns);
+
+// Writes header + rows atomically, with enough digits to round-trip doubles.
+void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data);
+
+}  // namespace gipdyn

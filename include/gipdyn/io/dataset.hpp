@@ -1,0 +1,30 @@
+#pragma once
+// Datasets in the documented CSV layout: columns q1..qn, qd1..qdn, qdd1..qddn,
+// and for training/evaluation tau1..taun, in any order; tau1_true..taun_true
+// (noise-free torques from `gipdyn simulate`) are read when present; other
+// columns are ignored.
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+#include "gipdyn/joint_types.hpp"
+
+namespace gipdyn {
+
+struct Dataset {
+  Eigen::MatrixXd X;         // N x 3n: q, qd, qdd
+  Eigen::MatrixXd tau;       // N x n (empty if not read)
+  Eigen::MatrixXd tau_true;  // N x n (empty if the file has no *_true columns)
+  Eigen::Index rows() const { return X.rows(); }
+  Dataset subset(const std::vector<Eigen::Index>& rows) const;
+};
+
+std::vector<std::string> input_column_names(int num_joints);
+// "tau1".."taun", with an optional suffix ("_true", "_hat", "_std").
+std::vector<std::string> torque_column_names(int num_joints, const std::string& suffix = "");
+
+// Throws gipdyn::Error for a missing column, a joint count that does not match
+// the file (e.g. --joints RRPR on a file with q5), bad cells or no rows.
+Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau);
+
+}  // namespace gipdyn

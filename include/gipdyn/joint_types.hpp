@@ -1,0 +1,29 @@
+#pragma once
+// The joint-type string ("RRPR") that is all the GIP kernel knows about a robot.
+#include <string>
+#include <vector>
+
+namespace gipdyn {
+
+enum class JointType { Revolute, Prismatic };
+
+class JointTypes {
+ public:
+  static constexpr int kMaxJoints = 12;
+
+  // Parses a string of 'R'/'P' characters (case-insensitive), 1 to 12 long.
+  // Throws gipdyn::Error with the offending character otherwise.
+  static JointTypes parse(const std::string& text);
+
+  int size() const { return static_cast<int>(types_.size()); }
+  JointType operator[](int i) const { return types_[static_cast<size_t>(i)]; }
+  bool is_revolute(int i) const { return types_[static_cast<size_t>(i)] == JointType::Revolute; }
+  int num_revolute() const;
+  int num_prismatic() const { return size() - num_revolute(); }
+  std::string str() const;
+
+ private:
+  std::vector<JointType> types_;
+};
+
+}  // namespace gipdyn

@@ -1,0 +1,66 @@
+#pragma once
+// Product and sum of kernels, and the multiplicative polynomial kernel (MPK)
+// built from them. These are the general (unfused) compositions; GipKernel is
+// the fused equivalent of the GIP product, and the tests check one against the other.
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gipdyn/kernels/kernel.hpp"
+
+namespace gipdyn {
+
+class CompositeKernel : public Kernel {
+ public:
+  explicit CompositeKernel(std::vector<std::unique_ptr<Kernel>> children);
+  CompositeKernel(const CompositeKernel& other);
+
+  int num_params() const override;
+  std::vector<std::string> param_names() const override;
+  Eigen::VectorXd log_params() const override;
+  void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) override;
+
+  int num_children() const { return static_cast<int>(children_.size()); }
+  const Kernel& child(int i) const { return *children_[static_cast<size_t>(i)]; }
+
+ protected:
+  // Which child owns parameter p, and its index there.
+  std::pair<int, int> locate(int p) const;
+  int offset(int child) const;
+  std::vector<std::unique_ptr<Kernel>> children_;
+};
+
+// k = prod_c k_c. The gradient w.r.t. a parameter of child c is the other
+// children's product times that child's gradient.
+class ProductKernel final : public CompositeKernel {
+ public:
+  using CompositeKernel::CompositeKernel;
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<ProductKernel>(*this); }
+  void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const override;
+  void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const override;
+  void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
+  void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                KernelScratch& scratch) const override;
+};
+
+// k = sum_c k_c.
+class SumKernel final : public CompositeKernel {
+ public:
+  using CompositeKernel::CompositeKernel;
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<SumKernel>(*this); }
+  void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const override;
+  void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const override;
+  void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
+  void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                KernelScratch& scratch) const override;
+  void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
+  void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
+                    Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+};
+
+// MPK of degree p on the given columns: prod_{s=1..p} (s0_s + sum_d l_{s,d} z_d z'_d),
+// factors named prefix + ".factor<s>".
+std::unique_ptr<ProductKernel> make_mpk(const std::vector<int>& columns, int degree, const std::string& prefix,
+                                        const std::vector<std::string>& weight_labels);
+
+}  // namespace gipdyn

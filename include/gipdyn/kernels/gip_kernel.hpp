@@ -1,0 +1,73 @@
+#pragma once
+// The Geometrically Inspired Polynomial kernel (METHOD.md §2):
+//
+//   k(x, x') = prod_{b} MPK_2(z_b, z_b') * MPK_1(a, a')
+//              [ + l_v qd_i qd_i' + l_c sign(qd_i) sign(qd_i')   for gip-friction ]
+//
+// z_b = (cos q_b, sin q_b) for a revolute joint, (q_b) for a prismatic one;
+// a = (qdd_1..qdd_n, qd_j qd_k for j <= k). Every factor is a linear kernel with a bias.
+//
+// This class is the fused implementation used for training and prediction.
+// to_composite() returns the same kernel built from LinearKernel/ProductKernel/SumKernel
+// with the same parameters in the same order (tests compare the two).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gipdyn/features.hpp"
+#include "gipdyn/kernels/kernel.hpp"
+
+namespace gipdyn {
+
+class GipKernel final : public Kernel {
+ public:
+  // friction_joint < 0: plain GIP. Otherwise adds the viscous and Coulomb friction
+  // term of that joint (0-based), i.e. the gip-friction kernel of joint friction_joint.
+  explicit GipKernel(const FeatureMap& features, int friction_joint = -1);
+
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<GipKernel>(*this); }
+  int num_params() const override { return static_cast<int>(log_params_.size()); }
+  std::vector<std::string> param_names() const override;
+  Eigen::VectorXd log_params() const override { return log_params_; }
+  void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) override;
+
+  void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const override;
+  void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const override;
+  void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
+  void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                KernelScratch& scratch) const override;
+  void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
+  void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
+                    Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+  void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+           KernelScratch& scratch) const override;
+  double self(const double* z, int feature_dim) const override;
+
+  // Data-driven start (METHOD.md §9): every factor's diagonal is about
+  // target_variance^(1/#factors); each weight is divided by the mean square of its
+  // feature; the two factors of an MPK_2 start apart (bias/weight shares 0.25/0.75 and 0.75/0.25).
+  void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
+
+  std::unique_ptr<Kernel> to_composite() const;
+  bool has_friction() const { return friction_joint_ >= 0; }
+
+ private:
+  struct Factor {
+    std::vector<int> columns;  // 1 or 2 position columns, or the acceleration group
+    int offset;                // index of its log s0; weights follow
+  };
+  template <class WeightColumn>
+  void fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_column, Eigen::Ref<Eigen::VectorXd> grad,
+                      KernelScratch& scratch) const;
+  void acceleration_factor_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& A) const;
+
+  FeatureMap features_;
+  std::vector<Factor> position_factors_;  // two per joint, in joint order
+  Factor acceleration_;
+  int acc_first_column_ = 0;  // the acceleration group is contiguous in Z
+  int friction_joint_ = -1;
+  int friction_offset_ = -1;
+  Eigen::VectorXd log_params_;
+};
+
+}  // namespace gipdyn

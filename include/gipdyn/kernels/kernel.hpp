@@ -1,0 +1,69 @@
+#pragma once
+// The covariance-function interface. Every kernel keeps its value and its
+// analytic gradient side by side, and stores its hyperparameters as logarithms
+// (all of them are positive).
+//
+// Inputs are feature matrices Z with one sample per row (see features.hpp);
+// a kernel reads the columns it was built with.
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+#include <vector>
+
+namespace gipdyn {
+
+// Caller-owned buffers a kernel may use, so that repeated evaluations (one per
+// optimiser step, one per control-loop query) reuse memory. One per thread.
+// Kernel::contract_nll's default keeps W in `c`, so contract() implementations
+// leave `c` alone.
+struct KernelScratch {
+  Eigen::MatrixXd a, b, c, d;
+  Eigen::VectorXd v, w;
+};
+
+class Kernel {
+ public:
+  virtual ~Kernel() = default;
+  virtual std::unique_ptr<Kernel> clone() const = 0;
+
+  virtual int num_params() const = 0;
+  // Dotted names, one per parameter, e.g. "joint2.cs.factor1.l_sin".
+  virtual std::vector<std::string> param_names() const = 0;
+  virtual Eigen::VectorXd log_params() const = 0;
+  virtual void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& log_params) = 0;
+
+  // K(i, j) = k(Z1.row(i), Z2.row(j)).
+  virtual void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const = 0;
+  // d(i) = k(Z.row(i), Z.row(i)).
+  virtual void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const = 0;
+  // dK = dk(Z1, Z2) / d log(theta_p).
+  virtual void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
+                               Eigen::MatrixXd& dK) const = 0;
+  // grad(p) += sum_ij W(i,j) dk(z_i, z_j)/d log(theta_p) for K = k(Z, Z) and a full,
+  // symmetric W. This is the only gradient the marginal likelihood needs, and it
+  // never forms one N x N matrix per parameter.
+  virtual void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                        KernelScratch& scratch) const = 0;
+
+  // Data-driven starting values for the optimiser: k(z, z) of about target_variance
+  // on the training features Z. The default leaves the parameters as they are.
+  virtual void initialize(const Eigen::MatrixXd& /*Z*/, double /*target_variance*/) {}
+
+  // Fast paths. The defaults are correct for every kernel; kernels override
+  // them when a fused implementation is faster.
+
+  // Lower triangle of k(Z, Z) into K (N x N); the strict upper triangle is unspecified.
+  virtual void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const;
+  // grad(p) += sum_ij W_ij dK_ij/dlog(theta_p) with W = alpha alpha^T - Kinv, where
+  // only the lower triangle of Kinv is read.
+  virtual void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
+                            Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const;
+  // out(j) = k(z, Z.row(j)) for one query z (feature_dim entries). Kernels that
+  // override it do not allocate once the scratch has its size.
+  virtual void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                   KernelScratch& scratch) const;
+  // k(z, z).
+  virtual double self(const double* z, int feature_dim) const;
+};
+
+}  // namespace gipdyn

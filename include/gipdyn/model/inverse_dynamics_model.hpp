@@ -1,0 +1,83 @@
+#pragma once
+// A trained inverse dynamics model: one independent GP per joint, all sharing
+// the same training inputs. The model is read-only once built; single-query
+// prediction for control loops goes through a PredictionWorkspace that owns
+// all mutable buffers.
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+#include "gipdyn/features.hpp"
+#include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/joint_types.hpp"
+
+namespace gipdyn {
+
+// How each joint's torques are transformed before the GP sees them (undone at prediction).
+enum class OutputScaling { None, Center, Standardize };
+OutputScaling parse_output_scaling(const std::string& name);  // none | center | standardize
+std::string to_string(OutputScaling s);
+
+class InverseDynamicsModel {
+ public:
+  InverseDynamicsModel() = default;
+  // X: training inputs (N x 3n). gps: one fitted GP per joint (alpha set).
+  InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
+                       std::vector<GpRegressor> gps, OutputScaling scaling, Eigen::VectorXd y_offset,
+                       Eigen::VectorXd y_scale);
+
+  const JointTypes& joints() const { return joints_; }
+  int num_joints() const { return joints_.size(); }
+  int num_training_samples() const { return static_cast<int>(X_.rows()); }
+  const std::string& kernel_name() const { return kernel_name_; }
+  const FeatureMap& features() const { return features_; }
+  const Eigen::MatrixXd& training_inputs() const { return X_; }
+  const Eigen::MatrixXd& training_features() const { return Z_; }
+  const GpRegressor& joint_gp(int j) const { return gps_[static_cast<size_t>(j)]; }
+  OutputScaling output_scaling() const { return scaling_; }
+  const Eigen::VectorXd& output_offset() const { return y_offset_; }
+  const Eigen::VectorXd& output_scale() const { return y_scale_; }
+
+  // Hyperparameters of joint j as (name, value) with values exp(log-parameter),
+  // in the units of the scaled output; the last one is "noise.variance".
+  std::vector<std::pair<std::string, double>> hyperparameters(int j) const;
+
+  // Torques for every row of X (M x 3n) -> M x n. With stddev, also the latent
+  // predictive standard deviation (needs has_variance()).
+  Eigen::MatrixXd predict(const Eigen::MatrixXd& X) const;
+  void predict(const Eigen::MatrixXd& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const;
+
+  // Variances need each joint's Cholesky factor: enable_variance() computes the
+  // missing ones (O(N^3) per joint), once.
+  bool has_variance() const;
+  void enable_variance();
+
+ private:
+  friend class PredictionWorkspace;
+  JointTypes joints_ = JointTypes::parse("R");
+  FeatureMap features_{joints_};
+  std::string kernel_name_;
+  Eigen::MatrixXd X_, Z_;
+  std::vector<GpRegressor> gps_;
+  OutputScaling scaling_ = OutputScaling::None;
+  Eigen::VectorXd y_offset_, y_scale_;
+};
+
+// Single-query prediction without heap allocation per call (after construction):
+// the control-loop path. One workspace per thread; the model must outlive it.
+class PredictionWorkspace {
+ public:
+  explicit PredictionWorkspace(const InverseDynamicsModel& model);
+  // x: 3n inputs (q, qd, qdd); tau: n outputs.
+  void predict(const double* x, double* tau);
+  // Also the latent standard deviation (requires model.has_variance()); one
+  // triangular solve per joint, bound by memory bandwidth.
+  void predict(const double* x, double* tau, double* stddev);
+
+ private:
+  const InverseDynamicsModel* model_;
+  Eigen::VectorXd z_, krow_, v_;
+  KernelScratch scratch_;
+};
+
+}  // namespace gipdyn

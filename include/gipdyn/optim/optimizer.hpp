@@ -1,0 +1,49 @@
+#pragma once
+// Minimisers for the log-hyperparameters: L-BFGS (NLopt, the default) and Adam
+// (as in the paper). Both return the best point they evaluated and a status
+// with a message; they never throw for numerical trouble.
+#include <Eigen/Dense>
+#include <functional>
+#include <string>
+
+namespace gipdyn {
+
+enum class OptimizerKind { Lbfgs, Adam };
+OptimizerKind parse_optimizer(const std::string& name);  // "lbfgs" | "adam"
+std::string to_string(OptimizerKind kind);
+
+struct OptimizerOptions {
+  OptimizerKind kind = OptimizerKind::Lbfgs;
+  int max_iterations = 200;          // L-BFGS: objective evaluations; Adam: steps
+  double f_relative_tolerance = 1e-9;  // stop when |delta f| <= tol * |f|
+  double gradient_tolerance = 1e-5;    // stop when max |grad| falls below it (Adam)
+  double adam_learning_rate = 0.01;
+  double adam_beta1 = 0.9;
+  double adam_beta2 = 0.999;
+  int adam_patience = 20;  // Adam: steps without relative improvement before stopping
+  Eigen::VectorXd lower_bounds;  // optional box bounds (empty: none)
+  Eigen::VectorXd upper_bounds;
+
+  // Throws gipdyn::Error naming the bad field.
+  void validate() const;
+};
+
+// f(x, grad, want_grad) -> ok. On !ok the point is treated as infeasible.
+using Objective = std::function<bool(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& grad)>;
+// Called after every accepted evaluation (iteration, f, |grad|_inf).
+using ProgressCallback = std::function<void(int iteration, double f, double grad_norm)>;
+
+struct OptimizerResult {
+  enum class Status { Converged, MaxIterations, Stalled, Failed };
+  Status status = Status::Failed;
+  std::string message;
+  Eigen::VectorXd x;  // best point evaluated
+  double f = 0.0;
+  int evaluations = 0;
+  bool usable() const { return status != Status::Failed; }
+};
+
+OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, const OptimizerOptions& options,
+                         const ProgressCallback& progress = {});
+
+}  // namespace gipdyn

@@ -1,0 +1,195 @@
+#include "commands.hpp"
+
+#include <chrono>
+#include <cstdio>
+#include <iostream>
+#include <memory>
+#include <mutex>
+#include <nlohmann/json.hpp>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/model_file.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/metrics.hpp"
+#include "gipdyn/model/training.hpp"
+
+namespace gipdyn::cli {
+namespace {
+
+std::string status_word(OptimizerResult::Status s) {
+  switch (s) {
+    case OptimizerResult::Status::Converged: return "converged";
+    case OptimizerResult::Status::MaxIterations: return "max-iter";
+    case OptimizerResult::Status::Stalled: return "stalled";
+    case OptimizerResult::Status::Failed: return "failed";
+  }
+  return "?";
+}
+
+struct TrainArgs {
+  std::string data, joints, kernel = "gip", optimizer = "lbfgs", out, scaling = "standardize";
+  int max_iter = 200, restarts = 0, threads = 0;
+  long subsample = 0;
+  std::uint64_t seed = 0;
+  double min_noise = 1e-8, learning_rate = 0.01;
+  bool quiet = false;
+};
+
+}  // namespace
+
+Command add_train(CLI::App& app) {
+  auto a = std::make_shared<TrainArgs>();
+  app.add_option("--data", a->data, "Training CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
+      ->required();
+  app.add_option("--kernel", a->kernel, "Kernel: gip, gip-friction or rbf")->capture_default_str();
+  app.add_option("--optimizer", a->optimizer, "Hyperparameter optimiser: lbfgs or adam")->capture_default_str();
+  app.add_option("--max-iter", a->max_iter, "Maximum NLL evaluations (L-BFGS) or steps (Adam) per joint and start")
+      ->capture_default_str();
+  app.add_option("--lr", a->learning_rate, "Adam learning rate")->capture_default_str();
+  app.add_option("--restarts", a->restarts, "Extra optimiser runs from perturbed starts; the best NLL is kept")
+      ->capture_default_str();
+  app.add_option("--subsample", a->subsample, "Keep this many training rows, taken with a constant step (0: all)")
+      ->capture_default_str();
+  app.add_option("--seed", a->seed, "Seed for restarts (same seed, same model)")->capture_default_str();
+  app.add_option("--scaling", a->scaling, "Output scaling before the GP: none, center or standardize")
+      ->capture_default_str();
+  app.add_option("--min-noise", a->min_noise, "Noise-variance floor, as a fraction of the scaled output variance")
+      ->capture_default_str();
+  app.add_option("--threads", a->threads, "Joints trained in parallel (0: one per core)")->capture_default_str();
+  app.add_option("--out", a->out, "Model file to write")->required();
+  app.add_flag("--quiet", a->quiet, "Print nothing but errors");
+  return [a]() -> int {
+    const JointTypes joints = JointTypes::parse(a->joints);
+    TrainOptions o;
+    o.kernel = a->kernel;
+    o.optimizer.kind = parse_optimizer(a->optimizer);
+    o.optimizer.max_iterations = a->max_iter;
+    o.optimizer.adam_learning_rate = a->learning_rate;
+    o.restarts = a->restarts;
+    o.seed = a->seed;
+    o.scaling = parse_output_scaling(a->scaling);
+    o.min_noise_fraction = a->min_noise;
+    o.threads = a->threads;
+    o.keep_factor = false;
+    o.validate();
+    if (a->subsample < 0) throw Error("--subsample must be >= 0");
+
+    Dataset data = read_dataset(a->data, joints, true);
+    const Eigen::Index total = data.rows();
+    if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
+    if (!a->quiet) {
+      std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, kernel %s, optimizer %s (max %d), %d restart(s)\n",
+                  static_cast<long>(data.rows()), static_cast<long>(total), a->data.c_str(), joints.str().c_str(),
+                  o.kernel.c_str(), a->optimizer.c_str(), o.optimizer.max_iterations, o.restarts);
+      std::fflush(stdout);
+    }
+    std::mutex mu;
+    TrainingCallback progress;
+    if (!a->quiet) {
+      progress = [&mu](const TrainingProgress& p) {
+        if (!p.finished && p.iteration != 1 && p.iteration % 10 != 0) return;
+        std::lock_guard<std::mutex> lock(mu);
+        if (p.finished) {
+          std::printf("  joint %d done: NLL %.6g after %d evaluations, %.1f s%s%s\n", p.joint + 1, p.nll, p.iteration,
+                      p.seconds, p.message.empty() ? "" : " - ", p.message.c_str());
+        } else {
+          std::printf("  joint %d  start %d  eval %4d  NLL %14.6g  |grad| %9.3g  %7.1f s\n", p.joint + 1, p.restart,
+                      p.iteration, p.nll, p.grad_norm, p.seconds);
+        }
+        std::fflush(stdout);
+      };
+    }
+    TrainResult r = train_model(data.X, data.tau, joints, o, progress);
+    if (!r.ok) throw Error("training failed: " + r.message);
+    save_model(r.model, a->out);
+    if (!a->quiet) {
+      std::printf("\n joint  status     NLL            evals  seconds  jitter\n");
+      for (const auto& j : r.joints)
+        std::printf(" %5d  %-9s  %-13.6g  %5d  %7.1f  %.1e\n", j.joint + 1, status_word(j.status).c_str(), j.nll,
+                    j.evaluations, j.seconds, j.jitter);
+      for (const auto& j : r.joints) {
+        if (j.restart_nlls.size() < 2) continue;
+        std::printf(" joint %d NLL over starts:", j.joint + 1);
+        for (double v : j.restart_nlls) std::printf(" %.6g", v);
+        std::printf("\n");
+      }
+      std::printf("saved model to %s\n", a->out.c_str());
+    }
+    return 0;
+  };
+}
+
+Command add_predict(CLI::App& app) {
+  struct Args {
+    std::string model, data, out;
+    bool no_std = false;
+  };
+  auto a = std::make_shared<Args>();
+  app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
+  app.add_option("--data", a->data, "CSV with columns q1..qn, qd1..qdn, qdd1..qddn (others ignored)")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--out", a->out, "Output CSV: tau1_hat..taun_hat, tau1_std..taun_std")->required();
+  app.add_flag("--no-std", a->no_std, "Skip the standard deviations (much faster for large models)");
+  return [a]() -> int {
+    InverseDynamicsModel model = load_model(a->model);
+    const Dataset data = read_dataset(a->data, model.joints(), false);
+    const int n = model.num_joints();
+    Eigen::MatrixXd mean, sd;
+    std::vector<std::string> header = torque_column_names(n, "_hat");
+    if (a->no_std) {
+      model.predict(data.X, mean, nullptr);
+      write_csv(a->out, header, mean);
+    } else {
+      model.enable_variance();
+      model.predict(data.X, mean, &sd);
+      const auto std_names = torque_column_names(n, "_std");
+      header.insert(header.end(), std_names.begin(), std_names.end());
+      Eigen::MatrixXd both(mean.rows(), 2 * n);
+      both << mean, sd;
+      write_csv(a->out, header, both);
+    }
+    return 0;
+  };
+}
+
+Command add_evaluate(CLI::App& app) {
+  struct Args {
+    std::string model, data, json;
+  };
+  auto a = std::make_shared<Args>();
+  app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
+  app.add_option("--data", a->data, "Test CSV with q, qd, qdd and tau columns (tau*_true used when present)")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--json", a->json, "Also write the report as JSON (keys nmse, mse, gmse)");
+  return [a]() -> int {
+    const InverseDynamicsModel model = load_model(a->model);
+    const Dataset data = read_dataset(a->data, model.joints(), true);
+    const bool noise_free = data.tau_true.size() > 0;
+    const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
+    const Accuracy acc = compute_accuracy(target, model.predict(data.X));
+    std::printf("%ld test rows, target %s\n", static_cast<long>(data.rows()),
+                noise_free ? "noise-free tau*_true" : "measured tau*");
+    std::printf(" joint  MSE           nMSE\n");
+    for (int j = 0; j < model.num_joints(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
+    std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
+    if (!a->json.empty()) {
+      nlohmann::json j;
+      j["mse"] = std::vector<double>(acc.mse.data(), acc.mse.data() + acc.mse.size());
+      j["nmse"] = std::vector<double>(acc.nmse.data(), acc.nmse.data() + acc.nmse.size());
+      j["gmse"] = acc.gmse;
+      j["target"] = noise_free ? "tau_true" : "tau";
+      j["rows"] = data.rows();
+      j["model"] = a->model;
+      j["data"] = a->data;
+      write_file_atomically(a->json, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
+    }
+    return 0;
+  };
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,42 @@
+// gipdyn: learn robot inverse dynamics with Gaussian processes and the GIP kernel.
+#include <iostream>
+#include <map>
+
+#include "commands.hpp"
+#include "gipdyn/error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "gipdyn: learn a robot's inverse dynamics (q, qd, qdd -> tau) with Gaussian processes and the\n"
+      "Geometrically Inspired Polynomial kernel (Dalla Libera & Carli, RA-L 2019).\n"
+      "Run `gipdyn COMMAND --help` for the options of a command."};
+  app.require_subcommand(1);
+  std::map<CLI::App*, gipdyn::cli::Command> commands;
+  auto add = [&](const char* name, const char* help, auto adder) {
+    CLI::App* sub = app.add_subcommand(name, help);
+    commands[sub] = adder(*sub);
+  };
+  add("train", "Train a model (one GP per joint) on a CSV of q, qd, qdd, tau", gipdyn::cli::add_train);
+  add("predict", "Predict torques and their standard deviations for a CSV of q, qd, qdd", gipdyn::cli::add_predict);
+  add("evaluate", "Per-joint MSE, nMSE and the GMSE of a model on a CSV with measured torques",
+      gipdyn::cli::add_evaluate);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    for (auto& [sub, run] : commands)
+      if (sub->parsed()) return run();
+  } catch (const gipdyn::Error& e) {
+    std::cerr << "gipdyn: error: " << e.what() << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "gipdyn: error: out of memory; use fewer training rows (--subsample)\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "gipdyn: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 1;
+}

@@ -1,0 +1,54 @@
+#include "gipdyn/gp/cholesky.hpp"
+
+#include <lapacke.h>
+
+#include <cmath>
+#include <sstream>
+
+namespace gipdyn {
+
+CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
+                                    const JitterPolicy& policy) {
+  CholeskyResult result;
+  const lapack_int n = static_cast<lapack_int>(K.rows());
+  if (n == 0) return result;
+  const double mean_diag = K.diagonal().mean();
+  bool finite = std::isfinite(mean_diag);
+  for (lapack_int j = 0; finite && j < n; ++j) finite = K.col(j).segment(j, n - j).allFinite();
+  if (!finite) {
+    result.status = CholeskyResult::Status::NonFinite;
+    result.message = "kernel matrix has NaN or Inf entries (check the inputs and the hyperparameters)";
+    return result;
+  }
+  double relative = 0.0;
+  while (true) {
+    if (relative > 0.0) {
+      rebuild(K);
+      result.jitter = relative * std::abs(mean_diag);
+      K.diagonal().array() += result.jitter;
+    }
+    const lapack_int info = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, K.data(), n);
+    if (info == 0) return result;
+    relative = relative == 0.0 ? policy.initial_relative : relative * policy.growth;
+    if (relative > policy.max_relative * (1.0 + 1e-12)) break;
+  }
+  std::ostringstream msg;
+  msg << "kernel matrix is not positive definite even with jitter " << policy.max_relative
+      << " x mean diagonal; raise the noise floor (--min-noise) or remove duplicate rows";
+  result.status = CholeskyResult::Status::NotPositiveDefinite;
+  result.message = msg.str();
+  return result;
+}
+
+void cholesky_solve(const Eigen::MatrixXd& L, Eigen::Ref<Eigen::MatrixXd> b) {
+  const lapack_int n = static_cast<lapack_int>(L.rows());
+  LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'L', n, static_cast<lapack_int>(b.cols()), L.data(), n, b.data(),
+                 static_cast<lapack_int>(b.outerStride()));
+}
+
+bool cholesky_inverse_in_place(Eigen::MatrixXd& L) {
+  const lapack_int n = static_cast<lapack_int>(L.rows());
+  return LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', n, L.data(), n) == 0;
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,141 @@
+#include "gipdyn/gp/exact_gp.hpp"
+
+#include <cmath>
+
+#include "gipdyn/error.hpp"
+
+namespace gipdyn {
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093454836;
+
+void build_covariance(const Kernel& kernel, double noise_variance, const Eigen::MatrixXd& Z, Eigen::MatrixXd& K,
+                      KernelScratch& scratch) {
+  K.resize(Z.rows(), Z.rows());
+  kernel.gram_lower(Z, K, scratch);
+  K.diagonal().array() += noise_variance;
+}
+
+}  // namespace
+
+NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
+                           const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,
+                           const JitterPolicy& jitter) {
+  NllEvaluation out;
+  const double noise = std::exp(log_noise_variance);
+  const Eigen::Index N = Z.rows();
+  build_covariance(kernel, noise, Z, ws.K, ws.scratch);
+  const CholeskyResult chol = cholesky_with_jitter(
+      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(kernel, noise, Z, K, ws.scratch); }, jitter);
+  out.jitter = chol.jitter;
+  if (!chol.ok()) {
+    out.message = chol.message;
+    return out;
+  }
+  ws.alpha = y;
+  cholesky_solve(ws.K, ws.alpha);
+  out.nll = 0.5 * y.dot(ws.alpha) + ws.K.diagonal().array().log().sum() + 0.5 * static_cast<double>(N) * kLog2Pi;
+  if (!std::isfinite(out.nll)) {
+    out.message = "marginal likelihood is not finite at these hyperparameters";
+    return out;
+  }
+  out.ok = true;
+  if (!with_gradient) return out;
+
+  if (!cholesky_inverse_in_place(ws.K)) {
+    out.ok = false;
+    out.message = "could not invert the kernel matrix (LAPACK potri failed)";
+    return out;
+  }
+  const int P = kernel.num_params();
+  out.gradient = Eigen::VectorXd::Zero(P + 1);
+  kernel.contract_nll(Z, ws.alpha, ws.K, out.gradient.head(P), ws.scratch);
+  out.gradient.head(P) *= -0.5;
+  // dK/dlog(sigma^2) = sigma^2 I: -1/2 sigma^2 (alpha^T alpha - tr K^{-1}).
+  out.gradient(P) = -0.5 * noise * (ws.alpha.squaredNorm() - ws.K.diagonal().sum());
+  return out;
+}
+
+GpRegressor::GpRegressor(std::unique_ptr<Kernel> kernel, double log_noise_variance)
+    : kernel_(std::move(kernel)), log_noise_(log_noise_variance) {}
+
+GpRegressor::GpRegressor(const GpRegressor& other)
+    : kernel_(other.kernel_ ? other.kernel_->clone() : nullptr),
+      log_noise_(other.log_noise_),
+      alpha_(other.alpha_),
+      L_(other.L_),
+      jitter_(other.jitter_),
+      nll_(other.nll_) {}
+
+GpRegressor& GpRegressor::operator=(const GpRegressor& other) {
+  if (this != &other) *this = GpRegressor(other);
+  return *this;
+}
+
+CholeskyResult GpRegressor::fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd& y, bool keep_factor, GpWorkspace& ws,
+                                const JitterPolicy& jitter) {
+  const double noise = std::exp(log_noise_);
+  build_covariance(*kernel_, noise, Z, ws.K, ws.scratch);
+  CholeskyResult chol = cholesky_with_jitter(
+      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(*kernel_, noise, Z, K, ws.scratch); }, jitter);
+  if (!chol.ok()) return chol;
+  alpha_ = y;
+  cholesky_solve(ws.K, alpha_);
+  jitter_ = chol.jitter;
+  nll_ = 0.5 * y.dot(alpha_) + ws.K.diagonal().array().log().sum() + 0.5 * static_cast<double>(Z.rows()) * kLog2Pi;
+  if (keep_factor) {
+    L_ = ws.K.triangularView<Eigen::Lower>();
+  } else {
+    L_.resize(0, 0);
+  }
+  return chol;
+}
+
+void GpRegressor::set_state(const Eigen::VectorXd& alpha, double jitter, double nll) {
+  alpha_ = alpha;
+  jitter_ = jitter;
+  nll_ = nll;
+  L_.resize(0, 0);
+}
+
+CholeskyResult GpRegressor::compute_factor(const Eigen::MatrixXd& Z, GpWorkspace& ws) {
+  // Reproduce the stored fit's matrix exactly: same noise, same jitter.
+  const double diag_add = std::exp(log_noise_) + jitter_;
+  build_covariance(*kernel_, diag_add, Z, ws.K, ws.scratch);
+  CholeskyResult chol = cholesky_with_jitter(
+      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(*kernel_, diag_add, Z, K, ws.scratch); });
+  if (chol.ok()) L_ = ws.K.triangularView<Eigen::Lower>();
+  return chol;
+}
+
+void GpRegressor::predict_mean(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& mean) const {
+  Eigen::MatrixXd Ks;
+  kernel_->cross(Zstar, Z, Ks);
+  mean.noalias() = Ks * alpha_;
+}
+
+void GpRegressor::predict_variance(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& var) const {
+  if (!has_factor()) throw Error("predictive variance needs the Cholesky factor; call compute_factor first");
+  Eigen::MatrixXd V;
+  kernel_->cross(Z, Zstar, V);  // N x M
+  L_.triangularView<Eigen::Lower>().solveInPlace(V);
+  kernel_->diagonal(Zstar, var);
+  var -= V.colwise().squaredNorm().transpose();
+  var = var.cwiseMax(0.0);
+}
+
+double GpRegressor::predict_mean_one(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> krow,
+                                     KernelScratch& scratch) const {
+  kernel_->row(z, Z, krow, scratch);
+  return krow.dot(alpha_);
+}
+
+double GpRegressor::predict_variance_one(const double* z, int feature_dim,
+                                         const Eigen::Ref<const Eigen::VectorXd>& krow,
+                                         Eigen::Ref<Eigen::VectorXd> v) const {
+  v = krow;
+  L_.triangularView<Eigen::Lower>().solveInPlace(v);  // dtrsv
+  return std::max(0.0, kernel_->self(z, feature_dim) - v.squaredNorm());
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,124 @@
+#include "gipdyn/io/csv.hpp"
+
+#include <algorithm>
+#include <charconv>
+#include <cmath>
+#include <cstring>
+#include <fstream>
+#include <unordered_map>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/atomic_file.hpp"
+
+namespace gipdyn {
+namespace {
+
+std::string trim(const std::string& s) {
+  const auto b = s.find_first_not_of(" \t\r\"");
+  if (b == std::string::npos) return "";
+  const auto e = s.find_last_not_of(" \t\r\"");
+  return s.substr(b, e - b + 1);
+}
+
+std::vector<std::string> split(const std::string& line) {
+  std::vector<std::string> cells;
+  size_t start = 0;
+  while (true) {
+    const size_t comma = line.find(',', start);
+    cells.push_back(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
+    if (comma == std::string::npos) break;
+    start = comma + 1;
+  }
+  return cells;
+}
+
+std::ifstream open(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open '" + path + "': " + std::strerror(errno));
+  return in;
+}
+
+CsvHeader parse_header(std::ifstream& in, const std::string& path) {
+  std::string line;
+  if (!std::getline(in, line) || trim(line).empty())
+    throw Error("'" + path + "' is empty; expected a header row such as q1,...,qd1,...,qdd1,...,tau1,...");
+  CsvHeader h;
+  for (auto& c : split(line)) h.names.push_back(trim(c));
+  return h;
+}
+
+}  // namespace
+
+bool CsvHeader::has(const std::string& name) const {
+  return std::find(names.begin(), names.end(), name) != names.end();
+}
+
+CsvHeader read_csv_header(const std::string& path) {
+  auto in = open(path);
+  return parse_header(in, path);
+}
+
+Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns) {
+  auto in = open(path);
+  const CsvHeader header = parse_header(in, path);
+  std::unordered_map<std::string, size_t> index;
+  for (size_t k = 0; k < header.names.size(); ++k) index.emplace(header.names[k], k);
+  std::vector<size_t> wanted;
+  for (const auto& c : columns) {
+    auto it = index.find(c);
+    if (it == index.end()) throw Error("'" + path + "' has no column '" + c + "'; add it or check --joints");
+    wanted.push_back(it->second);
+  }
+  const size_t needed = wanted.empty() ? 0 : *std::max_element(wanted.begin(), wanted.end()) + 1;
+
+  std::vector<double> values;
+  std::string line;
+  long line_no = 1;
+  Eigen::Index rows = 0;
+  while (std::getline(in, line)) {
+    ++line_no;
+    if (trim(line).empty()) continue;
+    const auto cells = split(line);
+    if (cells.size() < needed)
+      throw Error("'" + path + "' line " + std::to_string(line_no) + " has " + std::to_string(cells.size()) +
+                  " cells but the header has " + std::to_string(header.names.size()) + " (truncated file?)");
+    for (size_t k = 0; k < wanted.size(); ++k) {
+      const std::string cell = trim(cells[wanted[k]]);
+      double v = 0.0;
+      const char* b = cell.data();
+      const char* e = b + cell.size();
+      if (!cell.empty() && *b == '+') ++b;
+      const auto res = std::from_chars(b, e, v);
+      if (cell.empty() || res.ec != std::errc() || res.ptr != e)
+        throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] + "': '" + cell +
+                    "' is not a number");
+      if (!std::isfinite(v))
+        throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] +
+                    "' is NaN or Inf; remove or repair that row");
+      values.push_back(v);
+    }
+    ++rows;
+  }
+  Eigen::MatrixXd out(rows, static_cast<Eigen::Index>(columns.size()));
+  for (Eigen::Index r = 0; r < rows; ++r)
+    for (Eigen::Index c = 0; c < out.cols(); ++c) out(r, c) = values[static_cast<size_t>(r * out.cols() + c)];
+  return out;
+}
+
+void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data) {
+  write_file_atomically(path, [&](std::ostream& out) {
+    for (size_t k = 0; k < header.size(); ++k) out << (k ? "," : "") << header[k];
+    out << "\n";
+    char buf[64];
+    for (Eigen::Index r = 0; r < data.rows(); ++r) {
+      for (Eigen::Index c = 0; c < data.cols(); ++c) {
+        const auto res = std::to_chars(buf, buf + sizeof(buf), data(r, c));  // shortest round-trip form
+        if (c) out << ',';
+        out.write(buf, res.ptr - buf);
+      }
+      out << '\n';
+    }
+  });
+}
+
+}  // namespace gipdyn

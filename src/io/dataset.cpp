@@ -1,0 +1,53 @@
+#include "gipdyn/io/dataset.hpp"
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/csv.hpp"
+
+namespace gipdyn {
+
+std::vector<std::string> input_column_names(int n) {
+  std::vector<std::string> names;
+  for (const char* prefix : {"q", "qd", "qdd"})
+    for (int i = 1; i <= n; ++i) names.push_back(prefix + std::to_string(i));
+  return names;
+}
+
+std::vector<std::string> torque_column_names(int n, const std::string& suffix) {
+  std::vector<std::string> names;
+  for (int i = 1; i <= n; ++i) names.push_back("tau" + std::to_string(i) + suffix);
+  return names;
+}
+
+Dataset Dataset::subset(const std::vector<Eigen::Index>& idx) const {
+  Dataset d;
+  d.X = X(idx, Eigen::all);
+  if (tau.size()) d.tau = tau(idx, Eigen::all);
+  if (tau_true.size()) d.tau_true = tau_true(idx, Eigen::all);
+  return d;
+}
+
+Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau) {
+  const int n = joints.size();
+  const CsvHeader header = read_csv_header(path);
+  int file_joints = 0;
+  while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;
+  if (file_joints != n && file_joints > 0)
+    throw Error("'" + path + "' has joint columns q1..q" + std::to_string(file_joints) + " but --joints " +
+                joints.str() + " names " + std::to_string(n) + " joints; pass a joint string of length " +
+                std::to_string(file_joints));
+  Dataset d;
+  std::vector<std::string> cols = input_column_names(n);
+  const auto tau_cols = torque_column_names(n);
+  const auto true_cols = torque_column_names(n, "_true");
+  const bool has_true = header.has(true_cols.front());
+  if (require_tau) cols.insert(cols.end(), tau_cols.begin(), tau_cols.end());
+  if (require_tau && has_true) cols.insert(cols.end(), true_cols.begin(), true_cols.end());
+  const Eigen::MatrixXd all = read_csv_columns(path, cols);
+  if (all.rows() == 0) throw Error("'" + path + "' has a header but no data rows");
+  d.X = all.leftCols(3 * n);
+  if (require_tau) d.tau = all.middleCols(3 * n, n);
+  if (require_tau && has_true) d.tau_true = all.middleCols(4 * n, n);
+  return d;
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,166 @@
+#include "gipdyn/kernels/composite_kernels.hpp"
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/kernels/linear_kernel.hpp"
+
+namespace gipdyn {
+
+CompositeKernel::CompositeKernel(std::vector<std::unique_ptr<Kernel>> children) : children_(std::move(children)) {
+  if (children_.empty()) throw Error("a composite kernel needs at least one child kernel");
+}
+
+CompositeKernel::CompositeKernel(const CompositeKernel& other) : Kernel(other) {
+  for (const auto& c : other.children_) children_.push_back(c->clone());
+}
+
+int CompositeKernel::num_params() const {
+  int n = 0;
+  for (const auto& c : children_) n += c->num_params();
+  return n;
+}
+
+std::vector<std::string> CompositeKernel::param_names() const {
+  std::vector<std::string> names;
+  for (const auto& c : children_) {
+    auto sub = c->param_names();
+    names.insert(names.end(), sub.begin(), sub.end());
+  }
+  return names;
+}
+
+Eigen::VectorXd CompositeKernel::log_params() const {
+  Eigen::VectorXd p(num_params());
+  int o = 0;
+  for (const auto& c : children_) {
+    p.segment(o, c->num_params()) = c->log_params();
+    o += c->num_params();
+  }
+  return p;
+}
+
+void CompositeKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) {
+  if (p.size() != num_params()) throw Error("composite kernel: wrong number of parameters");
+  int o = 0;
+  for (auto& c : children_) {
+    c->set_log_params(p.segment(o, c->num_params()));
+    o += c->num_params();
+  }
+}
+
+int CompositeKernel::offset(int child) const {
+  int o = 0;
+  for (int c = 0; c < child; ++c) o += children_[static_cast<size_t>(c)]->num_params();
+  return o;
+}
+
+std::pair<int, int> CompositeKernel::locate(int p) const {
+  for (int c = 0; c < num_children(); ++c) {
+    const int n = children_[static_cast<size_t>(c)]->num_params();
+    if (p < n) return {c, p};
+    p -= n;
+  }
+  throw Error("composite kernel: parameter index out of range");
+}
+
+void ProductKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
+  children_[0]->cross(Z1, Z2, K);
+  Eigen::MatrixXd Kc;
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->cross(Z1, Z2, Kc);
+    K.array() *= Kc.array();
+  }
+}
+
+void ProductKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
+  children_[0]->diagonal(Z, d);
+  Eigen::VectorXd dc;
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->diagonal(Z, dc);
+    d.array() *= dc.array();
+  }
+}
+
+void ProductKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
+                                    Eigen::MatrixXd& dK) const {
+  const auto [owner, local] = locate(p);
+  children_[static_cast<size_t>(owner)]->gradient_matrix(Z1, Z2, local, dK);
+  Eigen::MatrixXd Kc;
+  for (int c = 0; c < num_children(); ++c) {
+    if (c == owner) continue;
+    children_[static_cast<size_t>(c)]->cross(Z1, Z2, Kc);
+    dK.array() *= Kc.array();
+  }
+}
+
+void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                             KernelScratch& scratch) const {
+  // sum_ij W_ij (dK_c)_ij prod_{c' != c} (K_c')_ij = contraction of child c with W o R_c.
+  std::vector<Eigen::MatrixXd> parts(children_.size());
+  for (size_t c = 0; c < children_.size(); ++c) children_[c]->cross(Z, Z, parts[c]);
+  Eigen::MatrixXd WR;
+  for (size_t c = 0; c < children_.size(); ++c) {
+    WR = W;
+    for (size_t o = 0; o < children_.size(); ++o)
+      if (o != c) WR.array() *= parts[o].array();
+    children_[c]->contract(Z, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
+  }
+}
+
+void SumKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
+  children_[0]->cross(Z1, Z2, K);
+  Eigen::MatrixXd Kc;
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->cross(Z1, Z2, Kc);
+    K += Kc;
+  }
+}
+
+void SumKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
+  children_[0]->diagonal(Z, d);
+  Eigen::VectorXd dc;
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->diagonal(Z, dc);
+    d += dc;
+  }
+}
+
+void SumKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
+                                Eigen::MatrixXd& dK) const {
+  const auto [owner, local] = locate(p);
+  children_[static_cast<size_t>(owner)]->gradient_matrix(Z1, Z2, local, dK);
+}
+
+void SumKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                         KernelScratch& scratch) const {
+  for (size_t c = 0; c < children_.size(); ++c)
+    children_[c]->contract(Z, W, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
+}
+
+void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const {
+  // Each child may use the scratch, so the running sum lives outside it.
+  children_[0]->gram_lower(Z, K, scratch);
+  Eigen::MatrixXd Kc;
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->gram_lower(Z, Kc, scratch);
+    K.triangularView<Eigen::Lower>() += Kc;
+  }
+}
+
+void SumKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
+                             Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  // W is shared by the children of a sum: each uses its own (possibly fused) path.
+  for (size_t c = 0; c < children_.size(); ++c)
+    children_[c]->contract_nll(Z, alpha, Kinv_lower,
+                               grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
+}
+
+std::unique_ptr<ProductKernel> make_mpk(const std::vector<int>& columns, int degree, const std::string& prefix,
+                                        const std::vector<std::string>& weight_labels) {
+  if (degree < 1) throw Error("MPK degree must be at least 1");
+  std::vector<std::unique_ptr<Kernel>> factors;
+  for (int s = 1; s <= degree; ++s)
+    factors.push_back(std::make_unique<LinearKernel>(columns, true, prefix + ".factor" + std::to_string(s), weight_labels));
+  return std::make_unique<ProductKernel>(std::move(factors));
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,324 @@
+#include "gipdyn/kernels/gip_kernel.hpp"
+
+#include <algorithm>
+#include <cmath>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/kernels/composite_kernels.hpp"
+#include "gipdyn/kernels/linear_kernel.hpp"
+
+namespace gipdyn {
+namespace {
+
+constexpr Eigen::Index kChunk = 256;  // rows per block in the fused loops: keeps the blocks in L1/L2
+
+std::vector<std::string> position_labels(const FeatureMap& fm, int b) {
+  if (fm.joints().is_revolute(b)) return {"cos", "sin"};
+  return {"q"};
+}
+
+std::vector<std::string> acceleration_labels(const FeatureMap& fm) {
+  std::vector<std::string> labels;
+  for (int c : fm.acceleration_group()) labels.push_back(fm.name(c));
+  return labels;
+}
+
+std::string joint_prefix(const FeatureMap& fm, int b) {
+  return "joint" + std::to_string(b + 1) + (fm.joints().is_revolute(b) ? ".cs" : ".p");
+}
+
+double mean_square(const Eigen::MatrixXd& Z, int column) {
+  const double m = Z.rows() > 0 ? Z.col(column).squaredNorm() / static_cast<double>(Z.rows()) : 0.0;
+  return m > 1e-12 ? m : 1.0;  // a constant-zero feature: its weight is irrelevant
+}
+
+}  // namespace
+
+GipKernel::GipKernel(const FeatureMap& features, int friction_joint)
+    : features_(features), friction_joint_(friction_joint) {
+  const int n = features.num_joints();
+  if (friction_joint >= n) throw Error("GipKernel: friction joint out of range");
+  int offset = 0;
+  for (int b = 0; b < n; ++b) {
+    for (int s = 0; s < 2; ++s) {
+      position_factors_.push_back({features.position_group(b), offset});
+      offset += 1 + static_cast<int>(features.position_group(b).size());
+    }
+  }
+  acceleration_ = {features.acceleration_group(), offset};
+  offset += 1 + static_cast<int>(acceleration_.columns.size());
+  acc_first_column_ = acceleration_.columns.front();
+  if (friction_joint >= 0) {
+    friction_offset_ = offset;
+    offset += 2;
+  }
+  log_params_ = Eigen::VectorXd::Zero(offset);
+}
+
+std::unique_ptr<Kernel> GipKernel::to_composite() const {
+  std::vector<std::unique_ptr<Kernel>> factors;
+  const int n = features_.num_joints();
+  for (int b = 0; b < n; ++b)
+    factors.push_back(make_mpk(features_.position_group(b), 2, joint_prefix(features_, b), position_labels(features_, b)));
+  factors.push_back(std::make_unique<LinearKernel>(acceleration_.columns, true, "acc", acceleration_labels(features_)));
+  std::unique_ptr<Kernel> k = std::make_unique<ProductKernel>(std::move(factors));
+  if (has_friction()) {
+    std::vector<std::unique_ptr<Kernel>> terms;
+    terms.push_back(std::move(k));
+    terms.push_back(std::make_unique<LinearKernel>(
+        std::vector<int>{features_.friction_qd(friction_joint_), features_.friction_sign(friction_joint_)}, false,
+        "friction", std::vector<std::string>{"viscous", "coulomb"}));
+    k = std::make_unique<SumKernel>(std::move(terms));
+  }
+  k->set_log_params(log_params_);
+  return k;
+}
+
+std::vector<std::string> GipKernel::param_names() const { return to_composite()->param_names(); }
+
+void GipKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) {
+  if (p.size() != log_params_.size())
+    throw Error("GipKernel: expected " + std::to_string(log_params_.size()) + " parameters, got " +
+                std::to_string(p.size()));
+  log_params_ = p;
+}
+
+void GipKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
+  const int num_factors = static_cast<int>(position_factors_.size()) + 1;
+  const double per_factor = std::pow(std::max(target_variance, 1e-12), 1.0 / num_factors);
+  auto init_factor = [&](const Factor& f, double bias_share) {
+    log_params_(f.offset) = std::log(bias_share * per_factor);
+    const double weight_share = (1.0 - bias_share) * per_factor / static_cast<double>(f.columns.size());
+    for (size_t d = 0; d < f.columns.size(); ++d)
+      log_params_(f.offset + 1 + static_cast<int>(d)) = std::log(weight_share / mean_square(Z, f.columns[d]));
+  };
+  for (size_t f = 0; f < position_factors_.size(); ++f) init_factor(position_factors_[f], f % 2 == 0 ? 0.25 : 0.75);
+  init_factor(acceleration_, 0.5);
+  if (has_friction()) {
+    log_params_(friction_offset_) = std::log(0.1 * target_variance / mean_square(Z, features_.friction_qd(friction_joint_)));
+    log_params_(friction_offset_ + 1) = std::log(0.1 * target_variance);
+  }
+}
+
+void GipKernel::acceleration_factor_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& A) const {
+  const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
+  const Eigen::VectorXd sqrt_w = log_params_.segment(acceleration_.offset + 1, na).array().exp().sqrt();
+  const Eigen::MatrixXd S = Z.middleCols(acc_first_column_, na) * sqrt_w.asDiagonal();
+  A.resize(Z.rows(), Z.rows());
+  A.triangularView<Eigen::Lower>().setConstant(std::exp(log_params_(acceleration_.offset)));
+  A.selfadjointView<Eigen::Lower>().rankUpdate(S);  // dsyrk
+}
+
+void GipKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& /*scratch*/) const {
+  acceleration_factor_lower(Z, K);
+  const Eigen::Index N = Z.rows();
+  const Eigen::ArrayXd w = log_params_.array().exp();
+  for (Eigen::Index j = 0; j < N; ++j) {
+    auto col = K.col(j).segment(j, N - j).array();
+    for (const Factor& f : position_factors_) {
+      const int c0 = f.columns[0];
+      if (f.columns.size() == 2) {
+        const int c1 = f.columns[1];
+        col *= w(f.offset) + (w(f.offset + 1) * Z(j, c0)) * Z.col(c0).segment(j, N - j).array() +
+               (w(f.offset + 2) * Z(j, c1)) * Z.col(c1).segment(j, N - j).array();
+      } else {
+        col *= w(f.offset) + (w(f.offset + 1) * Z(j, c0)) * Z.col(c0).segment(j, N - j).array();
+      }
+    }
+    if (has_friction()) {
+      const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
+      col += (w(friction_offset_) * Z(j, cv)) * Z.col(cv).segment(j, N - j).array() +
+             (w(friction_offset_ + 1) * Z(j, cc)) * Z.col(cc).segment(j, N - j).array();
+    }
+  }
+}
+
+void GipKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
+  const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
+  const Eigen::ArrayXd w = log_params_.array().exp();
+  K.resize(Z1.rows(), Z2.rows());
+  K.noalias() = (Z1.middleCols(acc_first_column_, na) * w.segment(acceleration_.offset + 1, na).matrix().asDiagonal()) *
+                Z2.middleCols(acc_first_column_, na).transpose();
+  K.array() += w(acceleration_.offset);
+  for (Eigen::Index j = 0; j < Z2.rows(); ++j) {
+    auto col = K.col(j).array();
+    for (const Factor& f : position_factors_) {
+      const int c0 = f.columns[0];
+      if (f.columns.size() == 2) {
+        const int c1 = f.columns[1];
+        col *= w(f.offset) + (w(f.offset + 1) * Z2(j, c0)) * Z1.col(c0).array() +
+               (w(f.offset + 2) * Z2(j, c1)) * Z1.col(c1).array();
+      } else {
+        col *= w(f.offset) + (w(f.offset + 1) * Z2(j, c0)) * Z1.col(c0).array();
+      }
+    }
+    if (has_friction()) {
+      const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
+      col += (w(friction_offset_) * Z2(j, cv)) * Z1.col(cv).array() +
+             (w(friction_offset_ + 1) * Z2(j, cc)) * Z1.col(cc).array();
+    }
+  }
+}
+
+void GipKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
+  d.resize(Z.rows());
+  for (Eigen::Index i = 0; i < Z.rows(); ++i) {
+    const Eigen::RowVectorXd zi = Z.row(i);
+    d(i) = self(zi.data(), static_cast<int>(Z.cols()));
+  }
+}
+
+double GipKernel::self(const double* z, int /*feature_dim*/) const {
+  auto factor = [&](const Factor& f) {
+    double v = std::exp(log_params_(f.offset));
+    for (size_t d = 0; d < f.columns.size(); ++d)
+      v += std::exp(log_params_(f.offset + 1 + static_cast<int>(d))) * z[f.columns[d]] * z[f.columns[d]];
+    return v;
+  };
+  double k = factor(acceleration_);
+  for (const Factor& f : position_factors_) k *= factor(f);
+  if (has_friction()) {
+    const double v = z[features_.friction_qd(friction_joint_)], s = z[features_.friction_sign(friction_joint_)];
+    k += std::exp(log_params_(friction_offset_)) * v * v + std::exp(log_params_(friction_offset_ + 1)) * s * s;
+  }
+  return k;
+}
+
+void GipKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                    KernelScratch& scratch) const {
+  const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
+  Eigen::VectorXd& wz = scratch.w;
+  if (wz.size() != na) wz.resize(na);
+  for (Eigen::Index d = 0; d < na; ++d) wz(d) = std::exp(log_params_(acceleration_.offset + 1 + d)) * z[acc_first_column_ + d];
+  out.noalias() = Z.middleCols(acc_first_column_, na) * wz;  // dgemv, no allocation
+  out.array() += std::exp(log_params_(acceleration_.offset));
+  for (const Factor& f : position_factors_) {
+    const int c0 = f.columns[0];
+    const double s0 = std::exp(log_params_(f.offset));
+    const double a0 = std::exp(log_params_(f.offset + 1)) * z[c0];
+    if (f.columns.size() == 2) {
+      const int c1 = f.columns[1];
+      const double a1 = std::exp(log_params_(f.offset + 2)) * z[c1];
+      out.array() *= s0 + a0 * Z.col(c0).array() + a1 * Z.col(c1).array();
+    } else {
+      out.array() *= s0 + a0 * Z.col(c0).array();
+    }
+  }
+  if (has_friction()) {
+    const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
+    out.array() += (std::exp(log_params_(friction_offset_)) * z[cv]) * Z.col(cv).array() +
+                   (std::exp(log_params_(friction_offset_ + 1)) * z[cc]) * Z.col(cc).array();
+  }
+}
+
+void GipKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
+                                Eigen::MatrixXd& dK) const {
+  to_composite()->gradient_matrix(Z1, Z2, p, dK);
+}
+
+// Fused gradient contraction: grad(p) += sum_ij W_ij dK_ij/dlog(theta_p).
+// For a factor f of the product, dK/dtheta = R_f o dF_f with R_f the product of
+// the other factors; R_f comes from prefix and suffix products of the factor values,
+// computed block by block over the lower triangle (W and K are symmetric), so the
+// only N x N buffer is the acceleration factor, which is overwritten by W o R_acc;
+// its weight gradients are then one symm: diag(Za^T (W o R_acc) Za).
+template <class WeightColumn>
+void GipKernel::fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_column,
+                               Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  const Eigen::Index N = Z.rows();
+  const int P = static_cast<int>(position_factors_.size());
+  const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
+  const Eigen::ArrayXd w = log_params_.array().exp();
+  Eigen::MatrixXd& A = scratch.a;
+  acceleration_factor_lower(Z, A);
+
+  Eigen::MatrixXd& B = scratch.b;  // per block: F (P+1 cols), prefix (P+1), suffix (P+1), R, wraw
+  B.resize(kChunk, 3 * (P + 1) + 2);
+  auto F = [&](int f) { return B.col(f); };
+  auto Pre = [&](int f) { return B.col(P + 1 + f); };
+  auto Suf = [&](int f) { return B.col(2 * (P + 1) + f); };
+  auto R = B.col(3 * (P + 1));
+  auto wraw = B.col(3 * (P + 1) + 1);
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(num_params());
+
+  for (Eigen::Index j = 0; j < N; ++j) {
+    for (Eigen::Index i0 = j; i0 < N; i0 += kChunk) {
+      const Eigen::Index m = std::min(kChunk, N - i0);
+      const bool has_diag = (i0 == j);
+      // Sum over the full symmetric matrix from the lower-triangle block.
+      auto wsum = [&](const auto& arr) { return 2.0 * arr.sum() - (has_diag ? arr(0) : 0.0); };
+      weight_column(j, i0, m, wraw.head(m));
+      for (int f = 0; f < P; ++f) {
+        const Factor& fac = position_factors_[static_cast<size_t>(f)];
+        const int c0 = fac.columns[0];
+        auto Ff = F(f).head(m).array();
+        Ff = w(fac.offset) + (w(fac.offset + 1) * Z(j, c0)) * Z.col(c0).segment(i0, m).array();
+        if (fac.columns.size() == 2) {
+          const int c1 = fac.columns[1];
+          Ff += (w(fac.offset + 2) * Z(j, c1)) * Z.col(c1).segment(i0, m).array();
+        }
+      }
+      F(P).head(m) = A.col(j).segment(i0, m);
+      Pre(0).head(m) = F(0).head(m);
+      for (int f = 1; f <= P; ++f) Pre(f).head(m).array() = Pre(f - 1).head(m).array() * F(f).head(m).array();
+      Suf(P).head(m) = F(P).head(m);
+      for (int f = P - 1; f >= 0; --f) Suf(f).head(m).array() = F(f).head(m).array() * Suf(f + 1).head(m).array();
+
+      for (int f = 0; f <= P; ++f) {
+        auto r = R.head(m).array();
+        if (f == 0) {
+          r = wraw.head(m).array() * Suf(1).head(m).array();
+        } else if (f == P) {
+          r = wraw.head(m).array() * Pre(P - 1).head(m).array();
+        } else {
+          r = wraw.head(m).array() * Pre(f - 1).head(m).array() * Suf(f + 1).head(m).array();
+        }
+        if (f < P) {
+          const Factor& fac = position_factors_[static_cast<size_t>(f)];
+          g(fac.offset) += w(fac.offset) * wsum(r);
+          for (size_t d = 0; d < fac.columns.size(); ++d) {
+            const int c = fac.columns[d];
+            g(fac.offset + 1 + static_cast<int>(d)) +=
+                w(fac.offset + 1 + static_cast<int>(d)) * Z(j, c) * wsum((r * Z.col(c).segment(i0, m).array()).eval());
+          }
+        } else {
+          g(acceleration_.offset) += w(acceleration_.offset) * wsum(r);
+          A.col(j).segment(i0, m) = R.head(m);  // W o R_acc, lower triangle
+        }
+      }
+      if (has_friction()) {
+        const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
+        g(friction_offset_) +=
+            w(friction_offset_) * Z(j, cv) * wsum((wraw.head(m).array() * Z.col(cv).segment(i0, m).array()).eval());
+        g(friction_offset_ + 1) +=
+            w(friction_offset_ + 1) * Z(j, cc) * wsum((wraw.head(m).array() * Z.col(cc).segment(i0, m).array()).eval());
+      }
+    }
+  }
+  const auto Za = Z.middleCols(acc_first_column_, na);
+  Eigen::MatrixXd& M = scratch.d;
+  M.resize(N, na);
+  M.noalias() = A.selfadjointView<Eigen::Lower>() * Za;  // dsymm
+  for (Eigen::Index d = 0; d < na; ++d)
+    g(acceleration_.offset + 1 + d) += w(acceleration_.offset + 1 + d) * Za.col(d).dot(M.col(d));
+  grad += g;
+}
+
+void GipKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
+                             Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  fused_contract(
+      Z,
+      [&](Eigen::Index j, Eigen::Index i0, Eigen::Index m, auto out) {
+        out = alpha(j) * alpha.segment(i0, m) - Kinv_lower.col(j).segment(i0, m);
+      },
+      grad, scratch);
+}
+
+void GipKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                         KernelScratch& scratch) const {
+  fused_contract(
+      Z, [&](Eigen::Index j, Eigen::Index i0, Eigen::Index m, auto out) { out = W.col(j).segment(i0, m); }, grad,
+      scratch);
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,32 @@
+#include "gipdyn/kernels/kernel_factory.hpp"
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/kernels/gip_kernel.hpp"
+#include "gipdyn/kernels/rbf_kernel.hpp"
+
+namespace gipdyn {
+
+const std::vector<std::string>& kernel_names() {
+  static const std::vector<std::string> names{"gip", "gip-friction", "rbf"};
+  return names;
+}
+
+std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint) {
+  if (joint < 0 || joint >= features.num_joints()) throw Error("make_kernel: joint index out of range");
+  if (name == "gip") return std::make_unique<GipKernel>(features);
+  if (name == "gip-friction") return std::make_unique<GipKernel>(features, joint);
+  if (name == "rbf") {
+    std::vector<int> cols;
+    std::vector<std::string> labels;
+    for (int c = 0; c < features.input_dim(); ++c) {
+      cols.push_back(c);
+      labels.push_back(features.name(c));
+    }
+    return std::make_unique<RbfKernel>(cols, labels);
+  }
+  std::string valid;
+  for (const auto& n : kernel_names()) valid += (valid.empty() ? "" : ", ") + n;
+  throw Error("unknown kernel '" + name + "'; choose one of: " + valid);
+}
+
+}  // namespace gipdyn

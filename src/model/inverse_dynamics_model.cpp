@@ -1,0 +1,129 @@
+#include "gipdyn/model/inverse_dynamics_model.hpp"
+
+#include <cmath>
+
+#include "gipdyn/error.hpp"
+
+namespace gipdyn {
+
+OutputScaling parse_output_scaling(const std::string& name) {
+  if (name == "none") return OutputScaling::None;
+  if (name == "center") return OutputScaling::Center;
+  if (name == "standardize") return OutputScaling::Standardize;
+  throw Error("unknown output scaling '" + name + "'; choose none, center or standardize");
+}
+
+std::string to_string(OutputScaling s) {
+  switch (s) {
+    case OutputScaling::None: return "none";
+    case OutputScaling::Center: return "center";
+    case OutputScaling::Standardize: return "standardize";
+  }
+  return "none";
+}
+
+InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
+                                           std::vector<GpRegressor> gps, OutputScaling scaling,
+                                           Eigen::VectorXd y_offset, Eigen::VectorXd y_scale)
+    : joints_(joints),
+      features_(joints),
+      kernel_name_(std::move(kernel_name)),
+      X_(std::move(X)),
+      gps_(std::move(gps)),
+      scaling_(scaling),
+      y_offset_(std::move(y_offset)),
+      y_scale_(std::move(y_scale)) {
+  const int n = joints_.size();
+  if (X_.cols() != 3 * n) throw Error("model: training inputs must have 3n columns");
+  if (static_cast<int>(gps_.size()) != n || y_offset_.size() != n || y_scale_.size() != n)
+    throw Error("model: one GP, offset and scale per joint are required");
+  for (const auto& gp : gps_)
+    if (gp.alpha().size() != X_.rows()) throw Error("model: alpha must have one entry per training sample");
+  Z_ = features_.compute(X_);
+}
+
+std::vector<std::pair<std::string, double>> InverseDynamicsModel::hyperparameters(int j) const {
+  const GpRegressor& gp = joint_gp(j);
+  const auto names = gp.kernel().param_names();
+  const Eigen::VectorXd p = gp.kernel().log_params();
+  std::vector<std::pair<std::string, double>> out;
+  for (size_t k = 0; k < names.size(); ++k) out.emplace_back(names[k], std::exp(p(static_cast<Eigen::Index>(k))));
+  out.emplace_back("noise.variance", std::exp(gp.log_noise_variance()));
+  return out;
+}
+
+Eigen::MatrixXd InverseDynamicsModel::predict(const Eigen::MatrixXd& X) const {
+  Eigen::MatrixXd mean;
+  predict(X, mean, nullptr);
+  return mean;
+}
+
+void InverseDynamicsModel::predict(const Eigen::MatrixXd& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const {
+  if (X.cols() != 3 * num_joints())
+    throw Error("inputs have " + std::to_string(X.cols()) + " columns; this " + joints_.str() + " model needs " +
+                std::to_string(3 * num_joints()) + " (q, qd, qdd)");
+  if (stddev && !has_variance()) throw Error("predictive variance is not enabled for this model; call enable_variance()");
+  const Eigen::MatrixXd Zs = features_.compute(X);
+  mean.resize(X.rows(), num_joints());
+  if (stddev) stddev->resize(X.rows(), num_joints());
+  Eigen::VectorXd m, v;
+  for (int j = 0; j < num_joints(); ++j) {
+    gps_[static_cast<size_t>(j)].predict_mean(Zs, Z_, m);
+    mean.col(j) = (y_offset_(j) + y_scale_(j) * m.array()).matrix();
+    if (stddev) {
+      gps_[static_cast<size_t>(j)].predict_variance(Zs, Z_, v);
+      stddev->col(j) = (y_scale_(j) * v.array().sqrt()).matrix();
+    }
+  }
+}
+
+bool InverseDynamicsModel::has_variance() const {
+  for (const auto& gp : gps_)
+    if (!gp.has_factor()) return false;
+  return true;
+}
+
+void InverseDynamicsModel::enable_variance() {
+  GpWorkspace ws;
+  for (int j = 0; j < num_joints(); ++j) {
+    GpRegressor& gp = gps_[static_cast<size_t>(j)];
+    if (gp.has_factor()) continue;
+    const CholeskyResult r = gp.compute_factor(Z_, ws);
+    if (!r.ok()) throw Error("joint " + std::to_string(j + 1) + ": cannot compute predictive variance: " + r.message);
+  }
+}
+
+PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
+    : model_(&model),
+      z_(model.features().feature_dim()),
+      krow_(model.num_training_samples()),
+      v_(model.num_training_samples()) {
+  // Warm up every buffer the kernels use, so later calls do not allocate.
+  Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
+  Eigen::VectorXd tau(model.num_joints());
+  predict(x.data(), tau.data());
+}
+
+void PredictionWorkspace::predict(const double* x, double* tau) {
+  const InverseDynamicsModel& m = *model_;
+  m.features_.compute_row(x, z_.data());
+  for (int j = 0; j < m.num_joints(); ++j) {
+    const double f = m.gps_[static_cast<size_t>(j)].predict_mean_one(z_.data(), m.Z_, krow_, scratch_);
+    tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;
+  }
+}
+
+void PredictionWorkspace::predict(const double* x, double* tau, double* stddev) {
+  const InverseDynamicsModel& m = *model_;
+  if (!m.has_variance()) throw Error("predictive variance is not enabled for this model; call enable_variance()");
+  m.features_.compute_row(x, z_.data());
+  const int dim = m.features().feature_dim();
+  for (int j = 0; j < m.num_joints(); ++j) {
+    const GpRegressor& gp = m.gps_[static_cast<size_t>(j)];
+    const double f = gp.predict_mean_one(z_.data(), m.Z_, krow_, scratch_);
+    tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;
+    stddev[j] = m.y_scale_(j) * std::sqrt(gp.predict_variance_one(z_.data(), dim, krow_, v_));
+  }
+}
+
+}  // namespace gipdyn

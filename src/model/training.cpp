@@ -1,0 +1,201 @@
+#include "gipdyn/model/training.hpp"
+
+#include <algorithm>
+#include <atomic>
+#include <chrono>
+#include <cmath>
+#include <mutex>
+#include <random>
+#include <thread>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+
+// Present when the BLAS is OpenBLAS; weak so another BLAS still links.
+extern "C" void openblas_set_num_threads(int) __attribute__((weak));
+
+namespace gipdyn {
+
+void use_single_threaded_blas() {
+  if (openblas_set_num_threads) openblas_set_num_threads(1);
+}
+
+void TrainOptions::validate() const {
+  optimizer.validate();
+  if (restarts < 0) throw Error("--restarts must be >= 0");
+  if (!(restart_spread >= 0.0)) throw Error("restart spread must be >= 0");
+  if (!(initial_noise_fraction > 0.0)) throw Error("initial noise fraction must be > 0");
+  if (!(min_noise_fraction > 0.0) || min_noise_fraction > initial_noise_fraction)
+    throw Error("--min-noise must be > 0 and not above the initial noise fraction (" +
+                std::to_string(initial_noise_fraction) + ")");
+  if (threads < 0) throw Error("--threads must be >= 0");
+  const auto& names = kernel_names();
+  if (std::find(names.begin(), names.end(), kernel) == names.end()) {
+    std::string valid;
+    for (const auto& n : names) valid += (valid.empty() ? "" : ", ") + n;
+    throw Error("unknown kernel '" + kernel + "'; choose one of: " + valid);
+  }
+}
+
+void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints) {
+  const int n = joints.size();
+  if (X.cols() != 3 * n)
+    throw Error("inputs have " + std::to_string(X.cols()) + " columns but joints " + joints.str() + " need " +
+                std::to_string(3 * n) + " (q, qd, qdd per joint)");
+  if (Y.cols() != n)
+    throw Error("torques have " + std::to_string(Y.cols()) + " columns but joints " + joints.str() + " need " +
+                std::to_string(n));
+  if (X.rows() != Y.rows()) throw Error("inputs and torques have different numbers of rows");
+  if (X.rows() < kMinTrainingRows)
+    throw Error("only " + std::to_string(X.rows()) + " training rows; at least " + std::to_string(kMinTrainingRows) +
+                " are needed");
+  if (!X.allFinite() || !Y.allFinite()) throw Error("training data contain NaN or Inf; remove or repair those rows");
+}
+
+std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count) {
+  std::vector<Eigen::Index> idx;
+  if (count <= 0 || count >= rows) {
+    for (Eigen::Index r = 0; r < rows; ++r) idx.push_back(r);
+    return idx;
+  }
+  const Eigen::Index step = rows / count;
+  for (Eigen::Index k = 0; k < count; ++k) idx.push_back(k * step);
+  return idx;
+}
+
+namespace {
+
+struct JointOutcome {
+  JointReport report;
+  GpRegressor gp;
+  bool ok = false;
+};
+
+JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
+                         const TrainOptions& o, const TrainingCallback& progress) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
+  JointOutcome out;
+  out.report.joint = j;
+
+  const double target = std::max(y.squaredNorm() / static_cast<double>(y.size()), 1e-12);
+  std::unique_ptr<Kernel> kernel = make_kernel(o.kernel, features, j);
+  kernel->initialize(Z, target);
+  const int P = kernel->num_params();
+  Eigen::VectorXd x0(P + 1);
+  x0.head(P) = kernel->log_params();
+  x0(P) = std::log(o.initial_noise_fraction * target);
+
+  OptimizerOptions opt = o.optimizer;
+  // Box bounds keep exp() finite and the noise above its floor.
+  opt.lower_bounds = Eigen::VectorXd::Constant(P + 1, -30.0);
+  opt.upper_bounds = Eigen::VectorXd::Constant(P + 1, 30.0);
+  opt.lower_bounds(P) = std::log(o.min_noise_fraction * target);
+  opt.upper_bounds(P) = std::log(10.0 * target);
+
+  GpWorkspace ws;
+  std::unique_ptr<Kernel> trial = kernel->clone();
+  std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
+  std::normal_distribution<double> normal(0.0, 1.0);
+
+  Eigen::VectorXd best_x;
+  double best_f = std::numeric_limits<double>::infinity();
+  for (int r = 0; r <= o.restarts; ++r) {
+    Eigen::VectorXd start = x0;
+    if (r > 0)
+      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
+    Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+      trial->set_log_params(x.head(P));
+      NllEvaluation e = evaluate_nll(*trial, x(P), Z, y, true, ws, o.jitter);
+      if (!e.ok) return false;
+      f = e.nll;
+      g = e.gradient;
+      return true;
+    };
+    ProgressCallback cb;
+    if (progress)
+      cb = [&](int it, double f, double gn) { progress({j, r, it, f, gn, seconds(), false, ""}); };
+    OptimizerResult res = minimize(objective, start, opt, cb);
+    out.report.evaluations += res.evaluations;
+    out.report.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
+    if (res.usable() && res.f < best_f) {
+      best_f = res.f;
+      best_x = res.x;
+      out.report.status = res.status;
+      out.report.message = res.message;
+    } else if (best_x.size() == 0) {
+      out.report.message = res.message;
+    }
+  }
+  out.report.seconds = seconds();
+  if (best_x.size() == 0) {
+    out.report.message = "joint " + std::to_string(j + 1) + ": " + out.report.message;
+    if (progress) progress({j, 0, out.report.evaluations, 0.0, 0.0, seconds(), true, out.report.message});
+    return out;
+  }
+  kernel->set_log_params(best_x.head(P));
+  out.gp = GpRegressor(std::move(kernel), best_x(P));
+  const CholeskyResult fit = out.gp.fit(Z, y, o.keep_factor, ws, o.jitter);
+  out.report.seconds = seconds();
+  if (!fit.ok()) {
+    out.report.status = OptimizerResult::Status::Failed;
+    out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + fit.message;
+  } else {
+    out.ok = true;
+    out.report.nll = out.gp.nll();
+    out.report.jitter = fit.jitter;
+  }
+  if (progress)
+    progress({j, 0, out.report.evaluations, out.report.nll, 0.0, out.report.seconds, true, out.report.message});
+  return out;
+}
+
+}  // namespace
+
+TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
+                        const TrainOptions& options, const TrainingCallback& progress) {
+  options.validate();
+  validate_training_data(X, Y, joints);
+  use_single_threaded_blas();
+  const int n = joints.size();
+  const FeatureMap features(joints);
+  const Eigen::MatrixXd Z = features.compute(X);
+
+  Eigen::VectorXd offset = Eigen::VectorXd::Zero(n), scale = Eigen::VectorXd::Ones(n);
+  for (int j = 0; j < n; ++j) {
+    const double mean = Y.col(j).mean();
+    const double sd = std::sqrt((Y.col(j).array() - mean).square().mean());
+    if (options.scaling != OutputScaling::None) offset(j) = mean;
+    if (options.scaling == OutputScaling::Standardize && sd > 1e-12) scale(j) = sd;
+  }
+
+  std::vector<JointOutcome> outcomes(static_cast<size_t>(n));
+  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
+  threads = std::clamp(threads, 1, n);
+  std::atomic<int> next{0};
+  auto worker = [&] {
+    for (int j = next++; j < n; j = next++) {
+      const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
+      outcomes[static_cast<size_t>(j)] = train_joint(j, features, Z, y, options, progress);
+    }
+  };
+  std::vector<std::thread> pool;
+  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+  worker();
+  for (auto& t : pool) t.join();
+
+  TrainResult result;
+  std::vector<GpRegressor> gps;
+  for (auto& o : outcomes) {
+    result.joints.push_back(o.report);
+    if (!o.ok && result.message.empty()) result.message = o.report.message;
+    gps.push_back(std::move(o.gp));
+  }
+  if (!result.message.empty()) return result;
+  result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale);
+  result.ok = true;
+  return result;
+}
+
+}  // namespace gipdyn

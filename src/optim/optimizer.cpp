@@ -1,0 +1,209 @@
+#include "gipdyn/optim/optimizer.hpp"
+
+#include <cmath>
+#include <limits>
+#include <nlopt.hpp>
+
+#include "gipdyn/error.hpp"
+
+namespace gipdyn {
+
+OptimizerKind parse_optimizer(const std::string& name) {
+  if (name == "lbfgs") return OptimizerKind::Lbfgs;
+  if (name == "adam") return OptimizerKind::Adam;
+  throw Error("unknown optimizer '" + name + "'; choose lbfgs or adam");
+}
+
+std::string to_string(OptimizerKind kind) { return kind == OptimizerKind::Lbfgs ? "lbfgs" : "adam"; }
+
+void OptimizerOptions::validate() const {
+  if (max_iterations < 1) throw Error("max iterations must be at least 1");
+  if (!(f_relative_tolerance >= 0.0)) throw Error("relative tolerance must be >= 0");
+  if (!(gradient_tolerance >= 0.0)) throw Error("gradient tolerance must be >= 0");
+  if (!(adam_learning_rate > 0.0)) throw Error("Adam learning rate must be > 0");
+  if (!(adam_beta1 >= 0.0 && adam_beta1 < 1.0 && adam_beta2 >= 0.0 && adam_beta2 < 1.0))
+    throw Error("Adam betas must lie in [0, 1)");
+  if (lower_bounds.size() != upper_bounds.size()) throw Error("lower and upper bounds must have the same size");
+  if ((lower_bounds.array() > upper_bounds.array()).any()) throw Error("a lower bound exceeds its upper bound");
+}
+
+namespace {
+
+// Projected gradient: components at an active bound that point outwards are zero.
+double projected_gradient_norm(const Eigen::VectorXd& x, const Eigen::VectorXd& g, const OptimizerOptions& o) {
+  double norm = 0.0;
+  for (Eigen::Index k = 0; k < g.size(); ++k) {
+    const bool bounded = o.lower_bounds.size() == x.size();
+    if (bounded && x(k) <= o.lower_bounds(k) && g(k) > 0.0) continue;
+    if (bounded && x(k) >= o.upper_bounds(k) && g(k) < 0.0) continue;
+    norm = std::max(norm, std::abs(g(k)));
+  }
+  return norm;
+}
+
+// Tracks the best feasible point across evaluations, whatever the algorithm does.
+struct Tracker {
+  const Objective& objective;
+  const ProgressCallback& progress;
+  const OptimizerOptions& options;
+  double best_f = std::numeric_limits<double>::infinity();
+  Eigen::VectorXd best_x;
+  int evaluations = 0;
+  int failures = 0;
+
+  bool eval(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+    ++evaluations;
+    const bool ok = objective(x, f, g) && std::isfinite(f) && g.allFinite();
+    if (!ok) {
+      ++failures;
+      return false;
+    }
+    if (f < best_f) {
+      best_f = f;
+      best_x = x;
+    }
+    if (progress) progress(evaluations, f, projected_gradient_norm(x, g, options));
+    return true;
+  }
+};
+
+Eigen::VectorXd clamp(const Eigen::VectorXd& x, const OptimizerOptions& o) {
+  if (o.lower_bounds.size() != x.size()) return x;
+  return x.cwiseMax(o.lower_bounds).cwiseMin(o.upper_bounds);
+}
+
+// One NLopt L-BFGS run from x0 with at most max_eval evaluations.
+nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerOptions& o, int max_eval,
+                         std::string& error) {
+  const unsigned n = static_cast<unsigned>(x0.size());
+  nlopt::opt opt(nlopt::LD_LBFGS, n);
+  opt.set_min_objective(
+      [](unsigned dim, const double* x, double* grad, void* data) -> double {
+        auto* tr = static_cast<Tracker*>(data);
+        Eigen::VectorXd xv = Eigen::Map<const Eigen::VectorXd>(x, dim), g(dim);
+        double f = 0.0;
+        if (!tr->eval(xv, f, g)) throw nlopt::forced_stop();
+        if (grad) Eigen::Map<Eigen::VectorXd>(grad, dim) = g;
+        return f;
+      },
+      &t);
+  if (o.lower_bounds.size() == x0.size()) {
+    opt.set_lower_bounds(std::vector<double>(o.lower_bounds.data(), o.lower_bounds.data() + n));
+    opt.set_upper_bounds(std::vector<double>(o.upper_bounds.data(), o.upper_bounds.data() + n));
+  }
+  opt.set_maxeval(max_eval);
+  opt.set_ftol_rel(o.f_relative_tolerance);
+  opt.set_vector_storage(10);
+  std::vector<double> x(x0.data(), x0.data() + n);
+  double f = 0.0;
+  try {
+    return opt.optimize(x, f);
+  } catch (const nlopt::forced_stop&) {
+    error = "the kernel matrix could not be factorised at a trial point";
+    return nlopt::FORCED_STOP;
+  } catch (const nlopt::roundoff_limited&) {
+    return nlopt::ROUNDOFF_LIMITED;
+  } catch (const std::exception& e) {
+    // NLopt's generic failure: usually the line search broke down at a bound or
+    // at rounding precision.
+    error = e.what();
+    return nlopt::FAILURE;
+  }
+}
+
+OptimizerResult run_lbfgs(Tracker& t, const Eigen::VectorXd& x0, const OptimizerOptions& o) {
+  OptimizerResult r;
+  // A line-search breakdown often recovers when L-BFGS restarts from the best
+  // point with a fresh curvature memory; give it a few tries while it improves.
+  Eigen::VectorXd start = clamp(x0, o);
+  double previous_best = std::numeric_limits<double>::infinity();
+  for (int launch = 0; launch < 4; ++launch) {
+    std::string error;
+    const int remaining = o.max_iterations - t.evaluations;
+    if (remaining <= 0) {
+      r.status = OptimizerResult::Status::MaxIterations;
+      r.message = "stopped at the evaluation limit (" + std::to_string(o.max_iterations) + ")";
+      return r;
+    }
+    const nlopt::result res = lbfgs_once(t, start, o, remaining, error);
+    if (res == nlopt::MAXEVAL_REACHED) {
+      r.status = OptimizerResult::Status::MaxIterations;
+      r.message = "stopped at the evaluation limit (" + std::to_string(o.max_iterations) + ")";
+      return r;
+    }
+    if (res > 0 || res == nlopt::ROUNDOFF_LIMITED) {
+      r.status = OptimizerResult::Status::Converged;
+      r.message = res == nlopt::ROUNDOFF_LIMITED ? "converged to rounding precision" : "converged";
+      return r;
+    }
+    const bool improved = t.best_x.size() > 0 &&
+                          t.best_f < previous_best - o.f_relative_tolerance * std::abs(previous_best);
+    if (!improved || t.best_x.size() == 0) {
+      r.status = OptimizerResult::Status::Stalled;
+      r.message = "L-BFGS stopped (" + error + ") without further progress; kept the best point";
+      return r;
+    }
+    previous_best = t.best_f;
+    start = t.best_x;
+  }
+  r.status = OptimizerResult::Status::Stalled;
+  r.message = "L-BFGS line search kept breaking down; kept the best point";
+  return r;
+}
+
+OptimizerResult run_adam(Tracker& t, const Eigen::VectorXd& x0, const OptimizerOptions& o) {
+  OptimizerResult r;
+  Eigen::VectorXd x = clamp(x0, o), g(x.size()), m = Eigen::VectorXd::Zero(x.size()), v = m;
+  double f = 0.0, last_best = std::numeric_limits<double>::infinity();
+  int since_improvement = 0;
+  for (int k = 1; k <= o.max_iterations; ++k) {
+    if (!t.eval(x, f, g)) {
+      r.status = OptimizerResult::Status::Stalled;
+      r.message = "Adam reached a point where the kernel matrix could not be factorised; kept the best point";
+      return r;
+    }
+    if (projected_gradient_norm(x, g, o) <= o.gradient_tolerance) {
+      r.status = OptimizerResult::Status::Converged;
+      r.message = "converged (gradient below tolerance)";
+      return r;
+    }
+    if (t.best_f < last_best - o.f_relative_tolerance * std::abs(last_best)) {
+      last_best = t.best_f;
+      since_improvement = 0;
+    } else if (++since_improvement >= o.adam_patience) {
+      r.status = OptimizerResult::Status::Converged;
+      r.message = "converged (no relative improvement in " + std::to_string(o.adam_patience) + " steps)";
+      return r;
+    }
+    m = o.adam_beta1 * m + (1.0 - o.adam_beta1) * g;
+    v = o.adam_beta2 * v + (1.0 - o.adam_beta2) * g.cwiseAbs2();
+    const double c1 = 1.0 - std::pow(o.adam_beta1, k), c2 = 1.0 - std::pow(o.adam_beta2, k);
+    x -= (o.adam_learning_rate * (m / c1).array() / ((v / c2).array().sqrt() + 1e-8)).matrix();
+    x = clamp(x, o);
+  }
+  r.status = OptimizerResult::Status::MaxIterations;
+  r.message = "stopped at the step limit (" + std::to_string(o.max_iterations) + ")";
+  return r;
+}
+
+}  // namespace
+
+OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, const OptimizerOptions& options,
+                         const ProgressCallback& progress) {
+  options.validate();
+  Tracker tracker{objective, progress, options, std::numeric_limits<double>::infinity(), Eigen::VectorXd(), 0, 0};
+  OptimizerResult r = options.kind == OptimizerKind::Lbfgs ? run_lbfgs(tracker, x0, options) : run_adam(tracker, x0, options);
+  r.evaluations = tracker.evaluations;
+  if (tracker.best_x.size() == 0) {
+    r.status = OptimizerResult::Status::Failed;
+    r.message = "no hyperparameters could be evaluated: the kernel matrix is not positive definite even at the start";
+    r.x = x0;
+    r.f = std::numeric_limits<double>::quiet_NaN();
+    return r;
+  }
+  r.x = tracker.best_x;
+  r.f = tracker.best_f;
+  return r;
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,307 @@
+// Kernel values and analytic gradients, against finite differences, a naive
+// evaluation of METHOD.md's GIP formula, and the unfused composition.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gipdyn/features.hpp"
+#include "gipdyn/kernels/composite_kernels.hpp"
+#include "gipdyn/kernels/gip_kernel.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/kernels/linear_kernel.hpp"
+#include "gipdyn/kernels/rbf_kernel.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+using test::random_inputs;
+using test::random_vector;
+
+const char* kJointStrings[] = {"R", "P", "RRPR", "RRRRRR", "PRPRRR"};
+
+double max_abs(const Eigen::MatrixXd& M) { return M.cwiseAbs().maxCoeff(); }
+
+// dK/dlog(theta_p) against a 4th-order central difference of cross().
+void expect_gradient_matrices_match(Kernel& k, const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2,
+                                    const std::string& what) {
+  const Eigen::VectorXd p0 = k.log_params();
+  const double h = 1e-3;
+  for (int p = 0; p < k.num_params(); ++p) {
+    Eigen::MatrixXd dK;
+    k.gradient_matrix(Z1, Z2, p, dK);
+    Eigen::MatrixXd fd = Eigen::MatrixXd::Zero(Z1.rows(), Z2.rows()), K;
+    const double steps[4] = {2 * h, h, -h, -2 * h}, weights[4] = {-1, 8, -8, 1};
+    for (int s = 0; s < 4; ++s) {
+      Eigen::VectorXd pp = p0;
+      pp(p) += steps[s];
+      k.set_log_params(pp);
+      k.cross(Z1, Z2, K);
+      fd += weights[s] * K;
+    }
+    fd /= 12 * h;
+    k.set_log_params(p0);
+    Eigen::MatrixXd Kref;
+    k.cross(Z1, Z2, Kref);
+    const double scale = std::max(max_abs(fd), 1e-8 * max_abs(Kref));
+    EXPECT_LT(max_abs(dK - fd) / scale, 1e-6) << what << " parameter " << k.param_names()[static_cast<size_t>(p)];
+  }
+}
+
+// contract(Z, W) equals sum_ij W_ij dK_ij for a random symmetric W, and the
+// lower-triangle NLL contraction equals the full one.
+void expect_contractions_match(const Kernel& k, const Eigen::MatrixXd& Z, const std::string& what) {
+  const Eigen::Index N = Z.rows();
+  Eigen::MatrixXd W = Eigen::MatrixXd::Random(N, N);
+  W = (W + W.transpose()).eval();
+  KernelScratch scratch;
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(k.num_params());
+  k.contract(Z, W, g, scratch);
+  Eigen::VectorXd ref(k.num_params());
+  for (int p = 0; p < k.num_params(); ++p) {
+    Eigen::MatrixXd dK;
+    k.gradient_matrix(Z, Z, p, dK);
+    ref(p) = (W.array() * dK.array()).sum();
+  }
+  EXPECT_LT((g - ref).norm() / ref.norm(), 1e-10) << what << ": contract";
+
+  const Eigen::VectorXd alpha = Eigen::VectorXd::Random(N);
+  Eigen::MatrixXd Kinv = Eigen::MatrixXd::Random(N, N);
+  Kinv = (Kinv + Kinv.transpose()).eval();
+  Eigen::MatrixXd Kinv_lower = Kinv;
+  Kinv_lower.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));  // must not be read
+  Eigen::VectorXd g_nll = Eigen::VectorXd::Zero(k.num_params()), g_full = g_nll;
+  k.contract_nll(Z, alpha, Kinv_lower, g_nll, scratch);
+  k.contract(Z, alpha * alpha.transpose() - Kinv, g_full, scratch);
+  EXPECT_LT((g_nll - g_full).norm() / g_full.norm(), 1e-10) << what << ": contract_nll";
+}
+
+TEST(LinearKernel, ValueAndGradients) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  const Eigen::MatrixXd Z1 = fm.compute(random_inputs(fm.joints(), 7, 1));
+  const Eigen::MatrixXd Z2 = fm.compute(random_inputs(fm.joints(), 5, 2));
+  LinearKernel k({12, 13, 14}, true, "lin", {"a", "b", "c"});
+  k.set_log_params(random_vector(4, -1, 1, 3));
+  Eigen::MatrixXd K;
+  k.cross(Z1, Z2, K);
+  const Eigen::VectorXd w = k.log_params().array().exp();
+  const double expected = w(0) + w(1) * Z1(3, 12) * Z2(4, 12) + w(2) * Z1(3, 13) * Z2(4, 13) + w(3) * Z1(3, 14) * Z2(4, 14);
+  EXPECT_NEAR(K(3, 4), expected, 1e-12 * std::abs(expected));
+  EXPECT_EQ(k.param_names()[0], "lin.s0");
+  EXPECT_EQ(k.param_names()[2], "lin.l_b");
+  expect_gradient_matrices_match(k, Z1, Z2, "linear");
+  expect_contractions_match(k, Z1, "linear");
+  LinearKernel nobias({12}, false, "nb", {"x"});
+  EXPECT_EQ(nobias.num_params(), 1);
+  expect_gradient_matrices_match(nobias, Z1, Z2, "linear without bias");
+}
+
+TEST(CompositeKernels, MpkProductAndSumGradients) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  const Eigen::MatrixXd Z1 = fm.compute(random_inputs(fm.joints(), 6, 4));
+  const Eigen::MatrixXd Z2 = fm.compute(random_inputs(fm.joints(), 4, 5));
+  auto mpk3 = make_mpk(fm.position_group(0), 3, "m", {"cos", "sin"});
+  mpk3->set_log_params(random_vector(mpk3->num_params(), -1, 0.5, 6));
+  EXPECT_EQ(mpk3->num_params(), 9);
+  EXPECT_EQ(mpk3->param_names()[3], "m.factor2.s0");
+  // MPK_3 equals the product of its three factors written out.
+  Eigen::MatrixXd K;
+  mpk3->cross(Z1, Z2, K);
+  const Eigen::VectorXd w = mpk3->log_params().array().exp();
+  double expected = 1.0;
+  for (int s = 0; s < 3; ++s)
+    expected *= w(3 * s) + w(3 * s + 1) * Z1(2, 12) * Z2(1, 12) + w(3 * s + 2) * Z1(2, 13) * Z2(1, 13);
+  EXPECT_NEAR(K(2, 1), expected, 1e-12 * std::abs(expected));
+  expect_gradient_matrices_match(*mpk3, Z1, Z2, "mpk3");
+  expect_contractions_match(*mpk3, Z1, "mpk3");
+
+  std::vector<std::unique_ptr<Kernel>> terms;
+  terms.push_back(std::move(mpk3));
+  terms.push_back(std::make_unique<RbfKernel>(std::vector<int>{0, 1, 4}, std::vector<std::string>{"a", "b", "c"}));
+  SumKernel sum(std::move(terms));
+  sum.set_log_params(random_vector(sum.num_params(), -1, 0.5, 7));
+  expect_gradient_matrices_match(sum, Z1, Z2, "mpk3 + rbf");
+  expect_contractions_match(sum, Z1, "mpk3 + rbf");
+}
+
+TEST(RbfKernel, ValueAndGradients) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  const Eigen::MatrixXd Z1 = fm.compute(random_inputs(fm.joints(), 7, 8));
+  const Eigen::MatrixXd Z2 = fm.compute(random_inputs(fm.joints(), 6, 9));
+  auto k = make_kernel("rbf", fm, 0);
+  k->set_log_params(random_vector(k->num_params(), -0.5, 1.0, 10));
+  Eigen::MatrixXd K;
+  k->cross(Z1, Z2, K);
+  const Eigen::VectorXd p = k->log_params();
+  double d2 = 0.0;
+  for (int c = 0; c < 12; ++c) d2 += std::pow((Z1(2, c) - Z2(3, c)) / std::exp(p(1 + c)), 2);
+  EXPECT_NEAR(K(2, 3), std::exp(p(0)) * std::exp(-0.5 * d2), 1e-12);
+  EXPECT_EQ(k->param_names()[1], "rbf.lengthscale_q1");
+  expect_gradient_matrices_match(*k, Z1, Z2, "rbf");
+  expect_contractions_match(*k, Z1, "rbf");
+}
+
+// METHOD.md §2 written out directly from raw inputs, with the parameter layout
+// documented in gip_kernel.hpp: per joint two factors [s0, l...], then the
+// acceleration factor [s0, l_qdd..., l_qdqd...], then friction [l_v, l_c].
+double naive_gip(const JointTypes& joints, const Eigen::VectorXd& logp, const Eigen::RowVectorXd& x,
+                 const Eigen::RowVectorXd& y, int friction_joint) {
+  const int n = joints.size();
+  const Eigen::VectorXd w = logp.array().exp();
+  int o = 0;
+  double k = 1.0;
+  for (int b = 0; b < n; ++b) {
+    for (int s = 0; s < 2; ++s) {
+      double f = w(o++);
+      if (joints.is_revolute(b)) {
+        f += w(o++) * std::cos(x(b)) * std::cos(y(b));
+        f += w(o++) * std::sin(x(b)) * std::sin(y(b));
+      } else {
+        f += w(o++) * x(b) * y(b);
+      }
+      k *= f;
+    }
+  }
+  double acc = w(o++);
+  for (int i = 0; i < n; ++i) acc += w(o++) * x(2 * n + i) * y(2 * n + i);
+  for (int i = 0; i < n; ++i)
+    for (int j = i; j < n; ++j) acc += w(o++) * (x(n + i) * x(n + j)) * (y(n + i) * y(n + j));
+  k *= acc;
+  if (friction_joint >= 0) {
+    const double vx = x(n + friction_joint), vy = y(n + friction_joint);
+    k += w(o++) * vx * vy;
+    k += w(o++) * ((vx > 0) - (vx < 0)) * ((vy > 0) - (vy < 0));
+  }
+  EXPECT_EQ(o, logp.size());
+  return k;
+}
+
+class GipKernelTest : public ::testing::TestWithParam<const char*> {};
+
+TEST_P(GipKernelTest, ValueMatchesNaiveFormula) {
+  const JointTypes joints = JointTypes::parse(GetParam());
+  const FeatureMap fm(joints);
+  const Eigen::MatrixXd X1 = random_inputs(joints, 6, 11), X2 = random_inputs(joints, 5, 12);
+  const Eigen::MatrixXd Z1 = fm.compute(X1), Z2 = fm.compute(X2);
+  for (int friction : {-1, joints.size() - 1}) {
+    GipKernel k(fm, friction);
+    const int n = joints.size();
+    const int expected_params = 2 * (3 * joints.num_revolute() + 2 * joints.num_prismatic()) + 1 + n + n * (n + 1) / 2 +
+                                (friction >= 0 ? 2 : 0);
+    ASSERT_EQ(k.num_params(), expected_params);
+    k.set_log_params(random_vector(k.num_params(), -1.0, 0.3, 13));
+    Eigen::MatrixXd K;
+    k.cross(Z1, Z2, K);
+    for (int i = 0; i < 6; ++i)
+      for (int j = 0; j < 5; ++j) {
+        const double ref = naive_gip(joints, k.log_params(), X1.row(i), X2.row(j), friction);
+        EXPECT_NEAR(K(i, j), ref, 1e-12 * std::max(1.0, std::abs(ref)));
+      }
+    // Diagonal, single-row and self paths agree with cross().
+    Eigen::VectorXd d;
+    k.diagonal(Z1, d);
+    Eigen::MatrixXd K11;
+    k.cross(Z1, Z1, K11);
+    EXPECT_LT((d - K11.diagonal()).norm() / K11.diagonal().norm(), 1e-13);
+    KernelScratch scratch;
+    Eigen::VectorXd row(Z2.rows());
+    const Eigen::RowVectorXd z = Z1.row(2);
+    k.row(z.data(), Z2, row, scratch);
+    EXPECT_LT((row - K.row(2).transpose()).norm() / K.row(2).norm(), 1e-13);
+    EXPECT_NEAR(k.self(z.data(), fm.feature_dim()), K11(2, 2), 1e-12 * std::abs(K11(2, 2)));
+    // Fused lower-triangle Gram equals cross() on the lower triangle.
+    Eigen::MatrixXd G(Z1.rows(), Z1.rows());
+    k.gram_lower(Z1, G, scratch);
+    for (int c = 0; c < Z1.rows(); ++c)
+      for (int r = c; r < Z1.rows(); ++r) EXPECT_NEAR(G(r, c), K11(r, c), 1e-12 * std::abs(K11(r, c)));
+  }
+}
+
+TEST_P(GipKernelTest, NamesMatchCompositeAndSayWhatTheyAre) {
+  const JointTypes joints = JointTypes::parse(GetParam());
+  GipKernel k(FeatureMap(joints), 0);
+  const auto names = k.param_names();
+  ASSERT_EQ(static_cast<int>(names.size()), k.num_params());
+  EXPECT_EQ(names[0], joints.is_revolute(0) ? "joint1.cs.factor1.s0" : "joint1.p.factor1.s0");
+  EXPECT_EQ(names[1], joints.is_revolute(0) ? "joint1.cs.factor1.l_cos" : "joint1.p.factor1.l_q");
+  EXPECT_EQ(names.back(), "friction.l_coulomb");
+  EXPECT_NE(std::find(names.begin(), names.end(), "acc.l_qdd1"), names.end());
+  EXPECT_NE(std::find(names.begin(), names.end(), "acc.s0"), names.end());
+}
+
+TEST_P(GipKernelTest, GradientsMatchFiniteDifferencesAndComposite) {
+  const JointTypes joints = JointTypes::parse(GetParam());
+  const FeatureMap fm(joints);
+  // More rows than one fused block (256) so block boundaries are exercised.
+  const Eigen::MatrixXd Zbig = fm.compute(random_inputs(joints, 300, 14));
+  const Eigen::MatrixXd Z1 = fm.compute(random_inputs(joints, 6, 15)), Z2 = fm.compute(random_inputs(joints, 5, 16));
+  for (int friction : {-1, 0}) {
+    GipKernel k(fm, friction);
+    k.set_log_params(random_vector(k.num_params(), -1.0, 0.3, 17));
+    expect_gradient_matrices_match(k, Z1, Z2, std::string("gip ") + GetParam());
+    expect_contractions_match(k, Z1, std::string("gip ") + GetParam());
+    // Fused contraction over several blocks vs the unfused composite kernel.
+    const Eigen::Index N = Zbig.rows();
+    Eigen::MatrixXd W = Eigen::MatrixXd::Random(N, N);
+    W = (W + W.transpose()).eval();
+    KernelScratch s1, s2;
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(k.num_params()), ref = g;
+    k.contract(Zbig, W, g, s1);
+    k.to_composite()->contract(Zbig, W, ref, s2);
+    EXPECT_LT((g - ref).norm() / ref.norm(), 1e-10) << GetParam();
+  }
+}
+
+INSTANTIATE_TEST_SUITE_P(JointStrings, GipKernelTest, ::testing::ValuesIn(kJointStrings));
+
+TEST(GipKernel, InitializationStartsFactorsApartAndNearTargetScale) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const FeatureMap fm(joints);
+  const Eigen::MatrixXd Z = fm.compute(random_inputs(joints, 200, 18));
+  GipKernel k(fm);
+  k.initialize(Z, 2.0);
+  const Eigen::VectorXd p = k.log_params();
+  EXPECT_NE(p(0), p(3));  // joint 1: factor1.s0 != factor2.s0
+  Eigen::VectorXd d;
+  k.diagonal(Z, d);
+  EXPECT_GT(d.mean(), 0.5);
+  EXPECT_LT(d.mean(), 8.0);
+}
+
+TEST(KernelFactory, RejectsUnknownNames) {
+  const FeatureMap fm(JointTypes::parse("RR"));
+  try {
+    make_kernel("matern", fm, 0);
+    FAIL() << "expected an error";
+  } catch (const std::exception& e) {
+    EXPECT_NE(std::string(e.what()).find("gip-friction"), std::string::npos);
+  }
+}
+
+TEST(JointTypes, ParsesAndRejects) {
+  EXPECT_EQ(JointTypes::parse("rrPr").str(), "RRPR");
+  EXPECT_EQ(JointTypes::parse("RRPR").num_prismatic(), 1);
+  EXPECT_THROW(JointTypes::parse(""), std::exception);
+  EXPECT_THROW(JointTypes::parse("RRXR"), std::exception);
+  EXPECT_THROW(JointTypes::parse("RRRRRRRRRRRRR"), std::exception);
+  EXPECT_EQ(JointTypes::parse("RRRRRRRRRRRR").size(), 12);
+}
+
+TEST(FeatureMap, LayoutFollowsMethod) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  EXPECT_EQ(fm.acceleration_group().size(), 4u + 10u);
+  EXPECT_EQ(fm.position_group(2).size(), 1u);
+  Eigen::MatrixXd X(1, 12);
+  X << 0.3, -1.0, 0.2, 2.0, 0.5, -0.5, 1.5, 0.0, 1, 2, 3, 4;
+  const Eigen::MatrixXd Z = fm.compute(X);
+  EXPECT_DOUBLE_EQ(Z(0, fm.position_group(0)[0]), std::cos(0.3));
+  EXPECT_DOUBLE_EQ(Z(0, fm.position_group(1)[1]), std::sin(-1.0));
+  EXPECT_DOUBLE_EQ(Z(0, fm.position_group(2)[0]), 0.2);
+  EXPECT_DOUBLE_EQ(Z(0, fm.acceleration_group()[0]), 1.0);  // qdd1
+  EXPECT_DOUBLE_EQ(Z(0, fm.acceleration_group()[4 + 1]), 0.5 * -0.5);  // qd1 qd2
+  EXPECT_DOUBLE_EQ(Z(0, fm.friction_sign(1)), -1.0);
+  EXPECT_DOUBLE_EQ(Z(0, fm.friction_sign(3)), 0.0);
+}
+
+}  // namespace
+}  // namespace gipdyn

@@ -1,0 +1,71 @@
+#pragma once
+// Helpers shared by the C++ tests.
+#include <Eigen/Dense>
+#include <cmath>
+#include <functional>
+#include <random>
+#include <string>
+
+#include "gipdyn/joint_types.hpp"
+
+namespace gipdyn::test {
+
+// Random raw inputs (q, qd, qdd) for a joint string: revolute q in [-pi, pi],
+// prismatic q in [0, 0.3] m, qd in [-2, 2], qdd in [-3, 3].
+inline Eigen::MatrixXd random_inputs(const JointTypes& joints, int rows, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  const int n = joints.size();
+  Eigen::MatrixXd X(rows, 3 * n);
+  for (int r = 0; r < rows; ++r)
+    for (int i = 0; i < n; ++i) {
+      X(r, i) = joints.is_revolute(i) ? M_PI * u(rng) : 0.15 + 0.15 * u(rng);
+      X(r, n + i) = 2.0 * u(rng);
+      X(r, 2 * n + i) = 3.0 * u(rng);
+    }
+  return X;
+}
+
+inline Eigen::VectorXd random_vector(int size, double lo, double hi, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> u(lo, hi);
+  Eigen::VectorXd v(size);
+  for (int k = 0; k < size; ++k) v(k) = u(rng);
+  return v;
+}
+
+// Fourth-order central difference of a scalar function of a vector.
+inline Eigen::VectorXd finite_difference(const std::function<double(const Eigen::VectorXd&)>& f,
+                                         const Eigen::VectorXd& x, double h) {
+  Eigen::VectorXd g(x.size());
+  for (Eigen::Index k = 0; k < x.size(); ++k) {
+    auto at = [&](double d) {
+      Eigen::VectorXd y = x;
+      y(k) += d;
+      return f(y);
+    };
+    g(k) = (-at(2 * h) + 8 * at(h) - 8 * at(-h) + at(-2 * h)) / (12 * h);
+  }
+  return g;
+}
+
+// Planar 2R arm in a vertical plane (gravity along -y), written out by hand:
+// tau = M(q) qdd + C(q, qd) qd + g(q). Rows of X: q1 q2 qd1 qd2 qdd1 qdd2.
+inline Eigen::MatrixXd two_link_torques(const Eigen::MatrixXd& X) {
+  const double m1 = 1.0, m2 = 0.8, l1 = 0.5, lc1 = 0.25, lc2 = 0.2, I1 = 0.02, I2 = 0.015, g = 9.81;
+  Eigen::MatrixXd tau(X.rows(), 2);
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    const double q1 = X(r, 0), q2 = X(r, 1), qd1 = X(r, 2), qd2 = X(r, 3), qdd1 = X(r, 4), qdd2 = X(r, 5);
+    const double c2 = std::cos(q2), s2 = std::sin(q2);
+    const double M11 = m1 * lc1 * lc1 + m2 * (l1 * l1 + lc2 * lc2 + 2 * l1 * lc2 * c2) + I1 + I2;
+    const double M12 = m2 * (lc2 * lc2 + l1 * lc2 * c2) + I2, M22 = m2 * lc2 * lc2 + I2;
+    const double h = -m2 * l1 * lc2 * s2;
+    const double g1 = (m1 * lc1 + m2 * l1) * g * std::cos(q1) + m2 * lc2 * g * std::cos(q1 + q2);
+    const double g2 = m2 * lc2 * g * std::cos(q1 + q2);
+    tau(r, 0) = M11 * qdd1 + M12 * qdd2 + h * qd2 * qd2 + 2 * h * qd1 * qd2 + g1;
+    tau(r, 1) = M12 * qdd1 + M22 * qdd2 - h * qd1 * qd1 + g2;
+  }
+  return tau;
+}
+
+}  // namespace gipdyn::test
