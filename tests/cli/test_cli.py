@@ -1,0 +1,162 @@
+"""End-to-end tests of the gipdyn command line: train, predict, evaluate, and bad input."""
+import json
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+from conftest import write_dataset
+
+
+def run(binary, *args):
+    return subprocess.run([binary, *args], capture_output=True, text=True, timeout=300)
+
+
+@pytest.fixture(scope="module")
+def trained(tmp_path_factory, gipdyn_bin):
+    d = tmp_path_factory.mktemp("cli")
+    write_dataset(d / "train.csv", 150, seed=1, shuffle_columns=True)
+    test = write_dataset(d / "test.csv", 200, seed=2)
+    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--joints", "RR", "--out", str(d / "m.gipdyn"),
+            "--max-iter", "80")
+    assert r.returncode == 0, r.stderr
+    return d, test, r.stdout
+
+
+def test_train_reports_progress_and_writes_model(trained):
+    d, _, out = trained
+    assert "joint 1" in out and "joint 2" in out and "NLL" in out
+    assert "saved model to" in out
+    assert (d / "m.gipdyn").stat().st_size > 1000
+
+
+def test_predict_writes_means_and_stds(trained, gipdyn_bin):
+    d, test, _ = trained
+    r = run(gipdyn_bin, "predict", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"), "--out",
+            str(d / "pred.csv"))
+    assert r.returncode == 0, r.stderr
+    with open(d / "pred.csv") as f:
+        header = f.readline().strip().split(",")
+    assert header == ["tau1_hat", "tau2_hat", "tau1_std", "tau2_std"]
+    pred = np.loadtxt(d / "pred.csv", delimiter=",", skiprows=1)
+    assert pred.shape == (200, 4)
+    nmse = ((pred[:, :2] - test[:, 8:10]) ** 2).mean(0) / test[:, 8:10].var(0)
+    assert (nmse < 1e-2).all(), nmse
+    assert (pred[:, 2:] > 0).all()
+
+
+def test_evaluate_prints_table_and_json(trained, gipdyn_bin):
+    d, test, _ = trained
+    r = run(gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"), "--json",
+            str(d / "report.json"))
+    assert r.returncode == 0, r.stderr
+    assert "nMSE" in r.stdout and "GMSE" in r.stdout and "noise-free" in r.stdout
+    report = json.loads((d / "report.json").read_text())
+    assert set(["nmse", "mse", "gmse"]) <= set(report)
+    assert len(report["nmse"]) == 2 and len(report["mse"]) == 2
+    assert abs(report["gmse"] - sum(report["mse"])) < 1e-12
+    # The JSON agrees with an nMSE computed here from `predict`'s output.
+    run(gipdyn_bin, "predict", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"), "--out",
+        str(d / "p2.csv"), "--no-std")
+    pred = np.loadtxt(d / "p2.csv", delimiter=",", skiprows=1)
+    nmse = ((pred - test[:, 8:10]) ** 2).mean(0) / test[:, 8:10].var(0)
+    assert np.allclose(report["nmse"], nmse, rtol=1e-9)
+
+
+def test_quiet_and_subsample(tmp_path, gipdyn_bin):
+    write_dataset(tmp_path / "t.csv", 100, seed=3)
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--out",
+            str(tmp_path / "m"), "--quiet", "--max-iter", "10")
+    assert r.returncode == 0 and r.stdout == "" and r.stderr == ""
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--out",
+            str(tmp_path / "m"), "--subsample", "30", "--max-iter", "10", "--kernel", "rbf", "--optimizer", "adam")
+    assert r.returncode == 0, r.stderr
+    assert "30 of 100 rows" in r.stdout
+
+
+@pytest.mark.parametrize("command", ["train", "predict", "evaluate"])
+def test_help(gipdyn_bin, command):
+    r = run(gipdyn_bin, command, "--help")
+    assert r.returncode == 0
+    assert "--data" in r.stdout and "--model" in r.stdout or "--joints" in r.stdout
+
+
+def write_text(path, text):
+    path.write_text(text)
+    return str(path)
+
+
+HEADER = "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n"
+ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
+
+
+@pytest.mark.parametrize(
+    "case, content, joints, extra, message",
+    [
+        ("missing column", "q1,q2,qd1,qd2,qdd1,tau1,tau2\n1,2,3,4,5,6,7\n", "RR", [], "no column 'qdd2'"),
+        ("non-numeric", HEADER + "1,2,3,four,5,6,7,8\n" + ROWS, "RR", [], "'four' is not a number"),
+        ("nan", HEADER + "1,2,3,nan,5,6,7,8\n" + ROWS, "RR", [], "NaN"),
+        ("inf", HEADER + ROWS + "1,2,3,4,5,6,-inf,8\n", "RR", [], "NaN or Inf"),
+        ("too few rows", HEADER + "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,9\n", "RR", [], "at least"),
+        ("no rows", HEADER, "RR", [], "no data rows"),
+        ("joint mismatch", HEADER + ROWS, "RRR", [], "joint string of length 2"),
+        ("bad joint string", HEADER + ROWS, "RX", [], "'X'"),
+        ("unknown kernel", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown kernel"),
+        ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "unknown optimizer"),
+    ],
+)
+def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, message):
+    data = write_text(tmp_path / "bad.csv", content)
+    out = tmp_path / "m.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", data, "--joints", joints, "--out", str(out), "--max-iter", "5", *extra)
+    assert r.returncode != 0, case
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1, r.stderr
+    assert message in lines[0], r.stderr
+    assert not out.exists()
+    assert [p.name for p in tmp_path.iterdir()] == ["bad.csv"]  # no temporary left behind
+
+
+def test_missing_data_file(tmp_path, gipdyn_bin):
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "none.csv"), "--joints", "RR", "--out", str(tmp_path / "m"))
+    assert r.returncode != 0
+    assert "none.csv" in r.stderr
+
+
+def test_bad_model_files(trained, tmp_path, gipdyn_bin):
+    d, _, _ = trained
+    good = (d / "m.gipdyn").read_bytes()
+    cases = {
+        "truncated": (good[: len(good) // 2], "truncated"),
+        "corrupted": (good[:-40] + bytes([good[-40] ^ 0xFF]) + good[-39:], "corrupted"),
+        "not a model": (b"q1,q2\n1,2\n" * 10, "not a gipdyn model"),
+    }
+    for case, (content, message) in cases.items():
+        model = tmp_path / "bad.gipdyn"
+        model.write_bytes(content)
+        out = tmp_path / "pred.csv"
+        r = run(gipdyn_bin, "predict", "--model", str(model), "--data", str(d / "test.csv"), "--out", str(out))
+        assert r.returncode != 0, case
+        assert message in r.stderr and len(r.stderr.strip().splitlines()) == 1, (case, r.stderr)
+        assert not out.exists()
+        r = run(gipdyn_bin, "evaluate", "--model", str(model), "--data", str(d / "test.csv"))
+        assert r.returncode != 0 and message in r.stderr, case
+
+
+def test_predict_rejects_data_for_another_robot(trained, tmp_path, gipdyn_bin):
+    d, _, _ = trained
+    data = write_text(tmp_path / "three.csv",
+                      "q1,q2,q3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n" + "1,2,3,4,5,6,7,8,9\n")
+    r = run(gipdyn_bin, "predict", "--model", str(d / "m.gipdyn"), "--data", data, "--out", str(tmp_path / "p.csv"))
+    assert r.returncode != 0
+    assert "joint" in r.stderr
+    assert not (tmp_path / "p.csv").exists()
+
+
+def test_evaluate_needs_torques(trained, tmp_path, gipdyn_bin):
+    d, _, _ = trained
+    data = write_text(tmp_path / "x.csv", "q1,q2,qd1,qd2,qdd1,qdd2\n1,2,3,4,5,6\n")
+    r = run(gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", data, "--json", str(tmp_path / "r.json"))
+    assert r.returncode != 0 and "tau1" in r.stderr
+    assert not (tmp_path / "r.json").exists()

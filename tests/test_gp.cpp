@@ -1,0 +1,142 @@
+// Exact GP: NLL gradient against finite differences for every kernel, and the
+// jitter fallback of the Cholesky factorisation.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gipdyn/features.hpp"
+#include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+using test::finite_difference;
+using test::random_inputs;
+using test::random_vector;
+
+struct Case {
+  const char* joints;
+  const char* kernel;
+};
+
+class NllGradientTest : public ::testing::TestWithParam<Case> {};
+
+TEST_P(NllGradientTest, MatchesFiniteDifferences) {
+  const JointTypes joints = JointTypes::parse(GetParam().joints);
+  const FeatureMap fm(joints);
+  const Eigen::MatrixXd Z = fm.compute(random_inputs(joints, 40, 21));
+  const Eigen::VectorXd y = random_vector(40, -1, 1, 22);
+  auto kernel = make_kernel(GetParam().kernel, fm, joints.size() - 1);
+  kernel->initialize(Z, 1.0);
+  const int P = kernel->num_params();
+  Eigen::VectorXd x(P + 1);
+  x.head(P) = kernel->log_params() + random_vector(P, -0.3, 0.3, 23);
+  x(P) = std::log(0.1);
+
+  GpWorkspace ws;
+  auto nll = [&](const Eigen::VectorXd& v) {
+    kernel->set_log_params(v.head(P));
+    const NllEvaluation e = evaluate_nll(*kernel, v(P), Z, y, false, ws);
+    EXPECT_TRUE(e.ok) << e.message;
+    EXPECT_EQ(e.jitter, 0.0);
+    return e.nll;
+  };
+  const Eigen::VectorXd fd = finite_difference(nll, x, 1e-3);
+  kernel->set_log_params(x.head(P));
+  const NllEvaluation e = evaluate_nll(*kernel, x(P), Z, y, true, ws);
+  ASSERT_TRUE(e.ok) << e.message;
+  EXPECT_NEAR(e.nll, nll(x), 1e-12 * std::abs(e.nll));
+  const double rel = (e.gradient - fd).norm() / fd.norm();
+  EXPECT_LT(rel, 1e-6) << GetParam().joints << " " << GetParam().kernel;
+  for (Eigen::Index k = 0; k < fd.size(); ++k)
+    EXPECT_LT(std::abs(e.gradient(k) - fd(k)), 1e-6 * fd.cwiseAbs().maxCoeff()) << "parameter " << k;
+}
+
+INSTANTIATE_TEST_SUITE_P(
+    Kernels, NllGradientTest,
+    ::testing::Values(Case{"R", "gip"}, Case{"P", "gip"}, Case{"RRPR", "gip"}, Case{"RRRRRR", "gip"},
+                      Case{"PRPRRR", "gip"}, Case{"R", "gip-friction"}, Case{"RRPR", "gip-friction"},
+                      Case{"RRRRRR", "gip-friction"}, Case{"PRPRRR", "gip-friction"}, Case{"R", "rbf"},
+                      Case{"RRPR", "rbf"}, Case{"RRRRRR", "rbf"}, Case{"PRPRRR", "rbf"}),
+    [](const ::testing::TestParamInfo<Case>& info) {
+      std::string name = std::string(info.param.joints) + "_" + info.param.kernel;
+      for (char& c : name)
+        if (c == '-') c = '_';
+      return name;
+    });
+
+TEST(Cholesky, AddsJitterToASingularMatrixAndReportsIt) {
+  const Eigen::VectorXd v = random_vector(30, -1, 1, 31);
+  const Eigen::MatrixXd S = v * v.transpose();  // rank one: potrf fails without jitter
+  Eigen::MatrixXd K = S;
+  const CholeskyResult r = cholesky_with_jitter(K, [&](Eigen::MatrixXd& M) { M = S; });
+  ASSERT_TRUE(r.ok()) << r.message;
+  EXPECT_GT(r.jitter, 0.0);
+  EXPECT_LE(r.jitter, 1e-4 * S.diagonal().mean() * (1 + 1e-9));
+  const Eigen::MatrixXd L = K.triangularView<Eigen::Lower>();
+  const Eigen::MatrixXd rebuilt = L * L.transpose();
+  EXPECT_LT((rebuilt - S - r.jitter * Eigen::MatrixXd::Identity(30, 30)).norm(), 1e-10 * S.norm());
+}
+
+TEST(Cholesky, FailsWithAClearMessageBeyondTheBound) {
+  Eigen::MatrixXd S = Eigen::MatrixXd::Identity(5, 5);
+  S(2, 2) = -1.0;  // indefinite: no small jitter helps
+  Eigen::MatrixXd K = S;
+  const CholeskyResult r = cholesky_with_jitter(K, [&](Eigen::MatrixXd& M) { M = S; });
+  EXPECT_FALSE(r.ok());
+  EXPECT_EQ(r.status, CholeskyResult::Status::NotPositiveDefinite);
+  EXPECT_NE(r.message.find("not positive definite"), std::string::npos);
+  Eigen::MatrixXd N = Eigen::MatrixXd::Identity(3, 3);
+  N(1, 0) = std::nan("");
+  const CholeskyResult rn = cholesky_with_jitter(N, [&](Eigen::MatrixXd&) {});
+  EXPECT_EQ(rn.status, CholeskyResult::Status::NonFinite);
+}
+
+TEST(ExactGp, NllReportsFailureInsteadOfThrowing) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const FeatureMap fm(joints);
+  Eigen::MatrixXd X = random_inputs(joints, 10, 32);
+  X.row(1) = X.row(0);  // duplicate rows, zero noise: singular
+  const Eigen::MatrixXd Z = fm.compute(X);
+  auto k = make_kernel("rbf", fm, 0);
+  GpWorkspace ws;
+  JitterPolicy none;
+  none.max_relative = 0.0;
+  const NllEvaluation e = evaluate_nll(*k, std::log(1e-300), Z, Eigen::VectorXd::Ones(10), true, ws, none);
+  EXPECT_FALSE(e.ok);
+  EXPECT_FALSE(e.message.empty());
+  const NllEvaluation j = evaluate_nll(*k, std::log(1e-300), Z, Eigen::VectorXd::Ones(10), true, ws);
+  EXPECT_TRUE(j.ok) << j.message;
+  EXPECT_GT(j.jitter, 0.0);
+}
+
+TEST(ExactGp, PosteriorInterpolatesWithSmallNoiseAndVarianceShrinks) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const FeatureMap fm(joints);
+  const Eigen::MatrixXd X = random_inputs(joints, 30, 33);
+  const Eigen::MatrixXd Z = fm.compute(X);
+  const Eigen::VectorXd y = test::two_link_torques(X).col(0);
+  auto k = make_kernel("gip", fm, 0);
+  k->initialize(Z, y.squaredNorm() / 30);
+  GpRegressor gp(std::move(k), std::log(1e-8));
+  GpWorkspace ws;
+  ASSERT_TRUE(gp.fit(Z, y, true, ws).ok());
+  Eigen::VectorXd mean, var;
+  gp.predict_mean(Z, Z, mean);
+  gp.predict_variance(Z, Z, var);
+  EXPECT_LT((mean - y).norm() / y.norm(), 1e-5);
+  Eigen::VectorXd prior;
+  gp.kernel().diagonal(Z, prior);
+  EXPECT_LT(var.maxCoeff(), 1e-3 * prior.minCoeff());
+  // Single-query paths agree with the batch ones.
+  KernelScratch s;
+  Eigen::VectorXd krow(30), v(30);
+  const Eigen::RowVectorXd z = Z.row(4);
+  EXPECT_NEAR(gp.predict_mean_one(z.data(), Z, krow, s), mean(4), 1e-9 * std::abs(mean(4)) + 1e-12);
+  EXPECT_NEAR(gp.predict_variance_one(z.data(), fm.feature_dim(), krow, v), var(4), 1e-9 * prior(4));
+}
+
+}  // namespace
+}  // namespace gipdyn

@@ -1,0 +1,288 @@
+// Inverse dynamics model: the RKHS claim in practice, training determinism,
+// model files (round trip, truncation, corruption, versions) and CSV input errors.
+#include <gtest/gtest.h>
+
+#include <cstdio>
+#include <cstring>
+#include <unistd.h>
+#include <filesystem>
+#include <fstream>
+#include <iterator>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/model_file.hpp"
+#include "gipdyn/metrics.hpp"
+#include "gipdyn/model/training.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+namespace fs = std::filesystem;
+using test::random_inputs;
+using test::two_link_torques;
+
+fs::path temp_dir() {
+  const fs::path d = fs::temp_directory_path() / ("gipdyn_test_" + std::to_string(::getpid()));
+  fs::create_directories(d);
+  return d;
+}
+
+std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
+}
+
+InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned seed, int max_iter = 40) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, rows, seed);
+  TrainOptions o;
+  o.kernel = kernel;
+  o.optimizer.max_iterations = max_iter;
+  // Measurement noise keeps the model well conditioned, as on real data; with
+  // noise-free data the noise variance sits at its floor and alpha is huge.
+  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(rows, 2);
+  TrainResult r = train_model(X, Y, joints, o);
+  EXPECT_TRUE(r.ok) << r.message;
+  return std::move(r.model);
+}
+
+// The exact rigid-body dynamics lies in the GIP kernel's RKHS: 300 noise-free
+// samples of a 2R arm are enough for GIP, not for RBF.
+TEST(RkhsClaim, GipLearnsTwoLinkDynamicsFrom300SamplesAndRbfDoesNot) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd Xtr = random_inputs(joints, 300, 41), Xte = random_inputs(joints, 500, 42);
+  const Eigen::MatrixXd Ytr = two_link_torques(Xtr), Yte = two_link_torques(Xte);
+  TrainOptions o;
+  o.kernel = "gip";
+  const TrainResult gip = train_model(Xtr, Ytr, joints, o);
+  ASSERT_TRUE(gip.ok) << gip.message;
+  const Accuracy a = compute_accuracy(Yte, gip.model.predict(Xte));
+  EXPECT_LT(a.nmse.maxCoeff(), 1e-4) << "GIP nMSE " << a.nmse.transpose();
+  o.kernel = "rbf";
+  const TrainResult rbf = train_model(Xtr, Ytr, joints, o);
+  ASSERT_TRUE(rbf.ok) << rbf.message;
+  const Accuracy b = compute_accuracy(Yte, rbf.model.predict(Xte));
+  EXPECT_GT(b.nmse.mean(), 1e-4) << "RBF nMSE " << b.nmse.transpose();
+  EXPECT_GT(b.nmse.mean(), 100 * a.nmse.mean());
+}
+
+TEST(Training, SameSeedSameModelWhateverTheThreads) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, 60, 43);
+  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(60, 2);
+  TrainOptions o;
+  o.optimizer.max_iterations = 30;
+  o.restarts = 2;
+  o.seed = 5;
+  o.threads = 1;
+  const TrainResult a = train_model(X, Y, joints, o);
+  o.threads = 2;
+  const TrainResult b = train_model(X, Y, joints, o);
+  ASSERT_TRUE(a.ok && b.ok);
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_EQ(a.model.joint_gp(j).kernel().log_params(), b.model.joint_gp(j).kernel().log_params());
+    EXPECT_EQ(a.joints[static_cast<size_t>(j)].restart_nlls.size(), 3u);
+  }
+  o.seed = 6;
+  const TrainResult c = train_model(X, Y, joints, o);
+  EXPECT_NE(a.joints[0].restart_nlls[1], c.joints[0].restart_nlls[1]);  // restarts depend on the seed
+}
+
+TEST(Training, AdamLowersTheNll) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, 50, 44);
+  TrainOptions o;
+  o.optimizer.kind = OptimizerKind::Adam;
+  o.optimizer.max_iterations = 60;
+  o.optimizer.adam_learning_rate = 0.05;
+  std::vector<double> first(2, 0.0);
+  TrainingCallback cb = [&](const TrainingProgress& p) {
+    if (p.iteration == 1 && !p.finished) first[static_cast<size_t>(p.joint)] = p.nll;
+  };
+  o.threads = 1;
+  const TrainResult r = train_model(X, two_link_torques(X), joints, o, cb);
+  ASSERT_TRUE(r.ok) << r.message;
+  for (int j = 0; j < 2; ++j) EXPECT_LT(r.joints[static_cast<size_t>(j)].nll, first[static_cast<size_t>(j)] - 10.0);
+}
+
+TEST(Training, RejectsBadData) {
+  const JointTypes joints = JointTypes::parse("RR");
+  Eigen::MatrixXd X = random_inputs(joints, 20, 45);
+  Eigen::MatrixXd Y = two_link_torques(X);
+  TrainOptions o;
+  EXPECT_NE(error_of([&] { train_model(X.leftCols(5), Y, joints, o); }).find("need 6"), std::string::npos);
+  EXPECT_NE(error_of([&] { train_model(X.topRows(3), Y.topRows(3), joints, o); }).find("at least"), std::string::npos);
+  X(3, 2) = std::nan("");
+  EXPECT_NE(error_of([&] { train_model(X, Y, joints, o); }).find("NaN"), std::string::npos);
+  o.kernel = "nope";
+  EXPECT_NE(error_of([&] { o.validate(); }).find("unknown kernel"), std::string::npos);
+}
+
+TEST(Training, ConstantStepSubsample) {
+  const auto idx = constant_step_indices(40000, 4000);
+  ASSERT_EQ(idx.size(), 4000u);
+  EXPECT_EQ(idx[1], 10);
+  EXPECT_EQ(idx.back(), 39990);
+  EXPECT_EQ(constant_step_indices(7, 3), (std::vector<Eigen::Index>{0, 2, 4}));
+  EXPECT_EQ(constant_step_indices(5, 10).size(), 5u);
+}
+
+TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
+  for (const char* kernel : {"gip", "gip-friction", "rbf"}) {
+    InverseDynamicsModel m = small_model(kernel, 40, 46);
+    const fs::path path = temp_dir() / (std::string(kernel) + ".gipdyn");
+    save_model(m, path.string());
+    InverseDynamicsModel loaded = load_model(path.string());
+    const Eigen::MatrixXd Xq = random_inputs(m.joints(), 25, 47);
+    const Eigen::MatrixXd a = m.predict(Xq), b = loaded.predict(Xq);
+    ASSERT_EQ(a.size(), b.size());
+    EXPECT_EQ(std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())), 0) << kernel;
+    EXPECT_EQ(loaded.kernel_name(), kernel);
+    EXPECT_EQ(loaded.hyperparameters(1), m.hyperparameters(1));
+    // Variance after load (factor recomputed) matches the trained model's.
+    m.enable_variance();
+    loaded.enable_variance();
+    Eigen::MatrixXd ma, sa, mb, sb;
+    m.predict(Xq, ma, &sa);
+    loaded.predict(Xq, mb, &sb);
+    EXPECT_EQ(std::memcmp(sa.data(), sb.data(), sizeof(double) * static_cast<size_t>(sa.size())), 0) << kernel;
+    // The control-loop path agrees with the batch path up to rounding (the two
+    // sum k(x*, X) in different orders; |alpha| amplifies the last bits).
+    PredictionWorkspace ws(loaded);
+    Eigen::VectorXd tau(2), sd(2);
+    const Eigen::VectorXd x = Xq.row(3).transpose();
+    ws.predict(x.data(), tau.data(), sd.data());
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_NEAR(tau(j), mb(3, j), 1e-7 * (1 + std::abs(mb(3, j)))) << kernel;
+      EXPECT_NEAR(sd(j), sb(3, j), 1e-5 * sb(3, j) + 1e-9) << kernel;
+    }
+  }
+}
+
+std::string read_bytes(const fs::path& p) {
+  std::ifstream in(p, std::ios::binary);
+  return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};
+}
+
+void write_bytes(const fs::path& p, const std::string& s) {
+  std::ofstream out(p, std::ios::binary | std::ios::trunc);
+  out.write(s.data(), static_cast<std::streamsize>(s.size()));
+}
+
+TEST(ModelFile, RejectsTruncatedCorruptedAndNewerFiles) {
+  const InverseDynamicsModel m = small_model("gip", 20, 48, 5);
+  const fs::path good = temp_dir() / "good.gipdyn", bad = temp_dir() / "bad.gipdyn";
+  save_model(m, good.string());
+  const std::string bytes = read_bytes(good);
+
+  for (size_t cut : {size_t{0}, size_t{10}, size_t{30}, bytes.size() / 2, bytes.size() - 1}) {
+    write_bytes(bad, bytes.substr(0, cut));
+    const std::string msg = error_of([&] { load_model(bad.string()); });
+    EXPECT_FALSE(msg.empty()) << "cut at " << cut;
+    EXPECT_TRUE(msg.find("truncated") != std::string::npos || msg.find("not a gipdyn model") != std::string::npos ||
+                msg.find("corrupted") != std::string::npos)
+        << msg;
+  }
+  write_bytes(bad, bytes.substr(0, bytes.size() - 100));
+  EXPECT_NE(error_of([&] { load_model(bad.string()); }).find("truncated"), std::string::npos);
+
+  std::string flipped = bytes;
+  flipped[bytes.size() - 50] ^= 0x01;  // a payload bit
+  write_bytes(bad, flipped);
+  EXPECT_NE(error_of([&] { load_model(bad.string()); }).find("checksum"), std::string::npos);
+
+  std::string header_hit = bytes;
+  header_hit[40] = '#';  // inside the JSON header
+  write_bytes(bad, header_hit);
+  EXPECT_NE(error_of([&] { load_model(bad.string()); }).find("corrupted"), std::string::npos);
+
+  std::string newer = bytes;
+  newer[8] = static_cast<char>(kModelFormatVersion + 1);
+  write_bytes(bad, newer);
+  EXPECT_NE(error_of([&] { load_model(bad.string()); }).find("newer"), std::string::npos);
+
+  EXPECT_NE(error_of([&] { load_model((temp_dir() / "missing.gipdyn").string()); }).find("cannot open"),
+            std::string::npos);
+}
+
+TEST(ModelFile, FailedWriteLeavesNoFile) {
+  const InverseDynamicsModel m = small_model("gip", 20, 49, 5);
+  EXPECT_NE(error_of([&] { save_model(m, "/nonexistent-dir/x.gipdyn"); }).find("does not exist"), std::string::npos);
+  const fs::path target = temp_dir() / "partial.csv";
+  EXPECT_THROW(write_file_atomically(target.string(), [](std::ostream& out) {
+                 out << "half";
+                 throw Error("simulated failure");
+               }),
+               Error);
+  EXPECT_FALSE(fs::exists(target));
+  for (const auto& entry : fs::directory_iterator(temp_dir()))
+    EXPECT_EQ(entry.path().filename().string().find(".partial.csv.tmp"), std::string::npos);
+}
+
+TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
+  const fs::path dir = temp_dir();
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name) << text;
+    return (dir / name).string();
+  };
+  const JointTypes rr = JointTypes::parse("RR");
+  const std::string ok = write("ok.csv",
+                              "time,tau2,q1,q2,qd1,qd2,qdd1,qdd2,tau1,note\n"
+                              "0.0,5,1,2,3,4,5,6,7,abc\n"
+                              "0.1,6,1.5,2.5,3.5,4.5,5.5,6.5,7.5,def\n");
+  const Dataset d = read_dataset(ok, rr, true);
+  EXPECT_EQ(d.rows(), 2);
+  EXPECT_DOUBLE_EQ(d.X(1, 0), 1.5);
+  EXPECT_DOUBLE_EQ(d.tau(0, 0), 7);
+  EXPECT_DOUBLE_EQ(d.tau(0, 1), 5);
+  EXPECT_EQ(d.tau_true.size(), 0);
+
+  EXPECT_NE(error_of([&] { read_dataset(write("m.csv", "q1,q2,qd1,qd2,qdd1,qdd2\n1,2,3,4,5,6\n"), rr, true); })
+                .find("no column 'tau1'"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("t.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,x,5,6,7,8\n"), rr, true);
+            }).find("line 2, column 'qd2': 'x' is not a number"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("n.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,nan,5,6,7,8\n"), rr, true);
+            }).find("NaN"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("i.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,inf,5,6,7,8\n"), rr, true);
+            }).find("NaN or Inf"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { read_dataset(write("e.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n"), rr, true); })
+                .find("no data rows"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("s.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n1,2,3\n"), rr, true);
+            }).find("truncated"),
+            std::string::npos);
+  const std::string three = write("3.csv", "q1,q2,q3,qd1,qd2,qd3,qdd1,qdd2,qdd3,tau1,tau2,tau3\n1,2,3,4,5,6,7,8,9,1,2,3\n");
+  EXPECT_NE(error_of([&] { read_dataset(three, rr, true); }).find("pass a joint string of length 3"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { read_dataset((dir / "absent.csv").string(), rr, true); }).find("cannot open"),
+            std::string::npos);
+}
+
+TEST(Metrics, NmseUsesPopulationVariance) {
+  Eigen::MatrixXd t(4, 1), p(4, 1);
+  t << 1, 2, 3, 4;
+  p << 1, 2, 3, 5;
+  const Accuracy a = compute_accuracy(t, p);
+  EXPECT_DOUBLE_EQ(a.mse(0), 0.25);
+  EXPECT_DOUBLE_EQ(a.nmse(0), 0.25 / 1.25);
+  EXPECT_DOUBLE_EQ(a.gmse, 0.25);
+}
+
+}  // namespace
+}  // namespace gipdyn
