@@ -11,5 +11,6 @@ using Command = std::function<int()>;
 Command add_train(CLI::App& app);
 Command add_predict(CLI::App& app);
 Command add_evaluate(CLI::App& app);
+Command add_simulate(CLI::App& app);
 
 }  // namespace gipdyn::cli

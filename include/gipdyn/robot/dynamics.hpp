@@ -1,0 +1,40 @@
+#pragma once
+// Rigid-body inverse dynamics (KDL's recursive Newton-Euler, the reference),
+// the torque regressor Phi(q, qd, qdd) of gipdyn's own, and base parameters.
+#include <Eigen/Dense>
+#include <cstdint>
+#include <vector>
+
+#include "gipdyn/robot/robot_model.hpp"
+
+namespace gipdyn {
+
+// tau = M(q) qdd + C(q, qd) qd + g(q) by KDL::ChainIdSolver_RNE, plus
+// viscous and Coulomb friction when with_friction.
+Eigen::VectorXd inverse_dynamics(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                 const Eigen::VectorXd& qdd, bool with_friction = false);
+// Every row of X (N x 3n: q, qd, qdd) -> N x n.
+Eigen::MatrixXd inverse_dynamics(const RobotModel& robot, const Eigen::MatrixXd& X, bool with_friction = false);
+
+// Phi (n x 10n, or n x 12n with friction) with Phi w = tau for
+// w = [robot.inertial_parameters(); robot.friction_parameters()]. Phi depends
+// only on the kinematics (and gravity), not on the robot's inertial values.
+Eigen::MatrixXd regressor(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                          const Eigen::VectorXd& qdd, bool with_friction = false);
+// Rows of X stacked: (N n) x p, sample-major (rows t*n .. t*n+n-1 belong to sample t).
+Eigen::MatrixXd stacked_regressor(const RobotModel& robot, const Eigen::MatrixXd& X, bool with_friction = false);
+
+// The minimal set of identifiable (base) parameters, found numerically by a
+// rank-revealing (column-pivoted) QR of the regressor stacked over random
+// states: Phi w = Phi[:, independent] * (w[independent] + K w[dependent]).
+struct BaseParameters {
+  int rank = 0;
+  std::vector<Eigen::Index> independent, dependent;
+  Eigen::MatrixXd K;  // rank x |dependent|
+  Eigen::VectorXd from_full(const Eigen::VectorXd& w) const;
+  Eigen::MatrixXd select(const Eigen::MatrixXd& Phi) const;  // Phi[:, independent]
+};
+BaseParameters compute_base_parameters(const RobotModel& robot, bool with_friction, int samples = 200,
+                                       std::uint64_t seed = 0);
+
+}  // namespace gipdyn

@@ -1,0 +1,25 @@
+#pragma once
+// Robots by name or file: the built-in models, a JSON DH description
+// (docs/robot-format.md) and URDF (urdfdom + kdl_parser).
+#include <string>
+#include <vector>
+
+#include "gipdyn/robot/robot_model.hpp"
+
+namespace gipdyn {
+
+// Built-in models (numbers and their sources in src/robot/builtin_robots.cpp).
+RobotModel scara_robot();  // Adept One-like SCARA, RRPR
+RobotModel ur10_robot();   // Universal Robots UR10, 6R
+const std::vector<std::string>& builtin_robot_names();
+
+RobotModel load_robot_json(const std::string& path);
+RobotModel robot_from_json(const nlohmann::json& description, const std::string& source);
+// A serial chain from the URDF's root link to its single leaf; fixed joints are
+// merged into the preceding link. Floating and planar joints are rejected.
+RobotModel load_robot_urdf(const std::string& path);
+
+// "scara", "ur10", a *.urdf file or a *.json file; throws gipdyn::Error listing the options.
+RobotModel load_robot(const std::string& spec);
+
+}  // namespace gipdyn

@@ -1,0 +1,182 @@
+#include <filesystem>
+#include <fstream>
+#include <kdl/tree.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <nlohmann/json.hpp>
+#include <urdf_parser/urdf_parser.h>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+
+namespace gipdyn {
+namespace {
+
+double number(const nlohmann::json& j, const char* key, const std::string& where) {
+  if (!j.contains(key)) throw Error(where + ": missing \"" + key + "\"");
+  if (!j.at(key).is_number()) throw Error(where + ": \"" + key + "\" must be a number");
+  return j.at(key).get<double>();
+}
+
+Eigen::Vector3d vec3(const nlohmann::json& j, const char* key, const std::string& where) {
+  if (!j.contains(key) || !j.at(key).is_array() || j.at(key).size() != 3)
+    throw Error(where + ": \"" + key + "\" must be a list of 3 numbers");
+  Eigen::Vector3d v;
+  for (int k = 0; k < 3; ++k) {
+    if (!j.at(key)[static_cast<size_t>(k)].is_number()) throw Error(where + ": \"" + key + "\" must hold numbers");
+    v(k) = j.at(key)[static_cast<size_t>(k)].get<double>();
+  }
+  return v;
+}
+
+}  // namespace
+
+RobotModel robot_from_json(const nlohmann::json& d, const std::string& source) {
+  if (!d.is_object()) throw Error(source + ": the robot description must be a JSON object");
+  const std::string name = d.value("name", std::filesystem::path(source).stem().string());
+  Eigen::Vector3d gravity(0, 0, -9.81);
+  if (d.contains("gravity")) gravity = vec3(d, "gravity", source);
+  if (!d.contains("joints") || !d.at("joints").is_array() || d.at("joints").empty())
+    throw Error(source + ": \"joints\" must be a non-empty list (see docs/robot-format.md)");
+  std::vector<JointSpec> joints;
+  int k = 0;
+  for (const auto& e : d.at("joints")) {
+    ++k;
+    const std::string where = source + ", joint " + std::to_string(k);
+    if (!e.is_object()) throw Error(where + ": must be a JSON object");
+    JointSpec j;
+    j.name = e.value("name", "joint" + std::to_string(k));
+    const std::string type = e.value("type", "");
+    if (type == "R" || type == "revolute") {
+      j.type = JointType::Revolute;
+    } else if (type == "P" || type == "prismatic") {
+      j.type = JointType::Prismatic;
+    } else {
+      throw Error(where + ": \"type\" must be \"R\" (revolute) or \"P\" (prismatic), got \"" + type + "\"");
+    }
+    if (!e.contains("dh") || !e.at("dh").is_object()) throw Error(where + ": missing \"dh\" {a, alpha, d, theta}");
+    const auto& dh = e.at("dh");
+    j.dh = DhParameters{number(dh, "a", where + " dh"), number(dh, "alpha", where + " dh"), number(dh, "d", where + " dh"),
+                        number(dh, "theta", where + " dh")};
+    j.link.mass = number(e, "mass", where);
+    j.link.com = vec3(e, "com", where);
+    if (!e.contains("inertia") || !e.at("inertia").is_array() || e.at("inertia").size() != 3)
+      throw Error(where + ": \"inertia\" must be a 3x3 list of lists (kg m^2, about the centre of mass)");
+    for (int r = 0; r < 3; ++r) {
+      const auto& row = e.at("inertia")[static_cast<size_t>(r)];
+      if (!row.is_array() || row.size() != 3) throw Error(where + ": \"inertia\" must be 3x3");
+      for (int c = 0; c < 3; ++c) {
+        if (!row[static_cast<size_t>(c)].is_number()) throw Error(where + ": \"inertia\" must hold numbers");
+        j.link.inertia(r, c) = row[static_cast<size_t>(c)].get<double>();
+      }
+    }
+    if (e.contains("limits")) {
+      const auto& l = e.at("limits");
+      j.limits = {number(l, "lower", where + " limits"), number(l, "upper", where + " limits"),
+                  number(l, "velocity", where + " limits")};
+    }
+    if (e.contains("friction")) {
+      const auto& f = e.at("friction");
+      j.friction = {number(f, "viscous", where + " friction"), number(f, "coulomb", where + " friction")};
+    }
+    joints.push_back(j);
+  }
+  return RobotModel::from_dh(name, joints, gravity);
+}
+
+RobotModel load_robot_json(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open robot description '" + path + "'");
+  nlohmann::json d;
+  try {
+    d = nlohmann::json::parse(in);
+  } catch (const nlohmann::json::exception& e) {
+    throw Error("robot description '" + path + "' is not valid JSON (" + std::string(e.what()) + ")");
+  }
+  return robot_from_json(d, path);
+}
+
+RobotModel load_robot_urdf(const std::string& path) {
+  std::ifstream in(path);
+  if (!in) throw Error("cannot open URDF '" + path + "'");
+  const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
+  if (!model) throw Error("URDF '" + path + "' could not be parsed (malformed XML or an unknown joint type)");
+  // Walk from the root to the single leaf.
+  std::vector<urdf::JointSharedPtr> path_joints;
+  urdf::LinkConstSharedPtr link = model->getRoot();
+  std::string tip = link->name;
+  while (!link->child_links.empty()) {
+    if (link->child_links.size() > 1)
+      throw Error("URDF '" + path + "' branches at link '" + link->name + "'; gipdyn needs a serial chain");
+    const urdf::JointSharedPtr j = link->child_joints.front();
+    if (j->type == urdf::Joint::FLOATING || j->type == urdf::Joint::PLANAR || j->type == urdf::Joint::UNKNOWN)
+      throw Error("URDF '" + path + "': joint '" + j->name +
+                  "' is floating/planar; gipdyn supports revolute, continuous, prismatic and fixed joints");
+    path_joints.push_back(j);
+    link = link->child_links.front();
+    tip = link->name;
+  }
+  KDL::Tree tree;
+  if (!kdl_parser::treeFromUrdfModel(*model, tree)) throw Error("URDF '" + path + "': KDL could not build the tree");
+  KDL::Chain raw;
+  if (!tree.getChain(model->getRoot()->name, tip, raw))
+    throw Error("URDF '" + path + "': no chain from '" + model->getRoot()->name + "' to '" + tip + "'");
+
+  // Merge fixed segments: those before the first movable joint move the base;
+  // later ones are folded into the preceding movable link.
+  std::vector<KDL::Segment> segs;
+  KDL::Frame base = KDL::Frame::Identity();
+  for (unsigned s = 0; s < raw.getNrOfSegments(); ++s) {
+    const KDL::Segment& seg = raw.getSegment(s);
+    if (seg.getJoint().getType() == KDL::Joint::Fixed) {
+      if (segs.empty()) {
+        base = base * seg.getFrameToTip();
+      } else {
+        const KDL::Segment& last = segs.back();
+        const KDL::Frame F = seg.getFrameToTip();
+        segs.back() = KDL::Segment(last.getName(), last.getJoint(), last.getFrameToTip() * F,
+                                   F.Inverse() * last.getInertia() + seg.getInertia());
+      }
+      continue;
+    }
+    KDL::Segment moved = seg;
+    if (segs.empty()) {
+      const KDL::Joint& j = seg.getJoint();
+      const KDL::Joint::JointType type =
+          (j.getType() == KDL::Joint::TransAxis || j.getType() == KDL::Joint::TransX ||
+           j.getType() == KDL::Joint::TransY || j.getType() == KDL::Joint::TransZ)
+              ? KDL::Joint::TransAxis
+              : KDL::Joint::RotAxis;
+      moved = KDL::Segment(seg.getName(), KDL::Joint(j.getName(), base * j.JointOrigin(), base.M * j.JointAxis(), type),
+                           base * seg.getFrameToTip(), seg.getInertia());
+    }
+    segs.push_back(moved);
+  }
+  if (segs.empty()) throw Error("URDF '" + path + "' has no movable joint");
+  KDL::Chain chain;
+  for (const auto& s : segs) chain.addSegment(s);
+
+  std::vector<JointSpec> specs;
+  for (const auto& j : path_joints) {
+    if (j->type == urdf::Joint::FIXED) continue;
+    JointSpec spec;
+    spec.name = j->name;
+    if (j->limits && j->type != urdf::Joint::CONTINUOUS && j->limits->upper > j->limits->lower)
+      spec.limits = {j->limits->lower, j->limits->upper, spec.limits.velocity};
+    if (j->limits && j->limits->velocity > 0) spec.limits.velocity = j->limits->velocity;
+    if (j->dynamics) spec.friction = {j->dynamics->damping, j->dynamics->friction};
+    specs.push_back(spec);
+  }
+  return RobotModel::from_chain(model->getName(), chain, specs);
+}
+
+RobotModel load_robot(const std::string& spec) {
+  if (spec == "scara") return scara_robot();
+  if (spec == "ur10") return ur10_robot();
+  const std::string ext = std::filesystem::path(spec).extension().string();
+  if (ext == ".urdf" || ext == ".URDF") return load_robot_urdf(spec);
+  if (ext == ".json") return load_robot_json(spec);
+  throw Error("unknown robot '" + spec + "'; use scara, ur10, a .urdf file or a .json DH description");
+}
+
+}  // namespace gipdyn
