@@ -41,7 +41,7 @@ class FeatureMap {
   const std::string& name(int column) const { return names_[static_cast<size_t>(column)]; }
 
   // Z (rows x feature_dim) from X (rows x 3n).
-  Eigen::MatrixXd compute(const Eigen::MatrixXd& X) const;
+  Eigen::MatrixXd compute(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
   // One row into caller-owned storage (no allocation): x has 3n entries, z feature_dim.
   void compute_row(const double* x, double* z) const;
 

@@ -60,7 +60,7 @@ void FeatureMap::compute_row(const double* x, double* z) const {
   }
 }
 
-Eigen::MatrixXd FeatureMap::compute(const Eigen::MatrixXd& X) const {
+Eigen::MatrixXd FeatureMap::compute(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
   const Eigen::Index rows = X.rows();
   // Row-major scratch keeps compute_row the single definition of the map.
   Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor> Xr = X;

@@ -45,7 +45,7 @@ std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.da
 
 }  // namespace
 
-void save_model(const InverseDynamicsModel& model, const std::string& path) {
+std::string serialize_model(const InverseDynamicsModel& model) {
   using nlohmann::json;
   const int n = model.num_joints();
   const Eigen::Index N = model.num_training_samples();
@@ -86,16 +86,24 @@ void save_model(const InverseDynamicsModel& model, const std::string& path) {
     buf.append(reinterpret_cast<const char*>(a.data()), sizeof(double) * static_cast<size_t>(a.size()));
   }
   put<std::uint64_t>(buf, fnv1a(buf.data(), buf.size()));
+  return buf;
+}
+
+void save_model(const InverseDynamicsModel& model, const std::string& path) {
+  const std::string buf = serialize_model(model);
   write_file_atomically(path, [&](std::ostream& out) { out.write(buf.data(), static_cast<std::streamsize>(buf.size())); },
                         true);
 }
 
 InverseDynamicsModel load_model(const std::string& path) {
-  using nlohmann::json;
   std::ifstream in(path, std::ios::binary);
   if (!in) throw Error("cannot open model file '" + path + "': " + std::strerror(errno));
   const std::string buf((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  const std::string what = "model file '" + path + "'";
+  return deserialize_model(buf, "model file '" + path + "'");
+}
+
+InverseDynamicsModel deserialize_model(const std::string& buf, const std::string& what) {
+  using nlohmann::json;
   if (buf.size() < kPrefix || std::memcmp(buf.data(), kMagic, sizeof(kMagic)) != 0)
     throw Error(what + " is not a gipdyn model (bad magic or truncated header); train one with `gipdyn train`");
   const auto version = get<std::uint32_t>(buf, 8);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 
+#include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 
 namespace gipdyn {
@@ -52,17 +53,19 @@ std::vector<std::pair<std::string, double>> InverseDynamicsModel::hyperparameter
   return out;
 }
 
-Eigen::MatrixXd InverseDynamicsModel::predict(const Eigen::MatrixXd& X) const {
+Eigen::MatrixXd InverseDynamicsModel::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
   Eigen::MatrixXd mean;
   predict(X, mean, nullptr);
   return mean;
 }
 
-void InverseDynamicsModel::predict(const Eigen::MatrixXd& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const {
+void InverseDynamicsModel::predict(const Eigen::Ref<const Eigen::MatrixXd>& X, Eigen::MatrixXd& mean,
+                                   Eigen::MatrixXd* stddev) const {
   if (X.cols() != 3 * num_joints())
     throw Error("inputs have " + std::to_string(X.cols()) + " columns; this " + joints_.str() + " model needs " +
                 std::to_string(3 * num_joints()) + " (q, qd, qdd)");
   if (stddev && !has_variance()) throw Error("predictive variance is not enabled for this model; call enable_variance()");
+  use_single_threaded_blas();
   const Eigen::MatrixXd Zs = features_.compute(X);
   mean.resize(X.rows(), num_joints());
   if (stddev) stddev->resize(X.rows(), num_joints());
@@ -84,6 +87,7 @@ bool InverseDynamicsModel::has_variance() const {
 }
 
 void InverseDynamicsModel::enable_variance() {
+  use_single_threaded_blas();
   GpWorkspace ws;
   for (int j = 0; j < num_joints(); ++j) {
     GpRegressor& gp = gps_[static_cast<size_t>(j)];
@@ -98,6 +102,7 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
       z_(model.features().feature_dim()),
       krow_(model.num_training_samples()),
       v_(model.num_training_samples()) {
+  use_single_threaded_blas();
   // Warm up every buffer the kernels use, so later calls do not allocate.
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
   Eigen::VectorXd tau(model.num_joints());

@@ -11,14 +11,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 
-// Present when the BLAS is OpenBLAS; weak so another BLAS still links.
-extern "C" void openblas_set_num_threads(int) __attribute__((weak));
-
 namespace gipdyn {
-
-void use_single_threaded_blas() {
-  if (openblas_set_num_threads) openblas_set_num_threads(1);
-}
 
 void TrainOptions::validate() const {
   optimizer.validate();

@@ -160,3 +160,45 @@ def test_evaluate_needs_torques(trained, tmp_path, gipdyn_bin):
     r = run(gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", data, "--json", str(tmp_path / "r.json"))
     assert r.returncode != 0 and "tau1" in r.stderr
     assert not (tmp_path / "r.json").exists()
+
+
+def test_simulate_writes_data_and_sidecar(tmp_path, gipdyn_bin):
+    out = tmp_path / "scara.csv"
+    r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "300", "--seed", "4", "--out", str(out),
+            "--perturb-kinematics", "--friction")
+    assert r.returncode == 0, r.stderr
+    with open(out) as f:
+        header = f.readline().strip().split(",")
+    n = 4
+    expected = ([f"q{i}" for i in range(1, n + 1)] + [f"qd{i}" for i in range(1, n + 1)] +
+                [f"qdd{i}" for i in range(1, n + 1)] + [f"tau{i}" for i in range(1, n + 1)] +
+                [f"tau{i}_true" for i in range(1, n + 1)])
+    assert header == expected
+    data = np.loadtxt(out, delimiter=",", skiprows=1)
+    assert data.shape == (300, 5 * n)
+    noise = data[:, 12:16] - data[:, 16:20]
+    assert 0.005 < noise.std() < 0.02
+    meta = json.loads((tmp_path / "scara.csv.json").read_text())
+    assert meta["seed"] == 4 and meta["robot"] == "scara" and meta["friction"] is True
+    assert len(meta["perturbation"]) == 4
+    # Same seed, same file.
+    again = tmp_path / "again.csv"
+    run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "300", "--seed", "4", "--out", str(again),
+        "--perturb-kinematics", "--friction")
+    assert again.read_bytes() == out.read_bytes()
+
+
+def test_simulate_from_files_and_bad_robots(tmp_path, gipdyn_bin):
+    data_dir = os.path.join(os.path.dirname(__file__), "..", "data")
+    for robot, joints in [("rpr_arm.urdf", 3), ("two_link.json", 2)]:
+        out = tmp_path / (robot + ".csv")
+        r = run(gipdyn_bin, "simulate", "--robot", os.path.join(data_dir, robot), "--samples", "50", "--out", str(out))
+        assert r.returncode == 0, r.stderr
+        assert np.loadtxt(out, delimiter=",", skiprows=1).shape == (50, 5 * joints)
+    for robot, message in [("puma", "unknown robot"), (os.path.join(data_dir, "floating_arm.urdf"), "floating"),
+                           (os.path.join(data_dir, "bad_robot_negative_mass.json"), "mass")]:
+        out = tmp_path / "bad.csv"
+        r = run(gipdyn_bin, "simulate", "--robot", robot, "--samples", "50", "--out", str(out))
+        assert r.returncode != 0 and message in r.stderr, r.stderr
+        assert len(r.stderr.strip().splitlines()) == 1
+        assert not out.exists() and not (tmp_path / "bad.csv.json").exists()

@@ -24,4 +24,8 @@ void save_model(const InverseDynamicsModel& model, const std::string& path);
 // Throws gipdyn::Error for a missing, truncated, corrupted or newer-version file.
 InverseDynamicsModel load_model(const std::string& path);
 
+// The same format in memory (used for pickling); `what` names the source in errors.
+std::string serialize_model(const InverseDynamicsModel& model);
+InverseDynamicsModel deserialize_model(const std::string& bytes, const std::string& what = "model data");
+
 }  // namespace gipdyn

@@ -44,8 +44,8 @@ class InverseDynamicsModel {
 
   // Torques for every row of X (M x 3n) -> M x n. With stddev, also the latent
   // predictive standard deviation (needs has_variance()).
-  Eigen::MatrixXd predict(const Eigen::MatrixXd& X) const;
-  void predict(const Eigen::MatrixXd& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const;
+  Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
+  void predict(const Eigen::Ref<const Eigen::MatrixXd>& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const;
 
   // Variances need each joint's Cholesky factor: enable_variance() computes the
   // missing ones (O(N^3) per joint), once.

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/blas_threads.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/optim/optimizer.hpp"
@@ -76,8 +77,5 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
 // Rows 0, s, 2s, ... (s = rows / count) : `count` rows with a constant step, as
 // the paper subsampled the UR10 data. count >= rows keeps everything.
 std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count);
-
-// Limits BLAS to one thread (joints are the parallel work; METHOD.md §9).
-void use_single_threaded_blas();
 
 }  // namespace gipdyn

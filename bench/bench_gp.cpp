@@ -1,0 +1,215 @@
+// Benchmarks of the GP engine on simulated SCARA (RRPR) and UR10 (RRRRRR) data
+// at N = 1000, 2000, 4000: kernel-matrix build, one NLL + gradient evaluation,
+// LAPACK's potrf + potri floor, single-query prediction (mean; mean + variance)
+// and full training of all joints. After the run, the ratio of one NLL +
+// gradient evaluation to the potrf + potri floor is printed per case.
+//
+//   build/bench/bench_gp                          # everything except full training
+//   build/bench/bench_gp --benchmark_filter=Train # full training (minutes)
+#include <benchmark/benchmark.h>
+#include <lapacke.h>
+
+#include <cstdio>
+#include <map>
+#include <string>
+
+#include "gipdyn/features.hpp"
+#include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/model/training.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/sim/simulate.hpp"
+
+namespace {
+
+using namespace gipdyn;
+
+struct Problem {
+  JointTypes joints = JointTypes::parse("R");
+  Eigen::MatrixXd X, Y, Z;
+};
+
+const Problem& problem(int robot, int N) {
+  static std::map<std::pair<int, int>, Problem> cache;
+  auto it = cache.find({robot, N});
+  if (it != cache.end()) return it->second;
+  const RobotModel model = robot == 4 ? scara_robot() : ur10_robot();
+  SimulationOptions o;
+  o.samples = N;
+  o.seed = 11;
+  const SimulationResult r = simulate(model, o);
+  Problem p;
+  p.joints = model.joint_types();
+  p.X = r.X;
+  p.Y = r.tau;
+  p.Z = FeatureMap(p.joints).compute(p.X);
+  return cache.emplace(std::make_pair(robot, N), p).first->second;
+}
+
+std::string label(int robot) { return robot == 4 ? "RRPR" : "RRRRRR"; }
+
+void kernel_for(const Problem& p, std::unique_ptr<Kernel>& k, double& log_noise, Eigen::VectorXd& y) {
+  const FeatureMap fm(p.joints);
+  k = make_kernel("gip", fm, 0);
+  y = p.Y.col(0);
+  y = ((y.array() - y.mean()) / std::sqrt((y.array() - y.mean()).square().mean())).matrix();
+  k->initialize(p.Z, 1.0);
+  log_noise = std::log(1e-2);
+}
+
+void BM_KernelBuild(benchmark::State& state) {
+  use_single_threaded_blas();
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  std::unique_ptr<Kernel> k;
+  double log_noise;
+  Eigen::VectorXd y;
+  kernel_for(p, k, log_noise, y);
+  Eigen::MatrixXd K(p.Z.rows(), p.Z.rows());
+  KernelScratch s;
+  for (auto _ : state) {
+    k->gram_lower(p.Z, K, s);
+    benchmark::DoNotOptimize(K.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip");
+}
+
+void BM_NllGradient(benchmark::State& state) {
+  use_single_threaded_blas();
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  std::unique_ptr<Kernel> k;
+  double log_noise;
+  Eigen::VectorXd y;
+  kernel_for(p, k, log_noise, y);
+  GpWorkspace ws;
+  for (auto _ : state) {
+    const NllEvaluation e = evaluate_nll(*k, log_noise, p.Z, y, true, ws);
+    if (!e.ok) state.SkipWithError(e.message.c_str());
+    benchmark::DoNotOptimize(e.gradient.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, " + std::to_string(k->num_params() + 1) + " params");
+}
+
+void BM_PotrfPotri(benchmark::State& state) {
+  use_single_threaded_blas();
+  const int N = static_cast<int>(state.range(1));
+  const Problem& p = problem(static_cast<int>(state.range(0)), N);
+  std::unique_ptr<Kernel> k;
+  double log_noise;
+  Eigen::VectorXd y;
+  kernel_for(p, k, log_noise, y);
+  Eigen::MatrixXd K0(N, N), K(N, N);
+  KernelScratch s;
+  k->gram_lower(p.Z, K0, s);
+  K0.diagonal().array() += 1e-2;
+  for (auto _ : state) {
+    state.PauseTiming();
+    K = K0;
+    state.ResumeTiming();
+    LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', N, K.data(), N);
+    LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', N, K.data(), N);
+    benchmark::DoNotOptimize(K.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " floor");
+}
+
+InverseDynamicsModel& quick_model(int robot, int N) {
+  static std::map<std::pair<int, int>, InverseDynamicsModel> cache;
+  auto it = cache.find({robot, N});
+  if (it != cache.end()) return it->second;
+  const Problem& p = problem(robot, N);
+  TrainOptions o;
+  o.optimizer.max_iterations = 3;  // latency does not depend on the hyperparameter values
+  TrainResult r = train_model(p.X, p.Y, p.joints, o);
+  return cache.emplace(std::make_pair(robot, N), std::move(r.model)).first->second;
+}
+
+void BM_PredictOneMean(benchmark::State& state) {
+  use_single_threaded_blas();
+  InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  PredictionWorkspace ws(m);
+  const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
+  Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints());
+  for (auto _ : state) {
+    ws.predict(x.data(), tau.data());
+    benchmark::DoNotOptimize(tau.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean");
+}
+
+void BM_PredictOneMeanVariance(benchmark::State& state) {
+  use_single_threaded_blas();
+  InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  m.enable_variance();
+  PredictionWorkspace ws(m);
+  const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
+  Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints()), sd(m.num_joints());
+  for (auto _ : state) {
+    ws.predict(x.data(), tau.data(), sd.data());
+    benchmark::DoNotOptimize(sd.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean + variance");
+}
+
+void BM_Train(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  int evaluations = 0;
+  for (auto _ : state) {
+    TrainOptions o;  // the defaults: gip, L-BFGS, 200 evaluations, joints in parallel
+    o.keep_factor = false;
+    const TrainResult r = train_model(p.X, p.Y, p.joints, o);
+    if (!r.ok) state.SkipWithError(r.message.c_str());
+    for (const auto& j : r.joints) evaluations += j.evaluations;
+  }
+  state.counters["nll_evals"] = evaluations;
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, default options, all joints");
+}
+
+void sizes(benchmark::internal::Benchmark* b) {
+  for (int robot : {4, 6})
+    for (int N : {1000, 2000, 4000}) b->Args({robot, N});
+  b->Unit(benchmark::kMillisecond);
+}
+
+BENCHMARK(BM_KernelBuild)->Apply(sizes);
+BENCHMARK(BM_NllGradient)->Apply(sizes);
+BENCHMARK(BM_PotrfPotri)->Apply(sizes);
+BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_Train)->Apply(sizes)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
+
+// Collects per-case times to print the NLL-gradient / potrf+potri ratio.
+class RatioReporter : public benchmark::ConsoleReporter {
+ public:
+  void ReportRuns(const std::vector<Run>& runs) override {
+    for (const Run& r : runs) {
+      const std::string name = r.benchmark_name();
+      times_[name] = r.GetAdjustedRealTime();
+    }
+    ConsoleReporter::ReportRuns(runs);
+  }
+  void Finalize() override {
+    ConsoleReporter::Finalize();
+    std::printf("\nNLL + gradient / (potrf + potri), same N, one thread:\n");
+    for (int robot : {4, 6})
+      for (int N : {1000, 2000, 4000}) {
+        const std::string args = "/" + std::to_string(robot) + "/" + std::to_string(N);
+        auto a = times_.find("BM_NllGradient" + args), b = times_.find("BM_PotrfPotri" + args);
+        if (a == times_.end() || b == times_.end()) continue;
+        std::printf("  %-7s N=%-5d  nll+grad %8.1f ms  floor %8.1f ms  ratio %.2f\n", label(robot).c_str(), N,
+                    a->second, b->second, a->second / b->second);
+      }
+  }
+
+ private:
+  std::map<std::string, double> times_;
+};
+
+}  // namespace
+
+int main(int argc, char** argv) {
+  benchmark::Initialize(&argc, argv);
+  RatioReporter reporter;
+  benchmark::RunSpecifiedBenchmarks(&reporter);
+  benchmark::Shutdown();
+  return 0;
+}

@@ -1,0 +1,60 @@
+#!/usr/bin/env python3
+"""GIP on the real UR10 pick-and-place log (../shared/data/ur10-pick-and-place):
+train on data rows 1-6340 (a constant-step subsample), test on rows 6341-12349
+(other motions), print per-joint nMSE and plot predicted vs measured torque.
+
+    python3 examples/python/ur10_real.py [--data CSV] [--train-rows N] [--max-iter N] [--out PNG]
+"""
+import argparse
+import os
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+import gipdyn  # noqa: E402
+
+here = os.path.dirname(os.path.abspath(__file__))
+default_data = os.path.join(here, "..", "..", "..", "shared", "data", "ur10-pick-and-place", "urPicknPlace.csv")
+parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
+parser.add_argument("--data", default=default_data)
+parser.add_argument("--train-rows", type=int, default=2000, help="training rows kept (constant step)")
+parser.add_argument("--kernel", default="gip")
+parser.add_argument("--max-iter", type=int, default=200)
+parser.add_argument("--out", default="ur10_real.png")
+args = parser.parse_args()
+
+if not os.path.exists(args.data):
+    raise SystemExit(f"cannot find {args.data}; pass --data PATH/urPicknPlace.csv")
+table = np.genfromtxt(args.data, delimiter=",", names=True)
+cols = lambda prefix: np.column_stack([table[f"{prefix}{i}"] for i in range(1, 7)])  # noqa: E731
+X = np.hstack([cols("q"), cols("qd"), cols("qdd")])
+Y = cols("tau")
+train = slice(0, 6340)  # data rows 1-6340 (the reference protocol in data/README.md)
+test = slice(6340, len(Y))
+step = max(1, 6340 // args.train_rows)
+Xtr, Ytr = X[train][::step][: args.train_rows], Y[train][::step][: args.train_rows]
+
+model = gipdyn.InverseDynamicsGP(joints="RRRRRR", kernel=args.kernel, max_iter=args.max_iter)
+model.fit(Xtr, Ytr)
+pred = model.predict(X[test])
+errors = gipdyn.nmse(Y[test], pred)
+print(f"UR10 real data, {args.kernel}, {len(Ytr)} training rows, {len(pred)} test rows")
+for j, e in enumerate(errors, start=1):
+    print(f"  joint {j}  nMSE {e:.3f}")
+
+t = np.arange(len(pred)) * 0.008
+window = slice(0, min(1500, len(pred)))
+fig, axes = plt.subplots(6, 1, figsize=(10, 12), sharex=True)
+for j, ax in enumerate(axes):
+    ax.plot(t[window], Y[test][window, j], "k-", lw=1, label="measured")
+    ax.plot(t[window], pred[window, j], "r-", lw=1, label=f"{args.kernel} (nMSE {errors[j]:.2f})")
+    ax.set_ylabel(f"tau{j + 1} [N m]")
+    ax.legend(loc="upper right", fontsize=8)
+axes[-1].set_xlabel("time in test set [s]")
+fig.suptitle("UR10 pick-and-place: predicted vs measured torque (test rows 6341-)")
+fig.tight_layout()
+fig.savefig(args.out, dpi=100)
+print(f"wrote {args.out}")

@@ -1,0 +1,198 @@
+"""gipdyn: robot inverse dynamics with Gaussian processes and the GIP kernel.
+
+    >>> import gipdyn
+    >>> data = gipdyn.simulate("scara", samples=2000, seed=1)
+    >>> model = gipdyn.InverseDynamicsGP(joints="RRPR").fit(data["X"], data["tau"])
+    >>> model.nmse(test["X"], test["tau_true"])
+
+Inputs X are (N, 3n) arrays of [q, qd, qdd]; torques Y are (N, n).
+"""
+import inspect
+import json
+
+import numpy as np
+
+from . import _core
+from ._core import GipdynError, Robot
+
+__all__ = ["InverseDynamicsGP", "Robot", "simulate", "nmse", "neg_nmse_scorer", "GipdynError"]
+
+
+def _as_matrix(name, a, cols=None):
+    """A float64 2-D array (Fortran order is passed to C++ without a copy)."""
+    try:
+        arr = np.asarray(a, dtype=np.float64)
+    except (TypeError, ValueError) as e:
+        raise ValueError(f"{name} must be numeric: {e}") from None
+    if arr.ndim == 1 and cols is not None and arr.size == cols:
+        arr = arr.reshape(1, cols)
+    if arr.ndim != 2:
+        raise ValueError(f"{name} must be a 2-D array, got shape {arr.shape}")
+    if cols is not None and arr.shape[1] != cols:
+        raise ValueError(f"{name} must have {cols} columns, got {arr.shape[1]}")
+    if arr.shape[0] == 0:
+        raise ValueError(f"{name} has no rows")
+    if not np.isfinite(arr).all():
+        bad = np.argwhere(~np.isfinite(arr))[0]
+        raise ValueError(f"{name} contains NaN or Inf (first at row {bad[0]}, column {bad[1]})")
+    return arr
+
+
+def nmse(Y_true, Y_pred):
+    """Per-joint MSE divided by the population variance of Y_true (METHOD.md §7)."""
+    Y_true = np.asarray(Y_true, dtype=float)
+    Y_pred = np.asarray(Y_pred, dtype=float)
+    if Y_true.shape != Y_pred.shape:
+        raise ValueError(f"shapes differ: {Y_true.shape} vs {Y_pred.shape}")
+    return ((Y_true - Y_pred) ** 2).mean(axis=0) / Y_true.var(axis=0)
+
+
+def neg_nmse_scorer(estimator, X, Y):
+    """A scikit-learn scorer (greater is better): minus the mean nMSE."""
+    return -float(np.mean(estimator.nmse(X, Y)))
+
+
+class InverseDynamicsGP:
+    """One exact GP per joint, hyperparameters by maximum marginal likelihood.
+
+    Parameters mirror `gipdyn train`: joints ("RRPR"), kernel ("gip",
+    "gip-friction", "rbf"), optimizer ("lbfgs", "adam"), max_iter, restarts,
+    seed, scaling ("standardize", "center", "none"), min_noise, threads,
+    learning_rate (Adam), verbose.
+    """
+
+    def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=200, restarts=0, seed=0,
+                 scaling="standardize", min_noise=1e-8, threads=0, learning_rate=0.01, verbose=False):
+        self.joints = joints
+        self.kernel = kernel
+        self.optimizer = optimizer
+        self.max_iter = max_iter
+        self.restarts = restarts
+        self.seed = seed
+        self.scaling = scaling
+        self.min_noise = min_noise
+        self.threads = threads
+        self.learning_rate = learning_rate
+        self.verbose = verbose
+
+    # scikit-learn protocol -------------------------------------------------
+    @classmethod
+    def _param_names(cls):
+        return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+
+    def get_params(self, deep=True):
+        return {name: getattr(self, name) for name in self._param_names()}
+
+    def set_params(self, **params):
+        valid = self._param_names()
+        for key, value in params.items():
+            if key not in valid:
+                raise ValueError(f"invalid parameter {key!r} for InverseDynamicsGP; valid: {', '.join(valid)}")
+            setattr(self, key, value)
+        return self
+
+    def __repr__(self):
+        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+        return f"InverseDynamicsGP({args})"
+
+    # fitting ---------------------------------------------------------------
+    @property
+    def n_joints(self):
+        return len(self.joints)
+
+    def fit(self, X, Y):
+        n = self.n_joints
+        X = _as_matrix("X", X, 3 * n)
+        Y = _as_matrix("Y", Y, n)
+        if X.shape[0] != Y.shape[0]:
+            raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
+        self.model_ = _core.train(np.asfortranarray(X), np.asfortranarray(Y), self.joints, self.kernel,
+                                  self.optimizer, int(self.max_iter), int(self.restarts), int(self.seed),
+                                  self.scaling, float(self.min_noise), int(self.threads), float(self.learning_rate),
+                                  bool(self.verbose))
+        self._set_fitted_attributes()
+        return self
+
+    def fit_trajectory(self, q, qd, qdd, tau):
+        n = self.n_joints
+        q, qd, qdd = (_as_matrix(name, a, n) for name, a in (("q", q), ("qd", qd), ("qdd", qdd)))
+        if not (q.shape == qd.shape == qdd.shape):
+            raise ValueError("q, qd and qdd must have the same shape")
+        return self.fit(np.hstack([q, qd, qdd]), tau)
+
+    def _set_fitted_attributes(self):
+        m = self.model_
+        self.n_features_in_ = 3 * len(m.joints)
+        self.hyperparameters_ = [dict(m.hyperparameters(j)) for j in range(len(m.joints))]
+        self.log_marginal_likelihood_ = np.array([-m.nll(j) for j in range(len(m.joints))])
+
+    def _check_fitted(self):
+        if not hasattr(self, "model_"):
+            raise ValueError("this InverseDynamicsGP is not fitted yet; call fit(X, Y) first")
+
+    # prediction ------------------------------------------------------------
+    def predict(self, X, return_std=False):
+        """Torques (N, n); with return_std also the latent standard deviations."""
+        self._check_fitted()
+        X = np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints))
+        if return_std:
+            return self.model_.predict_with_std(X)
+        return self.model_.predict(X)
+
+    def predict_one(self, x):
+        """One sample (3n,) -> torques (n,): the allocation-free control-loop path."""
+        self._check_fitted()
+        x = _as_matrix("x", x, 3 * self.n_joints)
+        if x.shape[0] != 1:
+            raise ValueError("predict_one takes a single sample")
+        return self.model_.predict_one(x[0])
+
+    def nmse(self, X, Y):
+        """Per-joint nMSE of the predictions against Y."""
+        Y = _as_matrix("Y", Y, self.n_joints)
+        return nmse(Y, self.predict(X))
+
+    def score(self, X, Y):
+        """The mean nMSE over joints (lower is better; for scikit-learn model
+        selection use scoring=gipdyn.neg_nmse_scorer)."""
+        return float(np.mean(self.nmse(X, Y)))
+
+    # persistence -----------------------------------------------------------
+    def save(self, path):
+        """Write the model in the same file format as `gipdyn train --out`."""
+        self._check_fitted()
+        self.model_.save(str(path))
+
+    @classmethod
+    def load(cls, path):
+        """Load a model written by `save` or by `gipdyn train`."""
+        model = _core.Model.load(str(path))
+        est = cls(joints=model.joints, kernel=model.kernel)
+        est.model_ = model
+        est._set_fitted_attributes()
+        return est
+
+    def __getstate__(self):
+        state = self.__dict__.copy()
+        if "model_" in state:
+            state["model_"] = state["model_"].to_bytes()
+        return state
+
+    def __setstate__(self, state):
+        if "model_" in state:
+            state["model_"] = _core.Model.from_bytes(state["model_"])
+        self.__dict__.update(state)
+
+
+def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False):
+    """Simulate a robot ("scara", "ur10", a .urdf/.json path, or a Robot) on a
+    random sum-of-sinusoids trajectory. Returns a dict of NumPy arrays q, qd,
+    qdd, X (= [q, qd, qdd]), tau (noisy), tau_true, and metadata (a dict)."""
+    if isinstance(robot, str):
+        robot = Robot.load(robot)
+    if int(samples) < 1:
+        raise ValueError("samples must be at least 1")
+    out = _core.simulate(robot, int(samples), int(seed), float(noise), float(dt), bool(perturb_kinematics),
+                         bool(friction))
+    out["metadata"] = json.loads(out["metadata"])
+    return out

@@ -1,0 +1,185 @@
+"""Tests of the gipdyn Python module: estimator API, agreement with the CLI,
+model files across C++ and Python, pickling, scikit-learn integration, input
+validation, robots, simulation and the examples."""
+import os
+import pickle
+import subprocess
+import sys
+
+import numpy as np
+import pytest
+
+import gipdyn
+
+HERE = os.path.dirname(os.path.abspath(__file__))
+ROOT = os.path.abspath(os.path.join(HERE, "..", ".."))
+DATA = os.path.join(ROOT, "tests", "data")
+CLI = os.environ.get("GIPDYN_BIN")
+
+
+def write_csv(path, d):
+    n = d["q"].shape[1]
+    names = ([f"q{i}" for i in range(1, n + 1)] + [f"qd{i}" for i in range(1, n + 1)] +
+             [f"qdd{i}" for i in range(1, n + 1)] + [f"tau{i}" for i in range(1, n + 1)])
+    np.savetxt(path, np.hstack([d["X"], d["tau"]]), delimiter=",", header=",".join(names), comments="", fmt="%.17g")
+
+
+@pytest.fixture(scope="module")
+def scara():
+    # dt = 0.1 s: 200 samples span 20 s of motion, as 2000 samples at the default 0.01 s.
+    return (gipdyn.simulate("scara", samples=200, seed=1, dt=0.1),
+            gipdyn.simulate("scara", samples=300, seed=2, dt=0.1))
+
+
+@pytest.fixture(scope="module")
+def fitted(scara):
+    train, _ = scara
+    return gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"], train["tau"])
+
+
+def test_fit_predict_and_attributes(scara, fitted):
+    _, test = scara
+    pred, std = fitted.predict(test["X"], return_std=True)
+    assert pred.shape == (300, 4) and std.shape == (300, 4) and (std >= 0).all()
+    e = fitted.nmse(test["X"], test["tau_true"])
+    assert e.shape == (4,) and (e[:3] < 0.05).all(), e
+    assert fitted.score(test["X"], test["tau_true"]) == pytest.approx(e.mean())
+    assert len(fitted.hyperparameters_) == 4
+    assert "joint2.cs.factor1.l_sin" in fitted.hyperparameters_[0]
+    assert "noise.variance" in fitted.hyperparameters_[3]
+    assert fitted.log_marginal_likelihood_.shape == (4,)
+    assert np.allclose(fitted.predict_one(test["X"][5]), pred[5], rtol=1e-7, atol=1e-9)
+
+
+def test_fit_trajectory_equals_fit(scara):
+    train, test = scara
+    a = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10).fit(train["X"], train["tau"])
+    b = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10).fit_trajectory(train["q"], train["qd"], train["qdd"],
+                                                                            train["tau"])
+    assert np.array_equal(a.predict(test["X"]), b.predict(test["X"]))
+
+
+@pytest.mark.skipif(CLI is None, reason="GIPDYN_BIN not set")
+def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
+    train, test = scara
+    write_csv(tmp_path / "train.csv", train)
+    write_csv(tmp_path / "test.csv", test)
+    subprocess.run([CLI, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RRPR", "--max-iter", "25",
+                    "--seed", "3", "--out", str(tmp_path / "cli.gipdyn"), "--quiet"], check=True)
+    subprocess.run([CLI, "predict", "--model", str(tmp_path / "cli.gipdyn"), "--data", str(tmp_path / "test.csv"),
+                    "--out", str(tmp_path / "cli_pred.csv"), "--no-std"], check=True)
+    cli_pred = np.loadtxt(tmp_path / "cli_pred.csv", delimiter=",", skiprows=1)
+    # Same data (read back from the same CSV), same options, same seed: same model.
+    csv = np.loadtxt(tmp_path / "train.csv", delimiter=",", skiprows=1)
+    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, seed=3).fit(csv[:, :12], csv[:, 12:])
+    X_test = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :12]
+    assert np.array_equal(py.predict(X_test), cli_pred)
+    # CLI model -> Python.
+    loaded = gipdyn.InverseDynamicsGP.load(tmp_path / "cli.gipdyn")
+    assert loaded.joints == "RRPR" and loaded.kernel == "gip"
+    assert np.array_equal(loaded.predict(X_test), cli_pred)
+    # Python model -> CLI.
+    py.save(tmp_path / "py.gipdyn")
+    subprocess.run([CLI, "predict", "--model", str(tmp_path / "py.gipdyn"), "--data", str(tmp_path / "test.csv"),
+                    "--out", str(tmp_path / "py_pred.csv"), "--no-std"], check=True)
+    assert np.array_equal(np.loadtxt(tmp_path / "py_pred.csv", delimiter=",", skiprows=1), cli_pred)
+
+
+def test_pickle_round_trip(scara, fitted):
+    _, test = scara
+    clone = pickle.loads(pickle.dumps(fitted))
+    assert np.array_equal(clone.predict(test["X"]), fitted.predict(test["X"]))
+    assert clone.get_params() == fitted.get_params()
+
+
+def test_sklearn_cross_validation_and_grid_search(scara):
+    from sklearn.model_selection import GridSearchCV, KFold, cross_val_score
+
+    train, _ = scara
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10)
+    scores = cross_val_score(est, train["X"], train["tau"], cv=KFold(3))
+    assert scores.shape == (3,) and np.isfinite(scores).all()
+    grid = GridSearchCV(est, {"kernel": ["gip", "rbf"]}, cv=KFold(2), scoring=gipdyn.neg_nmse_scorer)
+    grid.fit(train["X"], train["tau"])
+    assert grid.best_params_["kernel"] in ("gip", "rbf")
+    assert est.set_params(kernel="rbf") is est and est.kernel == "rbf"
+    with pytest.raises(ValueError):
+        est.set_params(colour="red")
+
+
+@pytest.mark.parametrize("X, Y, message", [
+    (np.zeros((10, 11)), np.zeros((10, 4)), "12 columns"),
+    (np.zeros((10, 12)), np.zeros((10, 3)), "4 columns"),
+    (np.zeros((10, 12)), np.zeros((9, 4)), "rows"),
+    (np.zeros(12), np.zeros(4), None),
+    (np.full((10, 12), np.nan), np.zeros((10, 4)), "NaN"),
+    (np.array([["a"] * 12] * 10), np.zeros((10, 4)), "numeric"),
+    (np.zeros((3, 12)), np.zeros((3, 4)), "at least"),
+])
+def test_bad_input_raises_value_error(X, Y, message):
+    with pytest.raises(ValueError) as err:
+        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=2).fit(X, Y)
+    if message:
+        assert message in str(err.value)
+
+
+def test_bad_options_and_unfitted_model_raise_value_error():
+    X, Y = np.random.default_rng(0).normal(size=(20, 12)), np.zeros((20, 4))
+    with pytest.raises(ValueError, match="unknown kernel"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="matern").fit(X, Y)
+    with pytest.raises(ValueError, match="'X'"):
+        gipdyn.InverseDynamicsGP(joints="RXPR").fit(X, Y)
+    with pytest.raises(ValueError, match="not fitted"):
+        gipdyn.InverseDynamicsGP(joints="RRPR").predict(X)
+
+
+def test_robot_from_urdf_dynamics_and_regressor():
+    robot = gipdyn.Robot.from_urdf(os.path.join(DATA, "rpr_arm.urdf"))
+    assert robot.joint_types == "RPR" and robot.num_joints == 3
+    rng = np.random.default_rng(1)
+    q, qd, qdd = rng.uniform(-1, 1, (3, 5, 3)) * np.array([1, 0.1, 1])
+    q[:, 1] = np.abs(q[:, 1])
+    tau = robot.inverse_dynamics(q, qd, qdd)
+    assert tau.shape == (5, 3)
+    Phi = robot.regressor(q[0], qd[0], qdd[0])
+    assert Phi.shape == (3, 30)
+    assert np.allclose(Phi @ robot.inertial_parameters, tau[0], rtol=1e-9, atol=1e-9)
+    with pytest.raises(ValueError, match="floating"):
+        gipdyn.Robot.from_urdf(os.path.join(DATA, "floating_arm.urdf"))
+
+
+def test_simulate_is_seeded_and_shaped():
+    a = gipdyn.simulate("ur10", samples=50, seed=7, perturb_kinematics=True)
+    b = gipdyn.simulate(gipdyn.Robot.load("ur10"), samples=50, seed=7, perturb_kinematics=True)
+    assert a["q"].shape == (50, 6) and a["X"].shape == (50, 18) and a["tau_true"].shape == (50, 6)
+    assert np.array_equal(a["tau"], b["tau"])
+    assert a["metadata"]["seed"] == 7 and len(a["metadata"]["perturbation"]) == 6
+    with pytest.raises(ValueError, match="unknown robot"):
+        gipdyn.simulate("puma")
+
+
+def test_python_quickstart_example_runs():
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "examples", "python", "quickstart.py"), "200", "20"],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "joint 4  nMSE" in r.stdout and "one sample" in r.stdout
+
+
+@pytest.mark.skipif(os.environ.get("GIPDYN_QUICKSTART_BIN") is None, reason="GIPDYN_QUICKSTART_BIN not set")
+def test_cpp_quickstart_example_runs():
+    r = subprocess.run([os.environ["GIPDYN_QUICKSTART_BIN"], "200", "20"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "joint 4  nMSE" in r.stdout and "one sample" in r.stdout
+
+
+def test_ur10_real_example_runs(tmp_path):
+    data = os.path.join(ROOT, "..", "shared", "data", "ur10-pick-and-place", "urPicknPlace.csv")
+    if not os.path.exists(data):
+        pytest.skip("shared UR10 data not present")
+    out = tmp_path / "ur10.png"
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "examples", "python", "ur10_real.py"), "--data", data,
+                        "--train-rows", "150", "--max-iter", "5", "--out", str(out)],
+                       capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "joint 6  nMSE" in r.stdout
+    assert out.stat().st_size > 10000 and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
