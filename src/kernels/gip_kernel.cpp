@@ -11,6 +11,10 @@ namespace gipdyn {
 namespace {
 
 constexpr Eigen::Index kChunk = 256;  // rows per block in the fused loops: keeps the blocks in L1/L2
+#ifndef GIPDYN_PREDICT_CHUNK
+#define GIPDYN_PREDICT_CHUNK 1024
+#endif
+constexpr Eigen::Index kPredictChunk = GIPDYN_PREDICT_CHUNK;  // rows per block of dot_rows
 
 std::vector<std::string> position_labels(const FeatureMap& fm, int b) {
   if (fm.joints().is_revolute(b)) return {"cos", "sin"};
@@ -208,6 +212,57 @@ void GipKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen:
     const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
     out.array() += (std::exp(log_params_(friction_offset_)) * z[cv]) * Z.col(cv).array() +
                    (std::exp(log_params_(friction_offset_ + 1)) * z[cc]) * Z.col(cc).array();
+  }
+}
+
+void GipKernel::dot_rows(const std::vector<const GipKernel*>& kernels,
+                         const std::vector<const Eigen::VectorXd*>& alphas, const double* z, const Eigen::MatrixXd& Z,
+                         Eigen::Ref<Eigen::VectorXd> out, KernelScratch& scratch) {
+  const Eigen::Index J = static_cast<Eigen::Index>(kernels.size()), N = Z.rows();
+  const GipKernel& first = *kernels.front();
+  const Eigen::Index na = static_cast<Eigen::Index>(first.acceleration_.columns.size());
+  const int a0 = first.acc_first_column_;
+  Eigen::MatrixXd& W = scratch.a;
+  Eigen::MatrixXd& block = scratch.b;
+  if (W.rows() != na || W.cols() != J) W.resize(na, J);
+  if (block.rows() != kPredictChunk || block.cols() != J) block.resize(kPredictChunk, J);
+  for (Eigen::Index j = 0; j < J; ++j)
+    for (Eigen::Index d = 0; d < na; ++d)
+      W(d, j) = std::exp(kernels[static_cast<size_t>(j)]->log_params_(kernels[static_cast<size_t>(j)]->acceleration_.offset + 1 + d)) *
+                z[a0 + d];
+  out.setZero();
+  for (Eigen::Index i0 = 0; i0 < N; i0 += kPredictChunk) {
+    const Eigen::Index m = std::min(kPredictChunk, N - i0);
+    block.topRows(m).noalias() = Z.block(i0, a0, m, na) * W;
+    for (Eigen::Index j = 0; j < J; ++j) {
+      const GipKernel& k = *kernels[static_cast<size_t>(j)];
+      const Eigen::VectorXd& p = k.log_params_;
+      auto col = block.col(j).head(m).array();
+      col += std::exp(p(k.acceleration_.offset));
+      // The two factors of a joint's MPK_2 read the same columns: one pass for both.
+      for (size_t f = 0; f + 1 < k.position_factors_.size(); f += 2) {
+        const Factor& f1 = k.position_factors_[f];
+        const Factor& f2 = k.position_factors_[f + 1];
+        const int c0 = f1.columns[0];
+        const auto u = Z.col(c0).segment(i0, m).array();
+        const double s1 = std::exp(p(f1.offset)), a1 = std::exp(p(f1.offset + 1)) * z[c0];
+        const double s2 = std::exp(p(f2.offset)), a2 = std::exp(p(f2.offset + 1)) * z[c0];
+        if (f1.columns.size() == 2) {
+          const int c1 = f1.columns[1];
+          const auto v = Z.col(c1).segment(i0, m).array();
+          const double b1 = std::exp(p(f1.offset + 2)) * z[c1], b2 = std::exp(p(f2.offset + 2)) * z[c1];
+          col *= (s1 + a1 * u + b1 * v) * (s2 + a2 * u + b2 * v);
+        } else {
+          col *= (s1 + a1 * u) * (s2 + a2 * u);
+        }
+      }
+      if (k.has_friction()) {
+        const int cv = k.features_.friction_qd(k.friction_joint_), cc = k.features_.friction_sign(k.friction_joint_);
+        col += (std::exp(p(k.friction_offset_)) * z[cv]) * Z.col(cv).segment(i0, m).array() +
+               (std::exp(p(k.friction_offset_ + 1)) * z[cc]) * Z.col(cc).segment(i0, m).array();
+      }
+      out(j) += block.col(j).head(m).dot(alphas[static_cast<size_t>(j)]->segment(i0, m));
+    }
   }
 }
 

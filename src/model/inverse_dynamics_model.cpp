@@ -101,8 +101,19 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
     : model_(&model),
       z_(model.features().feature_dim()),
       krow_(model.num_training_samples()),
-      v_(model.num_training_samples()) {
+      v_(model.num_training_samples()),
+      f_(model.num_joints()) {
   use_single_threaded_blas();
+  for (const GpRegressor& gp : model.gps_) {
+    const auto* gip = dynamic_cast<const GipKernel*>(&gp.kernel());
+    if (!gip) {
+      gip_kernels_.clear();
+      alphas_.clear();
+      break;
+    }
+    gip_kernels_.push_back(gip);
+    alphas_.push_back(&gp.alpha());
+  }
   // Warm up every buffer the kernels use, so later calls do not allocate.
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
   Eigen::VectorXd tau(model.num_joints());
@@ -112,6 +123,11 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
 void PredictionWorkspace::predict(const double* x, double* tau) {
   const InverseDynamicsModel& m = *model_;
   m.features_.compute_row(x, z_.data());
+  if (!gip_kernels_.empty()) {
+    GipKernel::dot_rows(gip_kernels_, alphas_, z_.data(), m.Z_, f_, scratch_);
+    for (int j = 0; j < m.num_joints(); ++j) tau[j] = m.y_offset_(j) + m.y_scale_(j) * f_(j);
+    return;
+  }
   for (int j = 0; j < m.num_joints(); ++j) {
     const double f = m.gps_[static_cast<size_t>(j)].predict_mean_one(z_.data(), m.Z_, krow_, scratch_);
     tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;

@@ -49,6 +49,14 @@ class GipKernel final : public Kernel {
   void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
 
   std::unique_ptr<Kernel> to_composite() const;
+
+  // out(j) = k_j(z, Z) . alpha_j for several GIP kernels on the same training
+  // features (the joints of one model): one pass over Z in row blocks, the
+  // acceleration factors of all joints in one small GEMM per block. No
+  // allocation once the scratch has its size.
+  static void dot_rows(const std::vector<const GipKernel*>& kernels, const std::vector<const Eigen::VectorXd*>& alphas,
+                       const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                       KernelScratch& scratch);
   bool has_friction() const { return friction_joint_ >= 0; }
 
  private:

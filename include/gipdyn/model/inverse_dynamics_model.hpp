@@ -10,6 +10,7 @@
 #include "gipdyn/features.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/joint_types.hpp"
+#include "gipdyn/kernels/gip_kernel.hpp"
 
 namespace gipdyn {
 
@@ -76,8 +77,11 @@ class PredictionWorkspace {
 
  private:
   const InverseDynamicsModel* model_;
-  Eigen::VectorXd z_, krow_, v_;
+  Eigen::VectorXd z_, krow_, v_, f_;
   KernelScratch scratch_;
+  // Set when every joint has a GIP kernel: the fused all-joints mean path.
+  std::vector<const GipKernel*> gip_kernels_;
+  std::vector<const Eigen::VectorXd*> alphas_;
 };
 
 }  // namespace gipdyn
