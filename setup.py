@@ -31,6 +31,7 @@ class CMakeBuild(build_ext):
 
 
 setup(
+    options={"build": {"build_base": "build/setuptools"}},  # beside, not inside, the CMake build tree
     packages=["gipdyn"],
     package_dir={"": "python"},
     ext_modules=[CMakeExtension("gipdyn._core")],

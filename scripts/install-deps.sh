@@ -13,6 +13,7 @@ PACKAGES=(
   libmatio-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-sklearn
   python3-scipy python3-matplotlib
+  python3-pip python3-setuptools python3-wheel
 )
 
 SUDO=""
