@@ -9,7 +9,7 @@ PACKAGES=(
   libgtest-dev libgmock-dev libbenchmark-dev
   libcli11-dev nlohmann-json3-dev
   libnlopt-cxx-dev
-  liborocos-kdl-dev liburdfdom-dev liburdfdom-headers-dev libkdl-parser-dev
+  liborocos-kdl-dev liburdfdom-dev liburdfdom-headers-dev libkdl-parser-dev libconsole-bridge-dev
   libmatio-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-sklearn
   python3-scipy python3-matplotlib

@@ -241,6 +241,9 @@ TEST(Simulation, SeededNoisyAndPerturbedAsAsked) {
 
 TEST(RobotInput, BadDescriptionsGiveClearErrors) {
   EXPECT_NE(error_of([] { load_robot_urdf(kData + "/floating_arm.urdf"); }).find("floating"), std::string::npos);
+  // URDF has no spherical joint type: urdfdom refuses the file, and we say so.
+  EXPECT_NE(error_of([] { load_robot_urdf(kData + "/spherical_arm.urdf"); }).find("unknown joint type"),
+            std::string::npos);
   EXPECT_NE(error_of([] { load_robot_json(kData + "/bad_robot_negative_mass.json"); }).find("mass"), std::string::npos);
   EXPECT_NE(error_of([] { load_robot("puma"); }).find("unknown robot 'puma'"), std::string::npos);
   EXPECT_NE(error_of([] { load_robot_json(kData + "/missing.json"); }).find("cannot open"), std::string::npos);

@@ -1,3 +1,5 @@
+#include <console_bridge/console.h>
+
 #include <filesystem>
 #include <fstream>
 #include <kdl/tree.hpp>
@@ -99,6 +101,9 @@ RobotModel load_robot_urdf(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw Error("cannot open URDF '" + path + "'");
   const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  // urdfdom logs its parse errors to stderr through console_bridge; our own
+  // one-line error below says what is wrong, so keep the terminal clean.
+  console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
   if (!model) throw Error("URDF '" + path + "' could not be parsed (malformed XML or an unknown joint type)");
   // Walk from the root to the single leaf.

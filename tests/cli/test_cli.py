@@ -196,6 +196,7 @@ def test_simulate_from_files_and_bad_robots(tmp_path, gipdyn_bin):
         assert r.returncode == 0, r.stderr
         assert np.loadtxt(out, delimiter=",", skiprows=1).shape == (50, 5 * joints)
     for robot, message in [("puma", "unknown robot"), (os.path.join(data_dir, "floating_arm.urdf"), "floating"),
+                           (os.path.join(data_dir, "spherical_arm.urdf"), "unknown joint type"),
                            (os.path.join(data_dir, "bad_robot_negative_mass.json"), "mass")]:
         out = tmp_path / "bad.csv"
         r = run(gipdyn_bin, "simulate", "--robot", robot, "--samples", "50", "--out", str(out))
