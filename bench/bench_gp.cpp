@@ -48,58 +48,54 @@ const Problem& problem(int robot, int N) {
 
 std::string label(int robot) { return robot == 4 ? "RRPR" : "RRRRRR"; }
 
-void kernel_for(const Problem& p, std::unique_ptr<Kernel>& k, double& log_noise, Eigen::VectorXd& y) {
-  const FeatureMap fm(p.joints);
-  k = make_kernel("gip", fm, 0);
-  y = p.Y.col(0);
-  y = ((y.array() - y.mean()) / std::sqrt((y.array() - y.mean()).square().mean())).matrix();
-  k->initialize(p.Z, 1.0);
-  log_noise = std::log(1e-2);
+// One joint's GIP GP on a problem: kernel at its data-driven start, standardised torques.
+struct JointSetup {
+  const Problem& p;
+  std::unique_ptr<Kernel> kernel;
+  double log_noise = std::log(1e-2);
+  Eigen::VectorXd y;
+};
+
+JointSetup joint_setup(const benchmark::State& state) {
+  use_single_threaded_blas();
+  JointSetup s{problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), nullptr, std::log(1e-2), {}};
+  s.kernel = make_kernel("gip", FeatureMap(s.p.joints), 0);
+  const Eigen::VectorXd t = s.p.Y.col(0);
+  s.y = ((t.array() - t.mean()) / std::sqrt((t.array() - t.mean()).square().mean())).matrix();
+  s.kernel->initialize(s.p.Z, 1.0);
+  return s;
 }
 
 void BM_KernelBuild(benchmark::State& state) {
-  use_single_threaded_blas();
-  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  std::unique_ptr<Kernel> k;
-  double log_noise;
-  Eigen::VectorXd y;
-  kernel_for(p, k, log_noise, y);
+  JointSetup s = joint_setup(state);
+  const Problem& p = s.p;
   Eigen::MatrixXd K(p.Z.rows(), p.Z.rows());
-  KernelScratch s;
+  KernelScratch scratch;
   for (auto _ : state) {
-    k->gram_lower(p.Z, K, s);
+    s.kernel->gram_lower(p.Z, K, scratch);
     benchmark::DoNotOptimize(K.data());
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip");
 }
 
 void BM_NllGradient(benchmark::State& state) {
-  use_single_threaded_blas();
-  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  std::unique_ptr<Kernel> k;
-  double log_noise;
-  Eigen::VectorXd y;
-  kernel_for(p, k, log_noise, y);
+  JointSetup s = joint_setup(state);
+  const Problem& p = s.p;
   GpWorkspace ws;
   for (auto _ : state) {
-    const NllEvaluation e = evaluate_nll(*k, log_noise, p.Z, y, true, ws);
+    const NllEvaluation e = evaluate_nll(*s.kernel, s.log_noise, p.Z, s.y, true, ws);
     if (!e.ok) state.SkipWithError(e.message.c_str());
     benchmark::DoNotOptimize(e.gradient.data());
   }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, " + std::to_string(k->num_params() + 1) + " params");
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, " + std::to_string(s.kernel->num_params() + 1) + " params");
 }
 
 void BM_PotrfPotri(benchmark::State& state) {
-  use_single_threaded_blas();
+  JointSetup s = joint_setup(state);
   const int N = static_cast<int>(state.range(1));
-  const Problem& p = problem(static_cast<int>(state.range(0)), N);
-  std::unique_ptr<Kernel> k;
-  double log_noise;
-  Eigen::VectorXd y;
-  kernel_for(p, k, log_noise, y);
   Eigen::MatrixXd K0(N, N), K(N, N);
-  KernelScratch s;
-  k->gram_lower(p.Z, K0, s);
+  KernelScratch scratch;
+  s.kernel->gram_lower(s.p.Z, K0, scratch);
   K0.diagonal().array() += 1e-2;
   for (auto _ : state) {
     state.PauseTiming();

@@ -22,6 +22,7 @@ namespace gipdyn {
 namespace {
 
 namespace fs = std::filesystem;
+using test::error_of;
 using test::random_inputs;
 using test::two_link_torques;
 
@@ -29,15 +30,6 @@ fs::path temp_dir() {
   const fs::path d = fs::temp_directory_path() / ("gipdyn_test_" + std::to_string(::getpid()));
   fs::create_directories(d);
   return d;
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned seed, int max_iter = 40) {

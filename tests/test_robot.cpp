@@ -12,6 +12,7 @@
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "test_util.hpp"
 
 #ifndef GIPDYN_TEST_DATA
 #error "GIPDYN_TEST_DATA must point to tests/data"
@@ -20,6 +21,7 @@
 namespace gipdyn {
 namespace {
 
+using test::error_of;
 const std::string kData = GIPDYN_TEST_DATA;
 
 std::vector<RobotModel> test_robots() {
@@ -41,15 +43,6 @@ void random_state(const RobotModel& r, std::mt19937_64& rng, Eigen::VectorXd& q,
     qd(i) = l.velocity * u(rng);
     qdd(i) = 5.0 * u(rng);
   }
-}
-
-std::string error_of(const std::function<void()>& f) {
-  try {
-    f();
-  } catch (const Error& e) {
-    return e.what();
-  }
-  return "";
 }
 
 TEST(Robots, JointTypesAndSizes) {

@@ -6,6 +6,7 @@
 #include <random>
 #include <string>
 
+#include "gipdyn/error.hpp"
 #include "gipdyn/joint_types.hpp"
 
 namespace gipdyn::test {
@@ -32,6 +33,16 @@ inline Eigen::VectorXd random_vector(int size, double lo, double hi, unsigned se
   Eigen::VectorXd v(size);
   for (int k = 0; k < size; ++k) v(k) = u(rng);
   return v;
+}
+
+// The message of the gipdyn::Error that f throws, or "" if it throws none.
+inline std::string error_of(const std::function<void()>& f) {
+  try {
+    f();
+  } catch (const Error& e) {
+    return e.what();
+  }
+  return "";
 }
 
 // Fourth-order central difference of a scalar function of a vector.
