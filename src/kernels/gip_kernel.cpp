@@ -57,6 +57,7 @@ GipKernel::GipKernel(const FeatureMap& features, int friction_joint)
     offset += 2;
   }
   log_params_ = Eigen::VectorXd::Zero(offset);
+  weights_ = Eigen::VectorXd::Ones(offset);
 }
 
 std::unique_ptr<Kernel> GipKernel::to_composite() const {
@@ -85,6 +86,7 @@ void GipKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) {
     throw Error("GipKernel: expected " + std::to_string(log_params_.size()) + " parameters, got " +
                 std::to_string(p.size()));
   log_params_ = p;
+  weights_ = log_params_.array().exp();
 }
 
 void GipKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
@@ -102,66 +104,60 @@ void GipKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
     log_params_(friction_offset_) = std::log(0.1 * target_variance / mean_square(Z, features_.friction_qd(friction_joint_)));
     log_params_(friction_offset_ + 1) = std::log(0.1 * target_variance);
   }
+  weights_ = log_params_.array().exp();
 }
 
 void GipKernel::acceleration_factor_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& A) const {
   const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
-  const Eigen::VectorXd sqrt_w = log_params_.segment(acceleration_.offset + 1, na).array().exp().sqrt();
+  const Eigen::VectorXd sqrt_w = weights_.segment(acceleration_.offset + 1, na).cwiseSqrt();
   const Eigen::MatrixXd S = Z.middleCols(acc_first_column_, na) * sqrt_w.asDiagonal();
   A.resize(Z.rows(), Z.rows());
-  A.triangularView<Eigen::Lower>().setConstant(std::exp(log_params_(acceleration_.offset)));
+  A.triangularView<Eigen::Lower>().setConstant(weights_(acceleration_.offset));
   A.selfadjointView<Eigen::Lower>().rankUpdate(S);  // dsyrk
+}
+
+// The two factors of a joint's MPK_2 read the same columns: one pass for both.
+template <class Query, class Column>
+void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m,
+                                            Column col) const {
+  const Eigen::VectorXd& w = weights_;
+  for (size_t f = 0; f + 1 < position_factors_.size(); f += 2) {
+    const Factor& f1 = position_factors_[f];
+    const Factor& f2 = position_factors_[f + 1];
+    const int c0 = f1.columns[0];
+    const auto u = Z.col(c0).segment(i0, m).array();
+    const double a1 = w(f1.offset + 1) * zq(c0), a2 = w(f2.offset + 1) * zq(c0);
+    if (f1.columns.size() == 2) {
+      const int c1 = f1.columns[1];
+      const auto v = Z.col(c1).segment(i0, m).array();
+      const double b1 = w(f1.offset + 2) * zq(c1), b2 = w(f2.offset + 2) * zq(c1);
+      col *= (w(f1.offset) + a1 * u + b1 * v) * (w(f2.offset) + a2 * u + b2 * v);
+    } else {
+      col *= (w(f1.offset) + a1 * u) * (w(f2.offset) + a2 * u);
+    }
+  }
+  if (has_friction()) {
+    const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
+    col += (w(friction_offset_) * zq(cv)) * Z.col(cv).segment(i0, m).array() +
+           (w(friction_offset_ + 1) * zq(cc)) * Z.col(cc).segment(i0, m).array();
+  }
 }
 
 void GipKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& /*scratch*/) const {
   acceleration_factor_lower(Z, K);
   const Eigen::Index N = Z.rows();
-  const Eigen::ArrayXd w = log_params_.array().exp();
-  for (Eigen::Index j = 0; j < N; ++j) {
-    auto col = K.col(j).segment(j, N - j).array();
-    for (const Factor& f : position_factors_) {
-      const int c0 = f.columns[0];
-      if (f.columns.size() == 2) {
-        const int c1 = f.columns[1];
-        col *= w(f.offset) + (w(f.offset + 1) * Z(j, c0)) * Z.col(c0).segment(j, N - j).array() +
-               (w(f.offset + 2) * Z(j, c1)) * Z.col(c1).segment(j, N - j).array();
-      } else {
-        col *= w(f.offset) + (w(f.offset + 1) * Z(j, c0)) * Z.col(c0).segment(j, N - j).array();
-      }
-    }
-    if (has_friction()) {
-      const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
-      col += (w(friction_offset_) * Z(j, cv)) * Z.col(cv).segment(j, N - j).array() +
-             (w(friction_offset_ + 1) * Z(j, cc)) * Z.col(cc).segment(j, N - j).array();
-    }
-  }
+  for (Eigen::Index j = 0; j < N; ++j)
+    apply_position_and_friction([&](int c) { return Z(j, c); }, Z, j, N - j, K.col(j).segment(j, N - j).array());
 }
 
 void GipKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
   const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
-  const Eigen::ArrayXd w = log_params_.array().exp();
   K.resize(Z1.rows(), Z2.rows());
-  K.noalias() = (Z1.middleCols(acc_first_column_, na) * w.segment(acceleration_.offset + 1, na).matrix().asDiagonal()) *
+  K.noalias() = (Z1.middleCols(acc_first_column_, na) * weights_.segment(acceleration_.offset + 1, na).asDiagonal()) *
                 Z2.middleCols(acc_first_column_, na).transpose();
-  K.array() += w(acceleration_.offset);
-  for (Eigen::Index j = 0; j < Z2.rows(); ++j) {
-    auto col = K.col(j).array();
-    for (const Factor& f : position_factors_) {
-      const int c0 = f.columns[0];
-      if (f.columns.size() == 2) {
-        const int c1 = f.columns[1];
-        col *= w(f.offset) + (w(f.offset + 1) * Z2(j, c0)) * Z1.col(c0).array() +
-               (w(f.offset + 2) * Z2(j, c1)) * Z1.col(c1).array();
-      } else {
-        col *= w(f.offset) + (w(f.offset + 1) * Z2(j, c0)) * Z1.col(c0).array();
-      }
-    }
-    if (has_friction()) {
-      const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
-      col += (w(friction_offset_) * Z2(j, cv)) * Z1.col(cv).array() +
-             (w(friction_offset_ + 1) * Z2(j, cc)) * Z1.col(cc).array();
-    }
-  }
+  K.array() += weights_(acceleration_.offset);
+  for (Eigen::Index j = 0; j < Z2.rows(); ++j)
+    apply_position_and_friction([&](int c) { return Z2(j, c); }, Z1, 0, Z1.rows(), K.col(j).array());
 }
 
 void GipKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
@@ -174,16 +170,16 @@ void GipKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
 
 double GipKernel::self(const double* z, int /*feature_dim*/) const {
   auto factor = [&](const Factor& f) {
-    double v = std::exp(log_params_(f.offset));
+    double v = weights_(f.offset);
     for (size_t d = 0; d < f.columns.size(); ++d)
-      v += std::exp(log_params_(f.offset + 1 + static_cast<int>(d))) * z[f.columns[d]] * z[f.columns[d]];
+      v += weights_(f.offset + 1 + static_cast<int>(d)) * z[f.columns[d]] * z[f.columns[d]];
     return v;
   };
   double k = factor(acceleration_);
   for (const Factor& f : position_factors_) k *= factor(f);
   if (has_friction()) {
     const double v = z[features_.friction_qd(friction_joint_)], s = z[features_.friction_sign(friction_joint_)];
-    k += std::exp(log_params_(friction_offset_)) * v * v + std::exp(log_params_(friction_offset_ + 1)) * s * s;
+    k += weights_(friction_offset_) * v * v + weights_(friction_offset_ + 1) * s * s;
   }
   return k;
 }
@@ -193,26 +189,10 @@ void GipKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen:
   const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
   Eigen::VectorXd& wz = scratch.w;
   if (wz.size() != na) wz.resize(na);
-  for (Eigen::Index d = 0; d < na; ++d) wz(d) = std::exp(log_params_(acceleration_.offset + 1 + d)) * z[acc_first_column_ + d];
+  wz = weights_.segment(acceleration_.offset + 1, na).cwiseProduct(Eigen::Map<const Eigen::VectorXd>(z + acc_first_column_, na));
   out.noalias() = Z.middleCols(acc_first_column_, na) * wz;  // dgemv, no allocation
-  out.array() += std::exp(log_params_(acceleration_.offset));
-  for (const Factor& f : position_factors_) {
-    const int c0 = f.columns[0];
-    const double s0 = std::exp(log_params_(f.offset));
-    const double a0 = std::exp(log_params_(f.offset + 1)) * z[c0];
-    if (f.columns.size() == 2) {
-      const int c1 = f.columns[1];
-      const double a1 = std::exp(log_params_(f.offset + 2)) * z[c1];
-      out.array() *= s0 + a0 * Z.col(c0).array() + a1 * Z.col(c1).array();
-    } else {
-      out.array() *= s0 + a0 * Z.col(c0).array();
-    }
-  }
-  if (has_friction()) {
-    const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
-    out.array() += (std::exp(log_params_(friction_offset_)) * z[cv]) * Z.col(cv).array() +
-                   (std::exp(log_params_(friction_offset_ + 1)) * z[cc]) * Z.col(cc).array();
-  }
+  out.array() += weights_(acceleration_.offset);
+  apply_position_and_friction([z](int c) { return z[c]; }, Z, 0, Z.rows(), out.array());
 }
 
 void GipKernel::dot_rows(const std::vector<const GipKernel*>& kernels,
@@ -226,41 +206,18 @@ void GipKernel::dot_rows(const std::vector<const GipKernel*>& kernels,
   Eigen::MatrixXd& block = scratch.b;
   if (W.rows() != na || W.cols() != J) W.resize(na, J);
   if (block.rows() != kPredictChunk || block.cols() != J) block.resize(kPredictChunk, J);
-  for (Eigen::Index j = 0; j < J; ++j)
-    for (Eigen::Index d = 0; d < na; ++d)
-      W(d, j) = std::exp(kernels[static_cast<size_t>(j)]->log_params_(kernels[static_cast<size_t>(j)]->acceleration_.offset + 1 + d)) *
-                z[a0 + d];
+  for (Eigen::Index j = 0; j < J; ++j) {
+    const GipKernel& k = *kernels[static_cast<size_t>(j)];
+    W.col(j) = k.weights_.segment(k.acceleration_.offset + 1, na).cwiseProduct(Eigen::Map<const Eigen::VectorXd>(z + a0, na));
+  }
   out.setZero();
   for (Eigen::Index i0 = 0; i0 < N; i0 += kPredictChunk) {
     const Eigen::Index m = std::min(kPredictChunk, N - i0);
     block.topRows(m).noalias() = Z.block(i0, a0, m, na) * W;
     for (Eigen::Index j = 0; j < J; ++j) {
       const GipKernel& k = *kernels[static_cast<size_t>(j)];
-      const Eigen::VectorXd& p = k.log_params_;
-      auto col = block.col(j).head(m).array();
-      col += std::exp(p(k.acceleration_.offset));
-      // The two factors of a joint's MPK_2 read the same columns: one pass for both.
-      for (size_t f = 0; f + 1 < k.position_factors_.size(); f += 2) {
-        const Factor& f1 = k.position_factors_[f];
-        const Factor& f2 = k.position_factors_[f + 1];
-        const int c0 = f1.columns[0];
-        const auto u = Z.col(c0).segment(i0, m).array();
-        const double s1 = std::exp(p(f1.offset)), a1 = std::exp(p(f1.offset + 1)) * z[c0];
-        const double s2 = std::exp(p(f2.offset)), a2 = std::exp(p(f2.offset + 1)) * z[c0];
-        if (f1.columns.size() == 2) {
-          const int c1 = f1.columns[1];
-          const auto v = Z.col(c1).segment(i0, m).array();
-          const double b1 = std::exp(p(f1.offset + 2)) * z[c1], b2 = std::exp(p(f2.offset + 2)) * z[c1];
-          col *= (s1 + a1 * u + b1 * v) * (s2 + a2 * u + b2 * v);
-        } else {
-          col *= (s1 + a1 * u) * (s2 + a2 * u);
-        }
-      }
-      if (k.has_friction()) {
-        const int cv = k.features_.friction_qd(k.friction_joint_), cc = k.features_.friction_sign(k.friction_joint_);
-        col += (std::exp(p(k.friction_offset_)) * z[cv]) * Z.col(cv).segment(i0, m).array() +
-               (std::exp(p(k.friction_offset_ + 1)) * z[cc]) * Z.col(cc).segment(i0, m).array();
-      }
+      block.col(j).head(m).array() += k.weights_(k.acceleration_.offset);
+      k.apply_position_and_friction([z](int c) { return z[c]; }, Z, i0, m, block.col(j).head(m).array());
       out(j) += block.col(j).head(m).dot(alphas[static_cast<size_t>(j)]->segment(i0, m));
     }
   }
@@ -283,7 +240,7 @@ void GipKernel::fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_c
   const Eigen::Index N = Z.rows();
   const int P = static_cast<int>(position_factors_.size());
   const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
-  const Eigen::ArrayXd w = log_params_.array().exp();
+  const Eigen::VectorXd& w = weights_;
   Eigen::MatrixXd& A = scratch.a;
   acceleration_factor_lower(Z, A);
 

@@ -68,6 +68,11 @@ class GipKernel final : public Kernel {
   void fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_column, Eigen::Ref<Eigen::VectorXd> grad,
                       KernelScratch& scratch) const;
   void acceleration_factor_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& A) const;
+  // col (rows i0 .. i0+m of Z) *= the position factors, then += the friction
+  // term, for the query whose feature c is zq(c). No allocation.
+  template <class Query, class Column>
+  void apply_position_and_friction(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m,
+                                   Column col) const;
 
   FeatureMap features_;
   std::vector<Factor> position_factors_;  // two per joint, in joint order
@@ -76,6 +81,7 @@ class GipKernel final : public Kernel {
   int friction_joint_ = -1;
   int friction_offset_ = -1;
   Eigen::VectorXd log_params_;
+  Eigen::VectorXd weights_;  // exp(log_params_), refreshed wherever log_params_ changes
 };
 
 }  // namespace gipdyn
