@@ -16,6 +16,21 @@ void build_covariance(const Kernel& kernel, double noise_variance, const Eigen::
   K.diagonal().array() += noise_variance;
 }
 
+// ws.K = Cholesky factor of k(Z, Z) + diag_add I (with jitter if needed).
+CholeskyResult factorize_covariance(const Kernel& kernel, double diag_add, const Eigen::MatrixXd& Z, GpWorkspace& ws,
+                                    const JitterPolicy& jitter) {
+  build_covariance(kernel, diag_add, Z, ws.K, ws.scratch);
+  return cholesky_with_jitter(
+      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(kernel, diag_add, Z, K, ws.scratch); }, jitter);
+}
+
+// alpha = K^{-1} y from the factor L; returns the NLL.
+double solve_and_nll(const Eigen::MatrixXd& L, const Eigen::VectorXd& y, Eigen::VectorXd& alpha) {
+  alpha = y;
+  cholesky_solve(L, alpha);
+  return 0.5 * y.dot(alpha) + L.diagonal().array().log().sum() + 0.5 * static_cast<double>(y.size()) * kLog2Pi;
+}
+
 }  // namespace
 
 NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
@@ -23,18 +38,13 @@ NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, cons
                            const JitterPolicy& jitter) {
   NllEvaluation out;
   const double noise = std::exp(log_noise_variance);
-  const Eigen::Index N = Z.rows();
-  build_covariance(kernel, noise, Z, ws.K, ws.scratch);
-  const CholeskyResult chol = cholesky_with_jitter(
-      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(kernel, noise, Z, K, ws.scratch); }, jitter);
+  const CholeskyResult chol = factorize_covariance(kernel, noise, Z, ws, jitter);
   out.jitter = chol.jitter;
   if (!chol.ok()) {
     out.message = chol.message;
     return out;
   }
-  ws.alpha = y;
-  cholesky_solve(ws.K, ws.alpha);
-  out.nll = 0.5 * y.dot(ws.alpha) + ws.K.diagonal().array().log().sum() + 0.5 * static_cast<double>(N) * kLog2Pi;
+  out.nll = solve_and_nll(ws.K, y, ws.alpha);
   if (!std::isfinite(out.nll)) {
     out.message = "marginal likelihood is not finite at these hyperparameters";
     return out;
@@ -74,15 +84,10 @@ GpRegressor& GpRegressor::operator=(const GpRegressor& other) {
 
 CholeskyResult GpRegressor::fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd& y, bool keep_factor, GpWorkspace& ws,
                                 const JitterPolicy& jitter) {
-  const double noise = std::exp(log_noise_);
-  build_covariance(*kernel_, noise, Z, ws.K, ws.scratch);
-  CholeskyResult chol = cholesky_with_jitter(
-      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(*kernel_, noise, Z, K, ws.scratch); }, jitter);
+  const CholeskyResult chol = factorize_covariance(*kernel_, std::exp(log_noise_), Z, ws, jitter);
   if (!chol.ok()) return chol;
-  alpha_ = y;
-  cholesky_solve(ws.K, alpha_);
+  nll_ = solve_and_nll(ws.K, y, alpha_);
   jitter_ = chol.jitter;
-  nll_ = 0.5 * y.dot(alpha_) + ws.K.diagonal().array().log().sum() + 0.5 * static_cast<double>(Z.rows()) * kLog2Pi;
   if (keep_factor) {
     L_ = ws.K.triangularView<Eigen::Lower>();
   } else {
@@ -100,10 +105,7 @@ void GpRegressor::set_state(const Eigen::VectorXd& alpha, double jitter, double 
 
 CholeskyResult GpRegressor::compute_factor(const Eigen::MatrixXd& Z, GpWorkspace& ws) {
   // Reproduce the stored fit's matrix exactly: same noise, same jitter.
-  const double diag_add = std::exp(log_noise_) + jitter_;
-  build_covariance(*kernel_, diag_add, Z, ws.K, ws.scratch);
-  CholeskyResult chol = cholesky_with_jitter(
-      ws.K, [&](Eigen::MatrixXd& K) { build_covariance(*kernel_, diag_add, Z, K, ws.scratch); });
+  const CholeskyResult chol = factorize_covariance(*kernel_, std::exp(log_noise_) + jitter_, Z, ws, JitterPolicy{});
   if (chol.ok()) L_ = ws.K.triangularView<Eigen::Lower>();
   return chol;
 }
