@@ -1,5 +1,7 @@
 #include "gipdyn/kernels/kernel_factory.hpp"
 
+#include <algorithm>
+
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/rbf_kernel.hpp"
@@ -9,6 +11,14 @@ namespace gipdyn {
 const std::vector<std::string>& kernel_names() {
   static const std::vector<std::string> names{"gip", "gip-friction", "rbf"};
   return names;
+}
+
+void require_known_kernel(const std::string& name) {
+  const auto& names = kernel_names();
+  if (std::find(names.begin(), names.end(), name) != names.end()) return;
+  std::string valid;
+  for (const auto& n : names) valid += (valid.empty() ? "" : ", ") + n;
+  throw Error("unknown kernel '" + name + "'; choose one of: " + valid);
 }
 
 std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint) {
@@ -24,9 +34,8 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
     }
     return std::make_unique<RbfKernel>(cols, labels);
   }
-  std::string valid;
-  for (const auto& n : kernel_names()) valid += (valid.empty() ? "" : ", ") + n;
-  throw Error("unknown kernel '" + name + "'; choose one of: " + valid);
+  require_known_kernel(name);
+  throw Error("make_kernel: kernel '" + name + "' is listed but not built here");
 }
 
 }  // namespace gipdyn

@@ -22,12 +22,7 @@ void TrainOptions::validate() const {
     throw Error("--min-noise must be > 0 and not above the initial noise fraction (" +
                 std::to_string(initial_noise_fraction) + ")");
   if (threads < 0) throw Error("--threads must be >= 0");
-  const auto& names = kernel_names();
-  if (std::find(names.begin(), names.end(), kernel) == names.end()) {
-    std::string valid;
-    for (const auto& n : names) valid += (valid.empty() ? "" : ", ") + n;
-    throw Error("unknown kernel '" + kernel + "'; choose one of: " + valid);
-  }
+  require_known_kernel(kernel);
 }
 
 void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints) {

@@ -12,6 +12,9 @@ namespace gipdyn {
 // Names accepted by make_kernel.
 const std::vector<std::string>& kernel_names();
 
+// Throws gipdyn::Error, listing the valid names, unless name is one of them.
+void require_known_kernel(const std::string& name);
+
 // The kernel of joint `joint` (0-based) of a robot with the given feature map:
 //   "gip"           GIP kernel
 //   "gip-friction"  GIP + viscous and Coulomb friction of the joint's own motor
