@@ -11,6 +11,7 @@ PACKAGES=(
   libnlopt-cxx-dev
   liborocos-kdl-dev liburdfdom-dev liburdfdom-headers-dev libkdl-parser-dev libconsole-bridge-dev
   libmatio-dev
+  libtorch-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-sklearn
   python3-scipy python3-matplotlib
   python3-pip python3-setuptools python3-wheel

@@ -7,7 +7,9 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "estimator_args.hpp"
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
@@ -32,12 +34,10 @@ std::string status_word(OptimizerResult::Status s) {
 }
 
 struct TrainArgs {
-  std::string data, joints, kernel = "gip", optimizer = "lbfgs", out, scaling = "standardize";
-  int max_iter = 200, restarts = 0, threads = 0;
+  std::string data, joints, kernel = "gip", out;
   long subsample = 0;
-  std::uint64_t seed = 0;
-  double min_noise = 1e-8, learning_rate = 0.01;
   bool quiet = false;
+  EstimatorArgs estimator;
 };
 
 }  // namespace
@@ -48,79 +48,59 @@ Command add_train(CLI::App& app) {
       ->required()->check(CLI::ExistingFile);
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
       ->required();
-  app.add_option("--kernel", a->kernel, "Kernel: gip, gip-friction or rbf")->capture_default_str();
-  app.add_option("--optimizer", a->optimizer, "Hyperparameter optimiser: lbfgs or adam")->capture_default_str();
-  app.add_option("--max-iter", a->max_iter, "Maximum NLL evaluations (L-BFGS) or steps (Adam) per joint and start")
-      ->capture_default_str();
-  app.add_option("--lr", a->learning_rate, "Adam learning rate")->capture_default_str();
-  app.add_option("--restarts", a->restarts, "Extra optimiser runs from perturbed starts; the best NLL is kept")
+  app.add_option("--kernel", a->kernel,
+                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, pp, sp) or fe, nn; "
+                 "fe, pp, sp need --robot")
       ->capture_default_str();
   app.add_option("--subsample", a->subsample, "Keep this many training rows, taken with a constant step (0: all)")
       ->capture_default_str();
-  app.add_option("--seed", a->seed, "Seed for restarts (same seed, same model)")->capture_default_str();
-  app.add_option("--scaling", a->scaling, "Output scaling before the GP: none, center or standardize")
-      ->capture_default_str();
-  app.add_option("--min-noise", a->min_noise, "Noise-variance floor, as a fraction of the scaled output variance")
-      ->capture_default_str();
-  app.add_option("--threads", a->threads, "Joints trained in parallel (0: one per core)")->capture_default_str();
+  a->estimator.add_to(app, true);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
     const JointTypes joints = JointTypes::parse(a->joints);
-    TrainOptions o;
-    o.kernel = a->kernel;
-    o.optimizer.kind = parse_optimizer(a->optimizer);
-    o.optimizer.max_iterations = a->max_iter;
-    o.optimizer.adam_learning_rate = a->learning_rate;
-    o.restarts = a->restarts;
-    o.seed = a->seed;
-    o.scaling = parse_output_scaling(a->scaling);
-    o.min_noise_fraction = a->min_noise;
-    o.threads = a->threads;
-    o.keep_factor = false;
-    o.validate();
+    const EstimatorOptions o = a->estimator.build(a->kernel);
     if (a->subsample < 0) throw Error("--subsample must be >= 0");
 
     Dataset data = read_dataset(a->data, joints, true);
     const Eigen::Index total = data.rows();
     if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
     if (!a->quiet) {
-      std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, kernel %s, optimizer %s (max %d), %d restart(s)\n",
-                  static_cast<long>(data.rows()), static_cast<long>(total), a->data.c_str(), joints.str().c_str(),
-                  o.kernel.c_str(), a->optimizer.c_str(), o.optimizer.max_iterations, o.restarts);
+      std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
+                  static_cast<long>(total), a->data.c_str(), joints.str().c_str(), o.name.c_str());
+      if (is_gp_estimator(o.name))
+        std::printf(", optimizer %s (max %d), %d restart(s)", a->estimator.optimizer.c_str(),
+                    o.gp.optimizer.max_iterations, o.gp.restarts);
+      if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
+      std::printf("\n");
       std::fflush(stdout);
     }
     std::mutex mu;
-    TrainingCallback progress;
+    FitCallback progress;
     if (!a->quiet) {
-      progress = [&mu](const TrainingProgress& p) {
-        if (!p.finished && p.iteration != 1 && p.iteration % 10 != 0) return;
+      progress = [&mu](const FitProgress& p) {
         std::lock_guard<std::mutex> lock(mu);
-        if (p.finished) {
-          std::printf("  joint %d done: NLL %.6g after %d evaluations, %.1f s%s%s\n", p.joint + 1, p.nll, p.iteration,
-                      p.seconds, p.message.empty() ? "" : " - ", p.message.c_str());
-        } else {
-          std::printf("  joint %d  start %d  eval %4d  NLL %14.6g  |grad| %9.3g  %7.1f s\n", p.joint + 1, p.restart,
-                      p.iteration, p.nll, p.grad_norm, p.seconds);
-        }
+        std::printf("  %s\n", p.message.c_str());
         std::fflush(stdout);
       };
     }
-    TrainResult r = train_model(data.X, data.tau, joints, o, progress);
+    FitResult r = fit_estimator(o, data.X, data.tau, joints, progress);
     if (!r.ok) throw Error("training failed: " + r.message);
-    save_model(r.model, a->out);
+    save_estimator(*r.estimator, a->out);
     if (!a->quiet) {
-      std::printf("\n joint  status     NLL            evals  seconds  jitter\n");
-      for (const auto& j : r.joints)
-        std::printf(" %5d  %-9s  %-13.6g  %5d  %7.1f  %.1e\n", j.joint + 1, status_word(j.status).c_str(), j.nll,
-                    j.evaluations, j.seconds, j.jitter);
-      for (const auto& j : r.joints) {
-        if (j.restart_nlls.size() < 2) continue;
-        std::printf(" joint %d NLL over starts:", j.joint + 1);
-        for (double v : j.restart_nlls) std::printf(" %.6g", v);
-        std::printf("\n");
+      if (!r.joint_reports.empty()) {
+        std::printf("\n joint  status     NLL            evals  seconds  jitter\n");
+        for (const auto& j : r.joint_reports)
+          std::printf(" %5d  %-9s  %-13.6g  %5d  %7.1f  %.1e\n", j.joint + 1, status_word(j.status).c_str(), j.nll,
+                      j.evaluations, j.seconds, j.jitter);
+        for (const auto& j : r.joint_reports) {
+          if (j.restart_nlls.size() < 2) continue;
+          std::printf(" joint %d NLL over starts:", j.joint + 1);
+          for (double v : j.restart_nlls) std::printf(" %.6g", v);
+          std::printf("\n");
+        }
       }
-      std::printf("saved model to %s\n", a->out.c_str());
+      std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
     }
     return 0;
   };
@@ -135,18 +115,20 @@ Command add_predict(CLI::App& app) {
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
   app.add_option("--data", a->data, "CSV with columns q1..qn, qd1..qdn, qdd1..qddn (others ignored)")
       ->required()->check(CLI::ExistingFile);
-  app.add_option("--out", a->out, "Output CSV: tau1_hat..taun_hat, tau1_std..taun_std")->required();
+  app.add_option("--out", a->out,
+                 "Output CSV: tau1_hat..taun_hat, and tau1_std..taun_std for GP models")->required();
   app.add_flag("--no-std", a->no_std, "Skip the standard deviations (much faster for large models)");
   return [a]() -> int {
-    InverseDynamicsModel model = load_model(a->model);
-    const Dataset data = read_dataset(a->data, model.joints(), false);
-    const int n = model.num_joints();
+    std::unique_ptr<Estimator> estimator = load_estimator(a->model);
+    const Dataset data = read_dataset(a->data, estimator->joints(), false);
+    const int n = estimator->joints().size();
     Eigen::MatrixXd mean, sd;
     std::vector<std::string> header = torque_column_names(n, "_hat");
-    if (a->no_std) {
-      model.predict(data.X, mean, nullptr);
-      write_csv(a->out, header, mean);
+    auto* gp = dynamic_cast<GpEstimator*>(estimator.get());
+    if (a->no_std || gp == nullptr) {
+      write_csv(a->out, header, estimator->predict(data.X));
     } else {
+      InverseDynamicsModel& model = gp->mutable_model();
       model.enable_variance();
       model.predict(data.X, mean, &sd);
       const auto std_names = torque_column_names(n, "_std");
@@ -169,15 +151,15 @@ Command add_evaluate(CLI::App& app) {
       ->required()->check(CLI::ExistingFile);
   app.add_option("--json", a->json, "Also write the report as JSON (keys nmse, mse, gmse)");
   return [a]() -> int {
-    const InverseDynamicsModel model = load_model(a->model);
-    const Dataset data = read_dataset(a->data, model.joints(), true);
+    const std::unique_ptr<Estimator> model = load_estimator(a->model);
+    const Dataset data = read_dataset(a->data, model->joints(), true);
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
-    const Accuracy acc = compute_accuracy(target, model.predict(data.X));
+    const Accuracy acc = compute_accuracy(target, model->predict(data.X));
     std::printf("%ld test rows, target %s\n", static_cast<long>(data.rows()),
                 noise_free ? "noise-free tau*_true" : "measured tau*");
     std::printf(" joint  MSE           nMSE\n");
-    for (int j = 0; j < model.num_joints(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
+    for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
     if (!a->json.empty()) {
       nlohmann::json j;

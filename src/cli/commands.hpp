@@ -12,5 +12,6 @@ Command add_train(CLI::App& app);
 Command add_predict(CLI::App& app);
 Command add_evaluate(CLI::App& app);
 Command add_simulate(CLI::App& app);
+Command add_experiment(CLI::App& app);
 
 }  // namespace gipdyn::cli

@@ -106,6 +106,20 @@ void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W,
   }
 }
 
+SumKernel::SumKernel(std::vector<std::unique_ptr<Kernel>> children, std::vector<double> shares)
+    : CompositeKernel(std::move(children)), shares_(std::move(shares)) {
+  if (shares_.size() != children_.size()) throw Error("sum kernel: one initial share per child is needed");
+  for (double s : shares_)
+    if (!(s > 0.0)) throw Error("sum kernel: initial shares must be positive");
+}
+
+void SumKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
+  for (size_t c = 0; c < children_.size(); ++c) {
+    const double share = shares_.empty() ? 1.0 / static_cast<double>(children_.size()) : shares_[c];
+    children_[c]->initialize(Z, share * target_variance);
+  }
+}
+
 void SumKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
   children_[0]->cross(Z1, Z2, K);
   Eigen::MatrixXd Kc;

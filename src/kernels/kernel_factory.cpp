@@ -3,15 +3,19 @@
 #include <algorithm>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/kernels/composite_kernels.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
+#include "gipdyn/kernels/parametric_kernel.hpp"
 #include "gipdyn/kernels/rbf_kernel.hpp"
 
 namespace gipdyn {
 
 const std::vector<std::string>& kernel_names() {
-  static const std::vector<std::string> names{"gip", "gip-friction", "rbf"};
+  static const std::vector<std::string> names{"gip", "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", "pp", "sp"};
   return names;
 }
+
+bool kernel_needs_robot(const std::string& name) { return name == "pp" || name == "sp"; }
 
 void require_known_kernel(const std::string& name) {
   const auto& names = kernel_names();
@@ -21,19 +25,44 @@ void require_known_kernel(const std::string& name) {
   throw Error("unknown kernel '" + name + "'; choose one of: " + valid);
 }
 
-std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint) {
+namespace {
+
+std::unique_ptr<Kernel> make_rbf(const FeatureMap& features) {
+  std::vector<int> cols;
+  std::vector<std::string> labels;
+  for (int c = 0; c < features.input_dim(); ++c) {
+    cols.push_back(c);
+    labels.push_back(features.name(c));
+  }
+  return std::make_unique<RbfKernel>(cols, labels);
+}
+
+// Structured part plus a local RBF that starts with a tenth of the variance.
+std::unique_ptr<Kernel> with_rbf(std::unique_ptr<Kernel> structured, const FeatureMap& features) {
+  std::vector<std::unique_ptr<Kernel>> parts;
+  parts.push_back(std::move(structured));
+  parts.push_back(make_rbf(features));
+  return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
+}
+
+}  // namespace
+
+std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint,
+                                    const RobotPrior& prior) {
   if (joint < 0 || joint >= features.num_joints()) throw Error("make_kernel: joint index out of range");
+  if (kernel_needs_robot(name)) {
+    if (!prior.robot) throw Error("kernel '" + name + "' is model-based and needs a nominal robot; pass --robot");
+    if (prior.robot->joint_types().str() != features.joints().str())
+      throw Error("robot '" + prior.robot->name() + "' has joints " + prior.robot->joint_types().str() +
+                  " but the data have " + features.joints().str() + "; pass the matching --robot or --joints");
+  }
   if (name == "gip") return std::make_unique<GipKernel>(features);
   if (name == "gip-friction") return std::make_unique<GipKernel>(features, joint);
-  if (name == "rbf") {
-    std::vector<int> cols;
-    std::vector<std::string> labels;
-    for (int c = 0; c < features.input_dim(); ++c) {
-      cols.push_back(c);
-      labels.push_back(features.name(c));
-    }
-    return std::make_unique<RbfKernel>(cols, labels);
-  }
+  if (name == "rbf") return make_rbf(features);
+  if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
+  if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);
+  if (name == "pp") return std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction);
+  if (name == "sp") return with_rbf(std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction), features);
   require_known_kernel(name);
   throw Error("make_kernel: kernel '" + name + "' is listed but not built here");
 }

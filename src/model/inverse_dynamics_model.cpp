@@ -25,7 +25,7 @@ std::string to_string(OutputScaling s) {
 
 InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                                            std::vector<GpRegressor> gps, OutputScaling scaling,
-                                           Eigen::VectorXd y_offset, Eigen::VectorXd y_scale)
+                                           Eigen::VectorXd y_offset, Eigen::VectorXd y_scale, RobotPrior prior)
     : joints_(joints),
       features_(joints),
       kernel_name_(std::move(kernel_name)),
@@ -33,7 +33,8 @@ InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string
       gps_(std::move(gps)),
       scaling_(scaling),
       y_offset_(std::move(y_offset)),
-      y_scale_(std::move(y_scale)) {
+      y_scale_(std::move(y_scale)),
+      prior_(std::move(prior)) {
   const int n = joints_.size();
   if (X_.cols() != 3 * n) throw Error("model: training inputs must have 3n columns");
   if (static_cast<int>(gps_.size()) != n || y_offset_.size() != n || y_scale_.size() != n)

@@ -23,6 +23,8 @@ void TrainOptions::validate() const {
                 std::to_string(initial_noise_fraction) + ")");
   if (threads < 0) throw Error("--threads must be >= 0");
   require_known_kernel(kernel);
+  if (kernel_needs_robot(kernel) && !robot_prior.robot)
+    throw Error("kernel '" + kernel + "' is model-based and needs the nominal robot; pass --robot");
 }
 
 void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints) {
@@ -46,8 +48,9 @@ std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index 
     for (Eigen::Index r = 0; r < rows; ++r) idx.push_back(r);
     return idx;
   }
-  const Eigen::Index step = rows / count;
-  for (Eigen::Index k = 0; k < count; ++k) idx.push_back(k * step);
+  // floor(k rows / count): evenly spread over all rows even when rows / count is
+  // not an integer (6340 rows -> 4000 must not keep just the first 4000).
+  for (Eigen::Index k = 0; k < count; ++k) idx.push_back(k * rows / count);
   return idx;
 }
 
@@ -68,7 +71,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   out.report.joint = j;
 
   const double target = std::max(y.squaredNorm() / static_cast<double>(y.size()), 1e-12);
-  std::unique_ptr<Kernel> kernel = make_kernel(o.kernel, features, j);
+  std::unique_ptr<Kernel> kernel = make_kernel(o.kernel, features, j, o.robot_prior);
   kernel->initialize(Z, target);
   const int P = kernel->num_params();
   Eigen::VectorXd x0(P + 1);
@@ -145,6 +148,9 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
                         const TrainOptions& options, const TrainingCallback& progress) {
   options.validate();
   validate_training_data(X, Y, joints);
+  if (kernel_needs_robot(options.kernel) && options.robot_prior.robot->joint_types().str() != joints.str())
+    throw Error("robot '" + options.robot_prior.robot->name() + "' has joints " +
+                options.robot_prior.robot->joint_types().str() + " but the data have " + joints.str());
   use_single_threaded_blas();
   const int n = joints.size();
   const FeatureMap features(joints);
@@ -154,7 +160,10 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   for (int j = 0; j < n; ++j) {
     const double mean = Y.col(j).mean();
     const double sd = std::sqrt((Y.col(j).array() - mean).square().mean());
-    if (options.scaling != OutputScaling::None) offset(j) = mean;
+    // A model-based kernel spans tau = Phi w exactly; a subtracted training mean is
+    // not in that span (no constant regressor column on joints that gravity does
+    // not load), so pp and sp are scaled but never centred.
+    if (options.scaling != OutputScaling::None && !kernel_needs_robot(options.kernel)) offset(j) = mean;
     if (options.scaling == OutputScaling::Standardize && sd > 1e-12) scale(j) = sd;
   }
 
@@ -181,7 +190,8 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
     gps.push_back(std::move(o.gp));
   }
   if (!result.message.empty()) return result;
-  result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale);
+  result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale,
+                                      options.robot_prior);
   result.ok = true;
   return result;
 }

@@ -101,6 +101,10 @@ RobotModel load_robot_urdf(const std::string& path) {
   std::ifstream in(path);
   if (!in) throw Error("cannot open URDF '" + path + "'");
   const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+  return robot_from_urdf(xml, path);
+}
+
+RobotModel robot_from_urdf(const std::string& xml, const std::string& path) {
   // urdfdom logs its parse errors to stderr through console_bridge; our own
   // one-line error below says what is wrong, so keep the terminal clean.
   console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
@@ -172,7 +176,25 @@ RobotModel load_robot_urdf(const std::string& path) {
     if (j->dynamics) spec.friction = {j->dynamics->damping, j->dynamics->friction};
     specs.push_back(spec);
   }
-  return RobotModel::from_chain(model->getName(), chain, specs);
+  RobotModel robot = RobotModel::from_chain(model->getName(), chain, specs);
+  robot.set_urdf(xml);
+  return robot;
+}
+
+nlohmann::json robot_to_storable_json(const RobotModel& robot) {
+  if (robot.is_dh()) return {{"dh", robot.to_json()}};
+  if (!robot.urdf().empty()) return {{"urdf", robot.urdf()}, {"gravity", robot.to_json().at("gravity")}};
+  throw Error("robot '" + robot.name() + "' has neither DH parameters nor URDF text to store");
+}
+
+RobotModel robot_from_storable_json(const nlohmann::json& stored, const std::string& source) {
+  if (stored.contains("dh")) return robot_from_json(stored.at("dh"), source);
+  if (stored.contains("urdf")) {
+    const auto g = stored.at("gravity").get<std::vector<double>>();
+    if (g.size() != 3) throw Error(source + ": stored gravity must have 3 entries");
+    return robot_from_urdf(stored.at("urdf").get<std::string>(), source).with_gravity(Eigen::Vector3d(g[0], g[1], g[2]));
+  }
+  throw Error(source + ": stored robot has neither 'dh' nor 'urdf'");
 }
 
 RobotModel load_robot(const std::string& spec) {

@@ -152,6 +152,7 @@ RobotModel RobotModel::with_perturbed_kinematics(std::uint64_t seed, double leng
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> ul(-length, length), ua(-angle, angle);
   RobotModel r = *this;
+  r.urdf_.clear();  // the perturbed chain no longer matches the text
   nlohmann::json record = nlohmann::json::array();
   if (is_dh()) {
     for (JointSpec& j : r.joints_) {

@@ -27,7 +27,7 @@ def trained(tmp_path_factory, gipdyn_bin):
 def test_train_reports_progress_and_writes_model(trained):
     d, _, out = trained
     assert "joint 1" in out and "joint 2" in out and "NLL" in out
-    assert "saved model to" in out
+    assert "saved gip model to" in out
     assert (d / "m.gipdyn").stat().st_size > 1000
 
 
@@ -102,7 +102,7 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("no rows", HEADER, "RR", [], "no data rows"),
         ("joint mismatch", HEADER + ROWS, "RRR", [], "joint string of length 2"),
         ("bad joint string", HEADER + ROWS, "RX", [], "'X'"),
-        ("unknown kernel", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown kernel"),
+        ("unknown estimator", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown estimator"),
         ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "unknown optimizer"),
     ],
 )

@@ -47,6 +47,10 @@ class ProductKernel final : public CompositeKernel {
 class SumKernel final : public CompositeKernel {
  public:
   using CompositeKernel::CompositeKernel;
+  // initialize() gives child c the share shares[c] of the target variance
+  // (equal shares unless set).
+  SumKernel(std::vector<std::unique_ptr<Kernel>> children, std::vector<double> shares);
+  void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<SumKernel>(*this); }
   void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const override;
   void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const override;
@@ -56,6 +60,9 @@ class SumKernel final : public CompositeKernel {
   void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
   void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+
+ private:
+  std::vector<double> shares_;
 };
 
 // MPK of degree p on the given columns: prod_{s=1..p} (s0_s + sum_d l_{s,d} z_d z'_d),

@@ -6,20 +6,35 @@
 
 #include "gipdyn/features.hpp"
 #include "gipdyn/kernels/kernel.hpp"
+#include "gipdyn/robot/robot_model.hpp"
 
 namespace gipdyn {
 
+// The nominal robot model that model-based kernels (pp, sp) are built on.
+struct RobotPrior {
+  std::shared_ptr<const RobotModel> robot;
+  bool friction = false;  // add viscous and Coulomb friction parameters to the regressor
+};
+
 // Names accepted by make_kernel.
 const std::vector<std::string>& kernel_names();
+// Whether the kernel needs a RobotPrior with a robot (pp, sp).
+bool kernel_needs_robot(const std::string& name);
 
 // Throws gipdyn::Error, listing the valid names, unless name is one of them.
 void require_known_kernel(const std::string& name);
 
 // The kernel of joint `joint` (0-based) of a robot with the given feature map:
-//   "gip"           GIP kernel
-//   "gip-friction"  GIP + viscous and Coulomb friction of the joint's own motor
-//   "rbf"           RBF with ARD lengthscales on (q, qd, qdd)
-// Throws gipdyn::Error for an unknown name, listing the valid ones.
-std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint);
+//   "gip"               GIP kernel
+//   "gip-friction"      GIP + viscous and Coulomb friction of the joint's own motor
+//   "rbf"               RBF with ARD lengthscales on (q, qd, qdd)
+//   "gip+rbf"           GIP + RBF (a structured part that generalises, a local part for the rest)
+//   "gip-friction+rbf"  GIP-friction + RBF
+//   "pp"                parametric prior on the rigid-body regressor of prior.robot
+//   "sp"                PP + RBF (semiparametric)
+// Sums start with 90 % of the output variance in the structured part.
+// Throws gipdyn::Error for an unknown name or a missing robot.
+std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint,
+                                    const RobotPrior& prior = {});
 
 }  // namespace gipdyn

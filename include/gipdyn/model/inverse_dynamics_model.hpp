@@ -11,6 +11,7 @@
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
 
 namespace gipdyn {
 
@@ -25,12 +26,14 @@ class InverseDynamicsModel {
   // X: training inputs (N x 3n). gps: one fitted GP per joint (alpha set).
   InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                        std::vector<GpRegressor> gps, OutputScaling scaling, Eigen::VectorXd y_offset,
-                       Eigen::VectorXd y_scale);
+                       Eigen::VectorXd y_scale, RobotPrior prior = {});
 
   const JointTypes& joints() const { return joints_; }
   int num_joints() const { return joints_.size(); }
   int num_training_samples() const { return static_cast<int>(X_.rows()); }
   const std::string& kernel_name() const { return kernel_name_; }
+  // The nominal robot of model-based kernels (pp, sp); empty otherwise.
+  const RobotPrior& robot_prior() const { return prior_; }
   const FeatureMap& features() const { return features_; }
   const Eigen::MatrixXd& training_inputs() const { return X_; }
   const Eigen::MatrixXd& training_features() const { return Z_; }
@@ -62,6 +65,7 @@ class InverseDynamicsModel {
   std::vector<GpRegressor> gps_;
   OutputScaling scaling_ = OutputScaling::None;
   Eigen::VectorXd y_offset_, y_scale_;
+  RobotPrior prior_;
 };
 
 // Single-query prediction without heap allocation per call (after construction):

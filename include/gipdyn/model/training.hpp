@@ -16,6 +16,8 @@ namespace gipdyn {
 
 struct TrainOptions {
   std::string kernel = "gip";
+  // The nominal robot for model-based kernels (pp, sp); required by them, ignored by the others.
+  RobotPrior robot_prior;
   OptimizerOptions optimizer;
   OutputScaling scaling = OutputScaling::Standardize;
   // Restarts from perturbed starts (log-parameters + N(0, restart_spread^2)),
@@ -74,8 +76,9 @@ void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, 
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
                         const TrainOptions& options, const TrainingCallback& progress = {});
 
-// Rows 0, s, 2s, ... (s = rows / count) : `count` rows with a constant step, as
-// the paper subsampled the UR10 data. count >= rows keeps everything.
+// Rows floor(k rows / count), k = 0..count-1: `count` rows with a constant
+// (possibly fractional) step over the whole range, as the paper subsampled the
+// UR10 data. count >= rows keeps everything.
 std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count);
 
 }  // namespace gipdyn

@@ -4,6 +4,8 @@
 #include <string>
 #include <vector>
 
+#include <nlohmann/json.hpp>
+
 #include "gipdyn/robot/robot_model.hpp"
 
 namespace gipdyn {
@@ -18,6 +20,12 @@ RobotModel robot_from_json(const nlohmann::json& description, const std::string&
 // A serial chain from the URDF's root link to its single leaf; fixed joints are
 // merged into the preceding link. Floating and planar joints are rejected.
 RobotModel load_robot_urdf(const std::string& path);
+// The same from URDF text; `source` names it in errors.
+RobotModel robot_from_urdf(const std::string& xml, const std::string& source);
+
+// A robot as model files store it: {"dh": description} or {"urdf": text, "gravity": [...]}.
+nlohmann::json robot_to_storable_json(const RobotModel& robot);
+RobotModel robot_from_storable_json(const nlohmann::json& stored, const std::string& source);
 
 // "scara", "ur10", a *.urdf file or a *.json file; throws gipdyn::Error listing the options.
 RobotModel load_robot(const std::string& spec);

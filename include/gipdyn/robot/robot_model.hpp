@@ -83,6 +83,11 @@ class RobotModel {
   // A JSON description of a DH robot in the format load_robot_json reads.
   nlohmann::json to_json() const;
 
+  // The URDF text a robot was loaded from (empty for DH robots and perturbed
+  // copies), kept so that model files can rebuild the same chain.
+  const std::string& urdf() const { return urdf_; }
+  void set_urdf(std::string xml) { urdf_ = std::move(xml); }
+
  private:
   void build_dh_chain();
   void validate() const;
@@ -91,6 +96,7 @@ class RobotModel {
   std::vector<JointSpec> joints_;
   KDL::Chain chain_;
   Eigen::Vector3d gravity_ = Eigen::Vector3d(0, 0, -9.81);
+  std::string urdf_;
 };
 
 }  // namespace gipdyn

@@ -1,0 +1,50 @@
+#pragma once
+// The parametric-prior (PP) kernel of METHOD.md §5: the rigid-body regressor
+// row of one joint, computed with the robot's nominal kinematics, with a
+// Gaussian prior of diagonal covariance on the dynamic parameters:
+//   k(x, x') = phi_i(x) diag(s) phi_i(x')^T.
+// Parameters: log s_k, one per dynamic parameter (10 per link, plus viscous and
+// Coulomb friction per joint when built with friction).
+#include <memory>
+#include <string>
+#include <vector>
+
+#include "gipdyn/kernels/kernel.hpp"
+#include "gipdyn/robot/robot_model.hpp"
+
+namespace gipdyn {
+
+class ParametricKernel final : public Kernel {
+ public:
+  ParametricKernel(std::shared_ptr<const RobotModel> robot, int joint, bool with_friction);
+
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<ParametricKernel>(*this); }
+  int num_params() const override { return static_cast<int>(log_params_.size()); }
+  std::vector<std::string> param_names() const override;
+  Eigen::VectorXd log_params() const override { return log_params_; }
+  void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) override;
+
+  void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const override;
+  void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const override;
+  void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
+  void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                KernelScratch& scratch) const override;
+
+  // s_k = target / (active parameters * mean phi_k^2) for every parameter the
+  // joint's torque depends on, so that k(x, x) starts near target on average.
+  void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
+
+  // Regressor rows of the kernel's joint for every row of Z (reads the first 3n columns).
+  Eigen::MatrixXd features(const Eigen::MatrixXd& Z) const;
+
+ private:
+  std::shared_ptr<const RobotModel> robot_;
+  int joint_;
+  bool with_friction_;
+  Eigen::VectorXd log_params_, variances_;
+};
+
+// Names of the dynamic parameters in regressor order: "link2.mcx", "joint3.coulomb".
+std::vector<std::string> dynamic_parameter_names(int num_joints, bool with_friction);
+
+}  // namespace gipdyn

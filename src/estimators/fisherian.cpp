@@ -1,0 +1,81 @@
+#include "gipdyn/estimators/fisherian.hpp"
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/robot/dynamics.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+
+namespace gipdyn {
+
+namespace {
+
+int regressor_columns(const RobotPrior& prior) { return (prior.friction ? 12 : 10) * prior.robot->num_joints(); }
+
+}  // namespace
+
+FisherianEstimator::FisherianEstimator(RobotPrior prior, Eigen::VectorXd weights)
+    : prior_(std::move(prior)), weights_(std::move(weights)) {
+  if (!prior_.robot) throw Error("the fe estimator needs the nominal robot; pass --robot");
+  joints_ = prior_.robot->joint_types();
+  if (weights_.size() != regressor_columns(prior_)) throw Error("fe: one weight per regressor column is needed");
+  base_rank_ = static_cast<int>((weights_.array() != 0.0).count());
+}
+
+FisherianEstimator FisherianEstimator::fit(const RobotPrior& prior, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
+  if (!prior.robot) throw Error("the fe estimator needs the nominal robot; pass --robot");
+  const int n = prior.robot->num_joints();
+  if (X.cols() != 3 * n || Y.cols() != n || X.rows() != Y.rows())
+    throw Error("fe: robot '" + prior.robot->name() + "' has " + std::to_string(n) + " joints; the data do not match");
+  const BaseParameters base = compute_base_parameters(*prior.robot, prior.friction);
+  const Eigen::MatrixXd Phi = base.select(stacked_regressor(*prior.robot, X, prior.friction));
+  if (Phi.rows() < Phi.cols())
+    throw Error("fe: " + std::to_string(X.rows()) + " samples give fewer equations than the " +
+                std::to_string(Phi.cols()) + " base parameters; use more samples");
+  // Sample-major stacking, as stacked_regressor orders its rows.
+  const Eigen::MatrixXd Yt = Y.transpose();
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(Yt.data(), Yt.size());
+  const Eigen::ColPivHouseholderQR<Eigen::MatrixXd> qr(Phi);
+  const Eigen::VectorXd wb = qr.solve(y);
+  Eigen::VectorXd w = Eigen::VectorXd::Zero(regressor_columns(prior));
+  for (size_t k = 0; k < base.independent.size(); ++k) w(base.independent[k]) = wb(static_cast<Eigen::Index>(k));
+  return FisherianEstimator(prior, w);
+}
+
+Eigen::MatrixXd FisherianEstimator::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
+  const int n = joints_.size();
+  if (X.cols() != 3 * n) throw Error("fe: inputs must have " + std::to_string(3 * n) + " columns");
+  Eigen::MatrixXd out(X.rows(), n);
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    const Eigen::VectorXd x = X.row(r).transpose();
+    out.row(r) = (regressor(*prior_.robot, x.segment(0, n), x.segment(n, n), x.segment(2 * n, n), prior_.friction) *
+                  weights_)
+                     .transpose();
+  }
+  return out;
+}
+
+ModelContainer FisherianEstimator::to_container() const {
+  ModelContainer c;
+  c.header["estimator"] = "fe";
+  c.header["joints"] = joints_.str();
+  c.header["robot"] = robot_to_storable_json(*prior_.robot);
+  c.header["robot_friction"] = prior_.friction;
+  c.add("weights", weights_);
+  return c;
+}
+
+nlohmann::json FisherianEstimator::summary() const {
+  return {{"estimator", "fe"}, {"robot", prior_.robot->name()}, {"friction", prior_.friction},
+          {"base_parameters", base_rank_}};
+}
+
+FisherianEstimator FisherianEstimator::from_container(const ModelContainer& c, const std::string& what) {
+  RobotPrior prior;
+  prior.robot = std::make_shared<const RobotModel>(robot_from_storable_json(c.header.at("robot"), what));
+  prior.friction = c.header.at("robot_friction").get<bool>();
+  const Eigen::MatrixXd& w = c.array("weights", what);
+  if (w.cols() != 1 || w.rows() != regressor_columns(prior))
+    throw Error(what + " is corrupted (weights shape); re-save the model");
+  return FisherianEstimator(prior, w.col(0));
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,185 @@
+#include "gipdyn/estimators/neural_network.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <numeric>
+#include <random>
+
+#include "gipdyn/error.hpp"
+
+#ifdef GIPDYN_HAVE_TORCH
+#include <torch/torch.h>
+#endif
+
+namespace gipdyn {
+
+void NeuralNetworkOptions::validate() const {
+  for (int h : hidden)
+    if (h < 1) throw Error("--nn-hidden: every layer needs at least one unit");
+  if (epochs < 1) throw Error("--nn-epochs must be >= 1");
+  if (batch_size < 1) throw Error("--nn-batch must be >= 1");
+  if (!(learning_rate > 0.0)) throw Error("--nn-lr must be > 0");
+  if (threads < 1) throw Error("NN threads must be >= 1");
+}
+
+std::vector<int> NeuralNetworkOptions::hidden_for(int num_joints) const {
+  if (!hidden.empty()) return hidden;
+  const int width = num_joints >= 6 ? 600 : 400;
+  return {width, width};
+}
+
+bool neural_network_training_available() {
+#ifdef GIPDYN_HAVE_TORCH
+  return true;
+#else
+  return false;
+#endif
+}
+
+namespace {
+
+// Column means and population standard deviations (1 where a column is constant).
+void standardisation(const Eigen::MatrixXd& A, Eigen::RowVectorXd& mean, Eigen::RowVectorXd& scale) {
+  mean = A.colwise().mean();
+  scale = ((A.rowwise() - mean).array().square().colwise().mean()).sqrt().matrix();
+  for (Eigen::Index c = 0; c < scale.size(); ++c)
+    if (!(scale(c) > 1e-12)) scale(c) = 1.0;
+}
+
+}  // namespace
+
+NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
+                                   const NeuralNetworkOptions& options,
+                                   const std::function<void(int, double)>& progress) {
+  options.validate();
+  const int n = joints.size();
+  if (X.cols() != 3 * n || Y.cols() != n || X.rows() != Y.rows() || X.rows() < 1)
+    throw Error("NN: inputs must be N x " + std::to_string(3 * n) + " and torques N x " + std::to_string(n));
+  if (!X.allFinite() || !Y.allFinite()) throw Error("NN: training data contain NaN or Inf");
+#ifndef GIPDYN_HAVE_TORCH
+  (void)progress;
+  throw Error("this gipdyn was built without libtorch, so it cannot train the nn estimator; "
+              "install libtorch-dev (scripts/install-deps.sh) and rebuild");
+#else
+  NeuralNetwork net;
+  net.joints_ = joints;
+  standardisation(X, net.x_mean_, net.x_scale_);
+  standardisation(Y, net.y_mean_, net.y_scale_);
+  const Eigen::MatrixXd Xs = ((X.rowwise() - net.x_mean_).array().rowwise() / net.x_scale_.array()).matrix();
+  const Eigen::MatrixXd Ys = ((Y.rowwise() - net.y_mean_).array().rowwise() / net.y_scale_.array()).matrix();
+
+  torch::manual_seed(options.seed);
+  torch::set_num_threads(options.threads);
+  const std::vector<int> hidden = options.hidden_for(n);
+  torch::nn::Sequential model;
+  int width = 3 * n;
+  for (int h : hidden) {
+    model->push_back(torch::nn::Linear(width, h));
+    model->push_back(torch::nn::Sigmoid());
+    width = h;
+  }
+  model->push_back(torch::nn::Linear(width, n));
+  model->to(torch::kDouble);
+
+  // Row-major copies so that a batch is a contiguous block of rows.
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const RowMajor xr = Xs, yr = Ys;
+  const auto N = static_cast<int64_t>(X.rows());
+  const torch::Tensor xt = torch::from_blob(const_cast<double*>(xr.data()), {N, 3 * n}, torch::kDouble).clone();
+  const torch::Tensor yt = torch::from_blob(const_cast<double*>(yr.data()), {N, n}, torch::kDouble).clone();
+
+  torch::optim::Adam adam(model->parameters(), torch::optim::AdamOptions(options.learning_rate));
+  std::mt19937_64 rng(options.seed);
+  std::vector<int64_t> order(static_cast<size_t>(N));
+  std::iota(order.begin(), order.end(), 0);
+  for (int epoch = 1; epoch <= options.epochs; ++epoch) {
+    std::shuffle(order.begin(), order.end(), rng);
+    const torch::Tensor perm = torch::from_blob(order.data(), {N}, torch::kLong).clone();
+    double total = 0.0;
+    for (int64_t start = 0; start < N; start += options.batch_size) {
+      const int64_t stop = std::min<int64_t>(N, start + options.batch_size);
+      const torch::Tensor idx = perm.slice(0, start, stop);
+      adam.zero_grad();
+      const torch::Tensor loss = torch::mse_loss(model->forward(xt.index_select(0, idx)), yt.index_select(0, idx));
+      loss.backward();
+      adam.step();
+      total += loss.item<double>() * static_cast<double>(stop - start);
+    }
+    net.final_loss_ = total / static_cast<double>(N);
+    if (progress) progress(epoch, net.final_loss_);
+  }
+
+  for (const auto& module : model->children()) {
+    if (auto* linear = module->as<torch::nn::Linear>()) {
+      const torch::Tensor w = linear->weight.detach().contiguous();
+      const torch::Tensor b = linear->bias.detach().contiguous();
+      net.weights_.push_back(Eigen::Map<const RowMajor>(w.data_ptr<double>(), w.size(0), w.size(1)));
+      net.biases_.push_back(Eigen::Map<const Eigen::VectorXd>(b.data_ptr<double>(), b.size(0)));
+    }
+  }
+  return net;
+#endif
+}
+
+Eigen::MatrixXd NeuralNetwork::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
+  const int n = joints_.size();
+  if (X.cols() != 3 * n) throw Error("NN: inputs must have " + std::to_string(3 * n) + " columns");
+  Eigen::MatrixXd h = ((X.rowwise() - x_mean_).array().rowwise() / x_scale_.array()).matrix();
+  for (size_t l = 0; l < weights_.size(); ++l) {
+    Eigen::MatrixXd next = (h * weights_[l].transpose()).rowwise() + biases_[l].transpose();
+    if (l + 1 < weights_.size()) next = (1.0 / (1.0 + (-next.array()).exp())).matrix();
+    h = std::move(next);
+  }
+  return ((h.array().rowwise() * y_scale_.array()).rowwise() + y_mean_.array()).matrix();
+}
+
+int NeuralNetwork::num_weights() const {
+  int k = 0;
+  for (size_t l = 0; l < weights_.size(); ++l) k += static_cast<int>(weights_[l].size() + biases_[l].size());
+  return k;
+}
+
+void NeuralNetwork::to_container(ModelContainer& c) const {
+  c.header["joints"] = joints_.str();
+  c.header["layers"] = static_cast<int>(weights_.size());
+  c.header["final_training_loss"] = final_loss_;
+  c.add("x_mean", x_mean_);
+  c.add("x_scale", x_scale_);
+  c.add("y_mean", y_mean_);
+  c.add("y_scale", y_scale_);
+  for (size_t l = 0; l < weights_.size(); ++l) {
+    c.add("W" + std::to_string(l + 1), weights_[l]);
+    c.add("b" + std::to_string(l + 1), biases_[l]);
+  }
+}
+
+NeuralNetwork NeuralNetwork::from_container(const ModelContainer& c, const std::string& what) {
+  NeuralNetwork net;
+  net.joints_ = JointTypes::parse(c.header.at("joints").get<std::string>());
+  const int n = net.joints_.size();
+  net.final_loss_ = c.header.value("final_training_loss", 0.0);
+  auto row = [&](const std::string& name, int size) -> Eigen::RowVectorXd {
+    const Eigen::MatrixXd& a = c.array(name, what);
+    if (a.rows() != 1 || a.cols() != size) throw Error(what + " is corrupted (shape of " + name + "); re-save the model");
+    return a.row(0);
+  };
+  net.x_mean_ = row("x_mean", 3 * n);
+  net.x_scale_ = row("x_scale", 3 * n);
+  net.y_mean_ = row("y_mean", n);
+  net.y_scale_ = row("y_scale", n);
+  const int layers = c.header.at("layers").get<int>();
+  Eigen::Index width = 3 * n;
+  for (int l = 1; l <= layers; ++l) {
+    const Eigen::MatrixXd& W = c.array("W" + std::to_string(l), what);
+    const Eigen::MatrixXd& b = c.array("b" + std::to_string(l), what);
+    if (W.cols() != width || b.cols() != 1 || b.rows() != W.rows())
+      throw Error(what + " is corrupted (layer " + std::to_string(l) + " shape); re-save the model");
+    net.weights_.push_back(W);
+    net.biases_.push_back(b.col(0));
+    width = net.weights_.back().rows();
+  }
+  if (width != n) throw Error(what + " is corrupted (output layer width); re-save the model");
+  return net;
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,151 @@
+# PNG plots of gipdyn's experiment and evaluation outputs. Embedded in the
+# gipdyn executable and run with Debian's /usr/bin/python3 (matplotlib):
+#   python3 - KIND INPUT... OUTPUT.png
+import csv
+import math
+import sys
+
+import matplotlib
+
+matplotlib.use("Agg")
+import matplotlib.pyplot as plt  # noqa: E402
+
+
+def read_rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def number(s):
+    try:
+        return float(s)
+    except ValueError:
+        return math.nan
+
+
+def ordered(values):
+    seen = []
+    for v in values:
+        if v not in seen:
+            seen.append(v)
+    return seen
+
+
+def boxplot(nmse_csv, out):
+    rows = read_rows(nmse_csv)
+    estimators = ordered(r["estimator"] for r in rows)
+    joints = sorted({int(r["joint"]) for r in rows})
+    fig, axes = plt.subplots(1, len(joints), figsize=(3.2 * len(joints), 4), squeeze=False)
+    for ax, j in zip(axes[0], joints):
+        data = []
+        for e in estimators:
+            v = [number(r["nmse"]) for r in rows if r["estimator"] == e and int(r["joint"]) == j]
+            data.append([x for x in v if math.isfinite(x) and x > 0] or [math.nan])
+        ax.boxplot(data, labels=estimators, whis=(0, 100) if len(data[0]) < 5 else 1.5)
+        ax.set_yscale("log")
+        ax.set_title("joint %d" % j)
+        ax.axhline(0.01, color="grey", lw=0.8, ls="--")
+        ax.tick_params(axis="x", rotation=45)
+    axes[0][0].set_ylabel("test nMSE (log scale)")
+    fig.suptitle("nMSE per estimator (%d runs; dashed: 1 %%)" % len({r["run"] for r in rows}))
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
+def gmse(gmse_csv, out):
+    rows = read_rows(gmse_csv)
+    fig, ax = plt.subplots(figsize=(6, 4.5))
+    for e in ordered(r["estimator"] for r in rows):
+        sizes = sorted({int(r["size"]) for r in rows if r["estimator"] == e})
+        med = []
+        for s in sizes:
+            v = sorted(number(r["gmse"]) for r in rows if r["estimator"] == e and int(r["size"]) == s)
+            med.append(v[len(v) // 2])
+        ax.plot(sizes, med, marker="o", label=e)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlabel("training samples")
+    ax.set_ylabel("test GMSE")
+    ax.grid(True, which="both", alpha=0.3)
+    ax.legend()
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
+def bars(nmse_csv, out):
+    rows = read_rows(nmse_csv)
+    estimators = ordered(r["estimator"] for r in rows)
+    joints = sorted({int(r["joint"]) for r in rows})
+    width = 0.8 / max(1, len(estimators))
+    fig, ax = plt.subplots(figsize=(1.2 + 1.1 * len(joints) * max(1, len(estimators)) / 3, 4.5))
+    for k, e in enumerate(estimators):
+        v = []
+        for j in joints:
+            m = [number(r["nmse"]) for r in rows if r["estimator"] == e and int(r["joint"]) == j]
+            v.append(m[0] if m else math.nan)
+        ax.bar([j + (k - (len(estimators) - 1) / 2) * width for j in joints], v, width, label=e)
+    ax.set_yscale("log")
+    ax.axhline(1.0, color="grey", lw=0.8, ls="--")
+    ax.set_xticks(joints)
+    ax.set_xlabel("joint")
+    ax.set_ylabel("test nMSE (log scale; dashed: predicting the mean)")
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=120)
+
+
+def timeseries(predictions_csv, out):
+    """Columns: row, tau1..taun (measured), then EST_tau1..EST_taun per estimator."""
+    rows = read_rows(predictions_csv)
+    cols = list(rows[0].keys())
+    measured = [c for c in cols if c.startswith("tau")]
+    estimators = ordered(c.rsplit("_tau", 1)[0] for c in cols if "_tau" in c)
+    t = [number(r["row"]) for r in rows]
+    fig, axes = plt.subplots(len(measured), 1, figsize=(10, 2.2 * len(measured)), sharex=True, squeeze=False)
+    for ax, m in zip(axes[:, 0], measured):
+        ax.plot(t, [number(r[m]) for r in rows], color="black", lw=1.4, label="measured")
+        for e in estimators:
+            ax.plot(t, [number(r[e + "_" + m]) for r in rows], lw=0.9, label=e)
+        ax.set_ylabel(m)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, ncol=len(estimators) + 1, loc="upper right")
+    axes[-1, 0].set_xlabel("data row")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
+def residuals(predictions_csv, out):
+    """Columns: tau1..taun (target) and tau1_hat..taun_hat: one residual histogram per joint."""
+    rows = read_rows(predictions_csv)
+    joints = [c for c in rows[0].keys() if c.startswith("tau") and not c.endswith("_hat")]
+    fig, axes = plt.subplots(1, len(joints), figsize=(3 * len(joints), 3), squeeze=False)
+    for ax, c in zip(axes[0], joints):
+        r = [number(row[c]) - number(row[c + "_hat"]) for row in rows]
+        ax.hist([x for x in r if math.isfinite(x)], bins=50, color="tab:blue")
+        ax.set_title(c + " residual")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
+def noise_ratio(json_path, out):
+    import json
+
+    with open(json_path) as f:
+        d = json.load(f)
+    ratios = d["noise_ratio"]
+    fig, ax = plt.subplots(figsize=(1.5 + 0.6 * len(ratios), 3.5))
+    ax.bar(range(1, len(ratios) + 1), ratios)
+    ax.set_ylim(0, 1)
+    ax.set_xlabel("joint")
+    ax.set_ylabel("learned noise variance / output variance")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
+KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
+         "residuals": residuals, "noise-ratio": noise_ratio}
+
+if __name__ == "__main__":
+    if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
+        sys.exit("usage: plots.py {%s} INPUT OUTPUT.png" % ",".join(KINDS))
+    KINDS[sys.argv[1]](sys.argv[2], sys.argv[3])

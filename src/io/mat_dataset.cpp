@@ -1,0 +1,50 @@
+#include <matio.h>
+
+#include <memory>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/dataset.hpp"
+
+namespace gipdyn {
+
+Dataset read_mat_dataset(const std::string& path, const std::string& variable, const JointTypes& joints,
+                         bool require_tau) {
+  const int n = joints.size();
+  const std::string what = "'" + path + "'";
+  std::unique_ptr<mat_t, decltype(&Mat_Close)> mat(Mat_Open(path.c_str(), MAT_ACC_RDONLY), &Mat_Close);
+  if (!mat) throw Error("cannot open " + what + " as a MATLAB .mat file (missing, unreadable or not a .mat file)");
+  std::unique_ptr<matvar_t, decltype(&Mat_VarFree)> var(Mat_VarRead(mat.get(), variable.c_str()), &Mat_VarFree);
+  if (!var) {
+    std::string names;
+    Mat_Rewind(mat.get());
+    while (matvar_t* info = Mat_VarReadNextInfo(mat.get())) {
+      names += (names.empty() ? "" : ", ") + std::string(info->name ? info->name : "?");
+      Mat_VarFree(info);
+    }
+    throw Error(what + " has no variable '" + variable + "'; it holds: " + (names.empty() ? "nothing" : names) +
+                " (pass one with --mat-variable)");
+  }
+  if (var->rank != 2 || var->isComplex || var->data == nullptr ||
+      (var->class_type != MAT_C_DOUBLE && var->class_type != MAT_C_SINGLE))
+    throw Error(what + ": variable '" + variable + "' is not a real 2-D double or single matrix");
+  const auto rows = static_cast<Eigen::Index>(var->dims[0]), cols = static_cast<Eigen::Index>(var->dims[1]);
+  const Eigen::Index needed = require_tau ? 4 * n : 3 * n;
+  if (cols < needed)
+    throw Error(what + ": variable '" + variable + "' has " + std::to_string(cols) + " columns but joints " +
+                joints.str() + " need " + std::to_string(needed) + " (q, qd, qdd" + (require_tau ? ", tau" : "") +
+                " per joint, in that order)");
+  if (rows < 1) throw Error(what + ": variable '" + variable + "' has no rows");
+  Eigen::MatrixXd A(rows, cols);
+  if (var->class_type == MAT_C_DOUBLE)
+    A = Eigen::Map<const Eigen::MatrixXd>(static_cast<const double*>(var->data), rows, cols);
+  else
+    A = Eigen::Map<const Eigen::MatrixXf>(static_cast<const float*>(var->data), rows, cols).cast<double>();
+  if (!A.leftCols(needed).allFinite())
+    throw Error(what + ": variable '" + variable + "' contains NaN or Inf; remove or repair those rows");
+  Dataset d;
+  d.X = A.leftCols(3 * n);
+  if (require_tau) d.tau = A.middleCols(3 * n, n);
+  return d;
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,126 @@
+#include "gipdyn/io/model_container.hpp"
+
+#include <cerrno>
+#include <cstdint>
+#include <cstring>
+#include <fstream>
+#include <iterator>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/atomic_file.hpp"
+
+#if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
+#error "the model file stores little-endian doubles; add byte swapping for this platform"
+#endif
+
+namespace gipdyn {
+namespace {
+
+constexpr char kMagic[8] = {'G', 'I', 'P', 'D', 'Y', 'N', 'M', 'F'};
+constexpr size_t kPrefix = 8 + 4 + 4 + 8;
+
+std::uint64_t fnv1a(const char* data, size_t size) {
+  std::uint64_t h = 1469598103934665603ULL;
+  for (size_t k = 0; k < size; ++k) {
+    h ^= static_cast<unsigned char>(data[k]);
+    h *= 1099511628211ULL;
+  }
+  return h;
+}
+
+template <class T>
+void put(std::string& buf, const T& v) {
+  buf.append(reinterpret_cast<const char*>(&v), sizeof(T));
+}
+
+template <class T>
+T get(const std::string& buf, size_t at) {
+  T v;
+  std::memcpy(&v, buf.data() + at, sizeof(T));
+  return v;
+}
+
+}  // namespace
+
+const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std::string& what) const {
+  for (const auto& [n, a] : arrays)
+    if (n == name) return a;
+  throw Error(what + " is corrupted (no array '" + name + "'); re-save the model");
+}
+
+std::string pack_container(const ModelContainer& c) {
+  nlohmann::json h = c.header;
+  nlohmann::json list = nlohmann::json::array();
+  for (const auto& [name, a] : c.arrays) list.push_back({{"name", name}, {"rows", a.rows()}, {"cols", a.cols()}});
+  h["arrays"] = list;
+  const std::string header = h.dump(1);
+  std::string buf(kMagic, sizeof(kMagic));
+  put<std::uint32_t>(buf, kModelFormatVersion);
+  put<std::uint32_t>(buf, 0);
+  put<std::uint64_t>(buf, header.size());
+  buf += header;
+  for (const auto& [name, a] : c.arrays)
+    buf.append(reinterpret_cast<const char*>(a.data()), sizeof(double) * static_cast<size_t>(a.size()));
+  put<std::uint64_t>(buf, fnv1a(buf.data(), buf.size()));
+  return buf;
+}
+
+ModelContainer unpack_container(const std::string& buf, const std::string& what) {
+  using nlohmann::json;
+  if (buf.size() < kPrefix || std::memcmp(buf.data(), kMagic, sizeof(kMagic)) != 0)
+    throw Error(what + " is not a gipdyn model (bad magic or truncated header); train one with `gipdyn train`");
+  const auto version = get<std::uint32_t>(buf, 8);
+  if (version > kModelFormatVersion)
+    throw Error(what + " has format version " + std::to_string(version) + ", newer than this gipdyn reads (" +
+                std::to_string(kModelFormatVersion) + "); upgrade gipdyn");
+  const auto header_size = get<std::uint64_t>(buf, 16);
+  if (header_size > buf.size() - kPrefix) throw Error(what + " is truncated (header cut off); re-save the model");
+  ModelContainer c;
+  try {
+    c.header = json::parse(buf.substr(kPrefix, header_size));
+  } catch (const std::exception&) {
+    throw Error(what + " is corrupted (unreadable header); re-save the model");
+  }
+  try {
+    std::vector<std::pair<std::string, std::pair<Eigen::Index, Eigen::Index>>> shapes;
+    size_t payload = 0;
+    for (const json& a : c.header.at("arrays")) {
+      const auto rows = a.at("rows").get<Eigen::Index>(), cols = a.at("cols").get<Eigen::Index>();
+      if (rows < 0 || cols < 0) throw Error(what + " is corrupted (negative array size); re-save the model");
+      shapes.push_back({a.at("name").get<std::string>(), {rows, cols}});
+      payload += sizeof(double) * static_cast<size_t>(rows) * static_cast<size_t>(cols);
+    }
+    const size_t expected = kPrefix + header_size + payload + 8;
+    if (buf.size() < expected)
+      throw Error(what + " is truncated (" + std::to_string(buf.size()) + " of " + std::to_string(expected) +
+                  " bytes); re-save the model");
+    if (buf.size() != expected) throw Error(what + " is corrupted (unexpected size); re-save the model");
+    if (get<std::uint64_t>(buf, expected - 8) != fnv1a(buf.data(), expected - 8))
+      throw Error(what + " is corrupted (checksum mismatch); re-save the model");
+    size_t at = kPrefix + header_size;
+    for (const auto& [name, shape] : shapes) {
+      Eigen::MatrixXd a(shape.first, shape.second);
+      std::memcpy(a.data(), buf.data() + at, sizeof(double) * static_cast<size_t>(a.size()));
+      at += sizeof(double) * static_cast<size_t>(a.size());
+      c.arrays.emplace_back(name, std::move(a));
+    }
+  } catch (const json::exception& e) {
+    throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");
+  }
+  c.header.erase("arrays");
+  return c;
+}
+
+void write_container(const ModelContainer& container, const std::string& path) {
+  const std::string buf = pack_container(container);
+  write_file_atomically(path, [&](std::ostream& out) { out.write(buf.data(), static_cast<std::streamsize>(buf.size())); },
+                        true);
+}
+
+std::string read_model_bytes(const std::string& path) {
+  std::ifstream in(path, std::ios::binary);
+  if (!in) throw Error("cannot open model file '" + path + "': " + std::strerror(errno));
+  return std::string((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,92 @@
+#include "gipdyn/kernels/parametric_kernel.hpp"
+
+#include <cmath>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/robot/dynamics.hpp"
+
+namespace gipdyn {
+
+std::vector<std::string> dynamic_parameter_names(int num_joints, bool with_friction) {
+  static const char* inertial[10] = {"m", "mcx", "mcy", "mcz", "Ixx", "Ixy", "Ixz", "Iyy", "Iyz", "Izz"};
+  std::vector<std::string> names;
+  for (int l = 0; l < num_joints; ++l)
+    for (const char* p : inertial) names.push_back("link" + std::to_string(l + 1) + "." + p);
+  if (with_friction) {
+    for (int j = 0; j < num_joints; ++j) names.push_back("joint" + std::to_string(j + 1) + ".viscous");
+    for (int j = 0; j < num_joints; ++j) names.push_back("joint" + std::to_string(j + 1) + ".coulomb");
+  }
+  return names;
+}
+
+ParametricKernel::ParametricKernel(std::shared_ptr<const RobotModel> robot, int joint, bool with_friction)
+    : robot_(std::move(robot)), joint_(joint), with_friction_(with_friction) {
+  if (!robot_) throw Error("the parametric kernel needs a robot model; pass --robot");
+  if (joint < 0 || joint >= robot_->num_joints()) throw Error("parametric kernel: joint index out of range");
+  const int p = (with_friction ? 12 : 10) * robot_->num_joints();
+  log_params_ = Eigen::VectorXd::Zero(p);
+  variances_ = Eigen::VectorXd::Ones(p);
+}
+
+std::vector<std::string> ParametricKernel::param_names() const {
+  std::vector<std::string> names = dynamic_parameter_names(robot_->num_joints(), with_friction_);
+  for (auto& n : names) n = "pp." + n + ".variance";
+  return names;
+}
+
+void ParametricKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) {
+  if (p.size() != log_params_.size()) throw Error("parametric kernel: wrong number of parameters");
+  log_params_ = p;
+  variances_ = p.array().exp().matrix();
+}
+
+Eigen::MatrixXd ParametricKernel::features(const Eigen::MatrixXd& Z) const {
+  const int n = robot_->num_joints();
+  if (Z.cols() < 3 * n) throw Error("parametric kernel: inputs have fewer than 3n columns");
+  Eigen::MatrixXd Phi(Z.rows(), log_params_.size());
+  for (Eigen::Index r = 0; r < Z.rows(); ++r) {
+    const Eigen::VectorXd q = Z.row(r).segment(0, n).transpose();
+    const Eigen::VectorXd qd = Z.row(r).segment(n, n).transpose();
+    const Eigen::VectorXd qdd = Z.row(r).segment(2 * n, n).transpose();
+    Phi.row(r) = regressor(*robot_, q, qd, qdd, with_friction_).row(joint_);
+  }
+  return Phi;
+}
+
+void ParametricKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
+  const Eigen::MatrixXd P1 = features(Z1);
+  if (&Z1 == &Z2) {
+    K.noalias() = P1 * variances_.asDiagonal() * P1.transpose();
+  } else {
+    K.noalias() = P1 * variances_.asDiagonal() * features(Z2).transpose();
+  }
+}
+
+void ParametricKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
+  d = features(Z).array().square().matrix() * variances_;
+}
+
+void ParametricKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
+                                       Eigen::MatrixXd& dK) const {
+  if (p < 0 || p >= num_params()) throw Error("parametric kernel: parameter index out of range");
+  dK.noalias() = variances_(p) * features(Z1).col(p) * features(Z2).col(p).transpose();
+}
+
+void ParametricKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                                KernelScratch& scratch) const {
+  // sum_ij W_ij s_k phi_ik phi_jk = s_k phi_k^T W phi_k, for every k from one N x N x p product.
+  scratch.a = features(Z);
+  scratch.b.noalias() = W * scratch.a;
+  grad += (variances_.array() * (scratch.a.array() * scratch.b.array()).colwise().sum().transpose()).matrix();
+}
+
+void ParametricKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
+  const Eigen::VectorXd mean_sq = features(Z).array().square().colwise().mean().transpose();
+  const double floor = 1e-12 * std::max(mean_sq.maxCoeff(), 1e-300);
+  const int active = std::max(1, static_cast<int>((mean_sq.array() > floor).count()));
+  for (Eigen::Index k = 0; k < mean_sq.size(); ++k)
+    log_params_(k) = mean_sq(k) > floor ? std::log(target_variance / (active * mean_sq(k))) : 0.0;
+  variances_ = log_params_.array().exp().matrix();
+}
+
+}  // namespace gipdyn
