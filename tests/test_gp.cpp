@@ -7,6 +7,7 @@
 #include "gipdyn/features.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -28,7 +29,12 @@ TEST_P(NllGradientTest, MatchesFiniteDifferences) {
   const FeatureMap fm(joints);
   const Eigen::MatrixXd Z = fm.compute(random_inputs(joints, 40, 21));
   const Eigen::VectorXd y = random_vector(40, -1, 1, 22);
-  auto kernel = make_kernel(GetParam().kernel, fm, joints.size() - 1);
+  // Model-based kernels get the built-in robot with these joints.
+  RobotPrior prior;
+  if (joints.str() == "RRPR") prior.robot = std::make_shared<const RobotModel>(scara_robot());
+  if (joints.str() == "RRRRRR") prior.robot = std::make_shared<const RobotModel>(ur10_robot());
+  prior.friction = joints.str() == "RRRRRR";
+  auto kernel = make_kernel(GetParam().kernel, fm, joints.size() - 1, prior);
   kernel->initialize(Z, 1.0);
   const int P = kernel->num_params();
   Eigen::VectorXd x(P + 1);
@@ -59,12 +65,15 @@ INSTANTIATE_TEST_SUITE_P(
     ::testing::Values(Case{"R", "gip"}, Case{"P", "gip"}, Case{"RRPR", "gip"}, Case{"RRRRRR", "gip"},
                       Case{"PRPRRR", "gip"}, Case{"R", "gip-friction"}, Case{"RRPR", "gip-friction"},
                       Case{"RRRRRR", "gip-friction"}, Case{"PRPRRR", "gip-friction"}, Case{"R", "rbf"},
-                      Case{"RRPR", "rbf"}, Case{"RRRRRR", "rbf"}, Case{"PRPRRR", "rbf"}),
+                      Case{"RRPR", "rbf"}, Case{"RRRRRR", "rbf"}, Case{"PRPRRR", "rbf"},
+                      Case{"RRPR", "gip+rbf"}, Case{"PRPRRR", "gip+rbf"}, Case{"RRPR", "gip-friction+rbf"},
+                      Case{"RRRRRR", "gip-friction+rbf"}, Case{"RRPR", "pp"}, Case{"RRRRRR", "pp"},
+                      Case{"RRPR", "sp"}, Case{"RRRRRR", "sp"}),
     [](const ::testing::TestParamInfo<Case>& info) {
       std::string name = std::string(info.param.joints) + "_" + info.param.kernel;
-      for (char& c : name)
-        if (c == '-') c = '_';
-      return name;
+      std::string clean;
+      for (char c : name) clean += c == '-' ? std::string("_") : c == '+' ? std::string("_plus_") : std::string(1, c);
+      return clean;
     });
 
 TEST(Cholesky, AddsJitterToASingularMatrixAndReportsIt) {

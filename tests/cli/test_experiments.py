@@ -1,0 +1,159 @@
+"""The experiment commands on tiny configurations: files, columns, plots, resume, refusal of mixed settings."""
+import csv
+import os
+import subprocess
+
+import numpy as np
+import pytest
+
+ROOT = os.path.dirname(os.path.dirname(os.path.dirname(os.path.abspath(__file__))))
+UR10_CSV = os.path.join(ROOT, "..", "shared", "data", "ur10-pick-and-place", "urPicknPlace.csv")
+FAST = ["--max-iter", "15", "--nn-epochs", "3", "--nn-hidden", "20,20"]
+
+
+def run(binary, *args):
+    return subprocess.run([binary, *args], capture_output=True, text=True, timeout=600)
+
+
+def rows(path):
+    with open(path, newline="") as f:
+        return list(csv.DictReader(f))
+
+
+def header(path):
+    with open(path) as f:
+        return f.readline().strip().split(",")
+
+
+def is_png(path):
+    with open(path, "rb") as f:
+        return f.read(8) == b"\x89PNG\r\n\x1a\n"
+
+
+def accuracy(binary, out, runs):
+    return run(binary, "experiment", "accuracy", "--robot", "scara", "--runs", str(runs), "--samples", "200",
+               "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST)
+
+
+def test_accuracy_writes_documented_files_and_resumes(tmp_path, gipdyn_bin):
+    out = tmp_path / "e1"
+    r = accuracy(gipdyn_bin, out, 2)
+    assert r.returncode == 0, r.stderr
+    assert "[run 1/2] fe" in r.stdout and "left" in r.stdout  # progress with an estimate of time left
+    assert header(out / "nmse.csv")[:4] == ["run", "estimator", "joint", "nmse"]
+    table = rows(out / "nmse.csv")
+    assert len(table) == 2 * 4 * 4  # runs x estimators x joints
+    assert {r["estimator"] for r in table} == {"fe", "pp", "gip", "nn"}
+    assert all(np.isfinite(float(r["nmse"])) for r in table)
+    summary = (out / "summary.md").read_text()
+    assert "| gip |" in summary and "joint 4" in summary
+    assert is_png(out / "nmse_boxplot.png")
+
+    # Nothing left to do: a rerun fits nothing and keeps every recorded number.
+    before = (out / "nmse.csv").read_text()
+    r = accuracy(gipdyn_bin, out, 2)
+    assert r.returncode == 0, r.stderr
+    assert "0 fit(s) done, 8 already recorded" in r.stdout
+    assert (out / "nmse.csv").read_text() == before
+
+    # An interruption after run 1: only run 2 is redone, with the same numbers (seeded).
+    lines = before.splitlines()
+    (out / "nmse.csv").write_text("\n".join(l for l in lines if not l.startswith("2,")) + "\n")
+    r = accuracy(gipdyn_bin, out, 2)
+    assert r.returncode == 0, r.stderr
+    assert "4 fit(s) done, 4 already recorded" in r.stdout
+    assert "[run 1/2]" not in r.stdout
+    again = {(x["run"], x["estimator"], x["joint"]): x["nmse"] for x in rows(out / "nmse.csv")}
+    first = {(x["run"], x["estimator"], x["joint"]): x["nmse"] for x in table}
+    assert again == first
+
+    # More runs extend the experiment.
+    r = accuracy(gipdyn_bin, out, 3)
+    assert r.returncode == 0, r.stderr
+    assert "4 fit(s) done, 8 already recorded" in r.stdout
+
+
+def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
+    out = tmp_path / "e1"
+    assert accuracy(gipdyn_bin, out, 1).returncode == 0
+    r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "300",
+            "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST)
+    assert r.returncode != 0
+    assert "other settings" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+
+
+def test_data_efficiency_writes_gmse_table_and_plot(tmp_path, gipdyn_bin):
+    out = tmp_path / "e2"
+    r = run(gipdyn_bin, "experiment", "data-efficiency", "--robot", "scara", "--train-samples", "200",
+            "--test-samples", "100", "--sizes", "50,200", "--dt", "0.1", "--estimators", "gip,pp,nn",
+            "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    assert header(out / "gmse.csv")[:4] == ["run", "size", "estimator", "gmse"]
+    table = rows(out / "gmse.csv")
+    assert {(x["size"], x["estimator"]) for x in table} == {(s, e) for s in ("50", "200") for e in ("gip", "pp", "nn")}
+    assert is_png(out / "gmse.png")
+    bad = run(gipdyn_bin, "experiment", "data-efficiency", "--train-samples", "100", "--sizes", "50,500",
+              "--out", str(tmp_path / "bad"))
+    assert bad.returncode != 0 and "--sizes" in bad.stderr
+
+
+def simulated_log(binary, path, samples):
+    r = run(binary, "simulate", "--robot", "scara", "--samples", str(samples), "--dt", "0.1", "--seed", "3",
+            "--friction", "--noise", "0", "--out", str(path), "--quiet")
+    assert r.returncode == 0, r.stderr
+
+
+def check_real_outputs(out, estimators, joints):
+    assert header(out / "nmse.csv")[:3] == ["estimator", "joint", "nmse"]
+    table = rows(out / "nmse.csv")
+    assert {x["estimator"] for x in table} == set(estimators)
+    assert len(table) == len(estimators) * joints
+    assert is_png(out / "nmse_bar.png") and is_png(out / "torque_time.png")
+    window = header(out / "test_window.csv")
+    assert window[0] == "row" and f"{estimators[0]}_tau1" in window
+
+
+def test_real_on_a_csv_log_with_row_ranges(tmp_path, gipdyn_bin):
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 300)
+    out = tmp_path / "real"
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-200",
+            "--test-rows", "201-300", "--max-train", "100", "--robot", "scara", "--robot-friction",
+            "--estimators", "gip,fe,sp,nn", "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    check_real_outputs(out, ["gip", "fe", "sp", "nn"], 4)
+    fe = [x for x in rows(out / "nmse.csv") if x["estimator"] == "fe"]
+    assert all(float(x["nmse"]) < 1e-8 for x in fe)  # the exact model with friction columns, no bias, no noise
+    assert {x["training_rows"] for x in rows(out / "nmse.csv") if x["estimator"] == "gip"} == {"100"}
+    bad = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-200",
+              "--test-rows", "201-900", "--out", str(tmp_path / "bad"))
+    assert bad.returncode != 0 and "has 300 data rows" in bad.stderr
+
+
+def test_real_reads_a_mat_file(tmp_path, gipdyn_bin):
+    scipy_io = pytest.importorskip("scipy.io")
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 120)
+    data = np.genfromtxt(log, delimiter=",", names=True)
+    cols = [f"{g}{j}" for g in ("q", "qd", "qdd", "tau") for j in range(1, 5)]
+    scipy_io.savemat(tmp_path / "log.mat", {"robotLog": np.column_stack([data[c] for c in cols])})
+    out = tmp_path / "real"
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(tmp_path / "log.mat"), "--mat-variable", "robotLog",
+            "--joints", "RRPR", "--train-rows", "1-80", "--test-rows", "81-120", "--estimators", "gip",
+            "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    check_real_outputs(out, ["gip"], 4)
+    bad = run(gipdyn_bin, "experiment", "real", "--data", str(tmp_path / "log.mat"), "--mat-variable", "nope",
+              "--joints", "RRPR", "--train-rows", "1-80", "--test-rows", "81-120", "--out", str(tmp_path / "b"))
+    assert bad.returncode != 0 and "robotLog" in bad.stderr
+
+
+@pytest.mark.skipif(not os.path.exists(UR10_CSV), reason="shared UR10 data not present")
+def test_real_ur10_protocol(tmp_path, gipdyn_bin):
+    out = tmp_path / "ur10"
+    r = run(gipdyn_bin, "experiment", "real", "--data", UR10_CSV, "--protocol", "ur10", "--max-train", "60",
+            "--estimators", "gip,fe", "--plot-window", "300", "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    assert "train rows 1-6340" in r.stdout and "test rows 6341-12349" in r.stdout
+    check_real_outputs(out, ["gip", "fe"], 6)
+    assert len(rows(out / "test_window.csv")) == 300
