@@ -56,13 +56,17 @@ class InverseDynamicsGP:
     """One exact GP per joint, hyperparameters by maximum marginal likelihood.
 
     Parameters mirror `gipdyn train`: joints ("RRPR"), kernel ("gip",
-    "gip-friction", "rbf"), optimizer ("lbfgs", "adam"), max_iter, restarts,
+    "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", and the model-based
+    "pp", "sp" that need robot), optimizer ("lbfgs", "adam"), max_iter, restarts,
     seed, scaling ("standardize", "center", "none"), min_noise, threads,
-    learning_rate (Adam), verbose.
+    learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",
+    "ur10", a URDF or JSON file), robot_friction (friction columns in the
+    regressor). The non-GP estimators fe and nn are available from the CLI.
     """
 
     def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=200, restarts=0, seed=0,
-                 scaling="standardize", min_noise=1e-8, threads=0, learning_rate=0.01, verbose=False):
+                 scaling="standardize", min_noise=1e-8, threads=0, learning_rate=0.01, verbose=False, robot=None,
+                 robot_friction=False):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -74,6 +78,8 @@ class InverseDynamicsGP:
         self.threads = threads
         self.learning_rate = learning_rate
         self.verbose = verbose
+        self.robot = robot
+        self.robot_friction = robot_friction
 
     # scikit-learn protocol -------------------------------------------------
     @classmethod
@@ -109,7 +115,8 @@ class InverseDynamicsGP:
         self.model_ = _core.train(np.asfortranarray(X), np.asfortranarray(Y), self.joints, self.kernel,
                                   self.optimizer, int(self.max_iter), int(self.restarts), int(self.seed),
                                   self.scaling, float(self.min_noise), int(self.threads), float(self.learning_rate),
-                                  bool(self.verbose))
+                                  bool(self.verbose), "" if self.robot is None else str(self.robot),
+                                  bool(self.robot_friction))
         self._set_fitted_attributes()
         return self
 

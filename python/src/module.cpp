@@ -34,9 +34,10 @@ struct Model {
 std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const std::string& kernel,
                              const std::string& optimizer, int max_iter, int restarts, std::uint64_t seed,
                              const std::string& scaling, double min_noise, int threads, double learning_rate,
-                             bool verbose) {
+                             bool verbose, const std::string& robot, bool robot_friction) {
   TrainOptions o;
   o.kernel = kernel;
+  if (!robot.empty()) o.robot_prior = {std::make_shared<const RobotModel>(load_robot(robot)), robot_friction};
   o.optimizer.kind = parse_optimizer(optimizer);
   o.optimizer.max_iterations = max_iter;
   o.optimizer.adam_learning_rate = learning_rate;
@@ -136,7 +137,8 @@ PYBIND11_MODULE(_core, m) {
 
   m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("kernel"), py::arg("optimizer"),
         py::arg("max_iter"), py::arg("restarts"), py::arg("seed"), py::arg("scaling"), py::arg("min_noise"),
-        py::arg("threads"), py::arg("learning_rate"), py::arg("verbose"));
+        py::arg("threads"), py::arg("learning_rate"), py::arg("verbose"), py::arg("robot") = "",
+        py::arg("robot_friction") = false);
   m.def("kernel_names", &kernel_names);
 
   py::class_<RobotModel>(m, "Robot")

@@ -183,3 +183,17 @@ def test_ur10_real_example_runs(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "joint 6  nMSE" in r.stdout
     assert out.stat().st_size > 10000 and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+
+
+def test_model_based_and_hybrid_kernels(scara, tmp_path):
+    train, test = scara
+    for kernel in ("pp", "gip+rbf"):
+        est = gipdyn.InverseDynamicsGP(joints="RRPR", kernel=kernel, robot="scara", max_iter=30)
+        est.fit(train["X"], train["tau"])
+        assert np.all(gipdyn.nmse(test["tau_true"], est.predict(test["X"])) < 0.5), kernel
+        est.save(tmp_path / "m.gipdyn")
+        back = gipdyn.InverseDynamicsGP.load(tmp_path / "m.gipdyn")
+        assert back.kernel == kernel
+        np.testing.assert_array_equal(back.predict(test["X"]), est.predict(test["X"]))
+    with pytest.raises(ValueError, match="needs the nominal robot"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="sp").fit(train["X"], train["tau"])
