@@ -7,6 +7,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
+#include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/robot/dynamics.hpp"
@@ -188,5 +189,46 @@ TEST(MatDataset, ReadsTheSharedUr10MatFileLikeItsCsv) {
   EXPECT_NE(error_of([&] { read_mat_dataset(dir + "URpickNplace.mat", "urPicknPlace", JointTypes::parse("RRRRRRR"),
                                             true); })
                 .find("need 28"),
+            std::string::npos);
+}
+
+// ------------------------------------------------------------- MAP priors
+
+TEST(HyperparameterPrior, PenaltyGradientMatchesFiniteDifferences) {
+  const Eigen::VectorXd mu = test::random_vector(7, -2, 2, 31), theta = test::random_vector(7, -4, 4, 32);
+  Eigen::VectorXd grad = Eigen::VectorXd::Zero(7);
+  const double f = prior_penalty(theta, mu, 1.5, &grad);
+  EXPECT_NEAR(f, (theta - mu).squaredNorm() / (2 * 1.5 * 1.5), 1e-12);
+  const Eigen::VectorXd fd =
+      test::finite_difference([&](const Eigen::VectorXd& t) { return prior_penalty(t, mu, 1.5, nullptr); }, theta, 1e-5);
+  EXPECT_LT((grad - fd).norm(), 1e-7 * fd.norm());
+}
+
+// With a handful of samples, maximum likelihood moves hyperparameters far from
+// their start; the log-normal prior holds them closer, and narrower priors closer still.
+TEST(HyperparameterPrior, MapTrainingKeepsHyperparametersNearTheirStart) {
+  const Split s = scara_split(0.01, 12);
+  const JointTypes j = scara_robot().joint_types();
+  auto fitted_params = [&](bool enabled, double width, int max_iter) {
+    TrainOptions o;
+    o.optimizer.max_iterations = max_iter;
+    o.prior.enabled = enabled;
+    o.prior.width = width;
+    o.threads = 1;
+    TrainResult r = train_model(s.train.X, s.train.tau, j, o);
+    EXPECT_TRUE(r.ok) << r.message;
+    return r.model.joint_gp(0).kernel().log_params();
+  };
+  const Eigen::VectorXd start = fitted_params(false, 1.0, 1);  // one evaluation: the data-driven start
+  const double ml = (fitted_params(false, 1.0, 200) - start).norm();
+  const double wide = (fitted_params(true, 3.0, 200) - start).norm();
+  const double narrow = (fitted_params(true, 0.3, 200) - start).norm();
+  EXPECT_LT(wide, ml);
+  EXPECT_LT(narrow, wide);
+  EXPECT_NE(error_of([] {
+              HyperparameterPrior p;
+              p.width = 0;
+              p.validate();
+            }).find("--prior-width"),
             std::string::npos);
 }

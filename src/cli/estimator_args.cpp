@@ -27,6 +27,11 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->capture_default_str();
   app.add_option("--min-noise", min_noise, "GP: noise-variance floor, as a fraction of the scaled output variance")
       ->capture_default_str();
+  app.add_option("--prior", prior,
+                 "GP: none (maximum likelihood) or lognormal (MAP: each log-hyperparameter ~ N(its data-driven "
+                 "start, width^2))")
+      ->capture_default_str();
+  app.add_option("--prior-width", prior_width, "GP: standard deviation of the log-normal priors")->capture_default_str();
   app.add_option("--threads", threads, "GP: joints trained in parallel (0: one per core)")->capture_default_str();
   if (with_robot) {
     app.add_option("--robot", robot,
@@ -59,6 +64,9 @@ EstimatorOptions EstimatorArgs::build(const std::string& name) const {
   o.gp.min_noise_fraction = min_noise;
   o.gp.threads = threads;
   o.gp.keep_factor = false;
+  if (prior != "none" && prior != "lognormal") throw Error("--prior must be none or lognormal, not '" + prior + "'");
+  o.gp.prior.enabled = prior == "lognormal";
+  o.gp.prior.width = prior_width;
   o.nn = nn;
   o.nn.seed = seed;
   if (!nn_hidden.empty()) {

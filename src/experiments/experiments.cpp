@@ -166,6 +166,8 @@ nlohmann::json base_options_json(const EstimatorOptions& b) {
           {"restarts", b.gp.restarts},
           {"scaling", to_string(b.gp.scaling)},
           {"min_noise", b.gp.min_noise_fraction},
+          {"prior", b.gp.prior.enabled ? "lognormal" : "none"},
+          {"prior_width", b.gp.prior.width},
           {"nn_hidden", b.nn.hidden},
           {"nn_epochs", b.nn.epochs},
           {"nn_batch", b.nn.batch_size},

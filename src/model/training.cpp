@@ -22,6 +22,7 @@ void TrainOptions::validate() const {
     throw Error("--min-noise must be > 0 and not above the initial noise fraction (" +
                 std::to_string(initial_noise_fraction) + ")");
   if (threads < 0) throw Error("--threads must be >= 0");
+  prior.validate();
   require_known_kernel(kernel);
   if (kernel_needs_robot(kernel) && !robot_prior.robot)
     throw Error("kernel '" + kernel + "' is model-based and needs the nominal robot; pass --robot");
@@ -102,6 +103,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
       if (!e.ok) return false;
       f = e.nll;
       g = e.gradient;
+      if (o.prior.enabled) f += prior_penalty(x, x0, o.prior.width, &g);  // MAP
       return true;
     };
     ProgressCallback cb;

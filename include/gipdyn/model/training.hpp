@@ -9,6 +9,7 @@
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/gp/cholesky.hpp"
+#include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/optim/optimizer.hpp"
 
@@ -29,6 +30,8 @@ struct TrainOptions {
   double initial_noise_fraction = 1e-2;
   double min_noise_fraction = 1e-8;
   int threads = 0;  // 0: min(hardware threads, joints)
+  // Off: maximum marginal likelihood. On: MAP with log-normal priors centred on the data-driven start.
+  HyperparameterPrior prior;
   bool keep_factor = true;  // keep Cholesky factors so the model can give variances
   JitterPolicy jitter;
 
