@@ -203,3 +203,22 @@ def test_simulate_from_files_and_bad_robots(tmp_path, gipdyn_bin):
         assert r.returncode != 0 and message in r.stderr, r.stderr
         assert len(r.stderr.strip().splitlines()) == 1
         assert not out.exists() and not (tmp_path / "bad.csv.json").exists()
+
+
+def test_evaluate_writes_diagnostic_plots(trained, gipdyn_bin):
+    d, test, _ = trained
+    out = d / "diag"
+    r = run(gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"),
+            "--plots", str(out), "--plot-window", "50")
+    assert r.returncode == 0, r.stderr
+    for png in ("torque_time.png", "residuals.png", "noise_ratio.png"):
+        assert (out / png).read_bytes()[:8] == b"\x89PNG\r\n\x1a\n", png
+    diag = json.loads((out / "diagnostics.json").read_text())
+    assert set(diag) >= {"nmse", "mse", "residual_mean", "residual_std", "noise_ratio"}
+    # The training torques carry noise of std 0.01: the learned noise share is about 0.01^2 / var(tau).
+    train = np.genfromtxt(d / "train.csv", delimiter=",", names=True)
+    for j, ratio in enumerate(diag["noise_ratio"], start=1):
+        expected = 0.01**2 / np.var(train[f"tau{j}"])
+        assert expected / 5 < ratio < expected * 5, (j, ratio, expected)
+    window = np.genfromtxt(out / "torque_window.csv", delimiter=",", names=True)
+    assert len(window) == 50
