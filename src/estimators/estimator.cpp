@@ -71,36 +71,28 @@ bool is_gp_estimator(const std::string& name) {
 
 bool estimator_needs_robot(const std::string& name) { return name == "fe" || kernel_needs_robot(name); }
 
-void require_known_estimator(const std::string& name) {
-  const auto& names = estimator_names();
-  if (std::find(names.begin(), names.end(), name) != names.end()) return;
-  std::string valid;
-  for (const auto& n : names) valid += (valid.empty() ? "" : ", ") + n;
-  throw Error("unknown estimator '" + name + "'; choose one of: " + valid);
-}
+void require_known_estimator(const std::string& name) { require_one_of(name, estimator_names(), "estimator"); }
 
 void EstimatorOptions::validate() const {
   require_known_estimator(name);
   if (estimator_needs_robot(name) && !robot_prior.robot)
     throw Error("estimator '" + name + "' is model-based and needs the nominal robot; pass --robot");
   if (name == "nn") nn.validate();
-  if (is_gp_estimator(name)) {
-    TrainOptions o = gp;
-    o.kernel = name;
-    o.robot_prior = robot_prior;
-    o.validate();
-  }
+  if (is_gp_estimator(name)) train_options().validate();
+}
+
+TrainOptions EstimatorOptions::train_options() const {
+  TrainOptions o = gp;
+  o.kernel = name;
+  o.robot_prior = robot_prior;
+  return o;
 }
 
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                         const JointTypes& joints, const FitCallback& progress) {
   options.validate();
   validate_training_data(X, Y, joints);
-  if (options.robot_prior.robot && estimator_needs_robot(options.name) &&
-      options.robot_prior.robot->joint_types().str() != joints.str())
-    throw Error("robot '" + options.robot_prior.robot->name() + "' has joints " +
-                options.robot_prior.robot->joint_types().str() + " but the data have " + joints.str() +
-                "; pass the matching --robot or --joints");
+  if (estimator_needs_robot(options.name)) require_matching_robot(options.robot_prior, joints);
   const auto t0 = std::chrono::steady_clock::now();
   auto elapsed = [&] { return std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count(); };
   auto report = [&](const std::string& msg, bool finished) {
@@ -108,9 +100,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
   };
   FitResult result;
   if (is_gp_estimator(options.name)) {
-    TrainOptions o = options.gp;
-    o.kernel = options.name;
-    o.robot_prior = options.robot_prior;
+    const TrainOptions o = options.train_options();
     TrainingCallback cb;
     if (progress)
       cb = [&](const TrainingProgress& p) {

@@ -1,6 +1,5 @@
 #include "gipdyn/kernels/kernel_factory.hpp"
 
-#include <algorithm>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
@@ -17,12 +16,12 @@ const std::vector<std::string>& kernel_names() {
 
 bool kernel_needs_robot(const std::string& name) { return name == "pp" || name == "sp"; }
 
-void require_known_kernel(const std::string& name) {
-  const auto& names = kernel_names();
-  if (std::find(names.begin(), names.end(), name) != names.end()) return;
-  std::string valid;
-  for (const auto& n : names) valid += (valid.empty() ? "" : ", ") + n;
-  throw Error("unknown kernel '" + name + "'; choose one of: " + valid);
+void require_known_kernel(const std::string& name) { require_one_of(name, kernel_names(), "kernel"); }
+
+void require_matching_robot(const RobotPrior& prior, const JointTypes& joints) {
+  if (prior.robot && prior.robot->joint_types().str() != joints.str())
+    throw Error("robot '" + prior.robot->name() + "' has joints " + prior.robot->joint_types().str() +
+                " but the data have " + joints.str() + "; pass the matching --robot or --joints");
 }
 
 namespace {
@@ -52,9 +51,7 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
   if (joint < 0 || joint >= features.num_joints()) throw Error("make_kernel: joint index out of range");
   if (kernel_needs_robot(name)) {
     if (!prior.robot) throw Error("kernel '" + name + "' is model-based and needs a nominal robot; pass --robot");
-    if (prior.robot->joint_types().str() != features.joints().str())
-      throw Error("robot '" + prior.robot->name() + "' has joints " + prior.robot->joint_types().str() +
-                  " but the data have " + features.joints().str() + "; pass the matching --robot or --joints");
+    require_matching_robot(prior, features.joints());
   }
   if (name == "gip") return std::make_unique<GipKernel>(features);
   if (name == "gip-friction") return std::make_unique<GipKernel>(features, joint);

@@ -150,9 +150,8 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
                         const TrainOptions& options, const TrainingCallback& progress) {
   options.validate();
   validate_training_data(X, Y, joints);
-  if (kernel_needs_robot(options.kernel) && options.robot_prior.robot->joint_types().str() != joints.str())
-    throw Error("robot '" + options.robot_prior.robot->name() + "' has joints " +
-                options.robot_prior.robot->joint_types().str() + " but the data have " + joints.str());
+  // Checked here, not only in make_kernel: the kernels are built in worker threads.
+  if (kernel_needs_robot(options.kernel)) require_matching_robot(options.robot_prior, joints);
   use_single_threaded_blas();
   const int n = joints.size();
   const FeatureMap features(joints);

@@ -47,6 +47,8 @@ struct EstimatorOptions {
   RobotPrior robot_prior;   // fe, pp, sp
   // Throws gipdyn::Error naming the bad option.
   void validate() const;
+  // gp with the kernel and robot prior of this estimator.
+  TrainOptions train_options() const;
 };
 
 struct FitProgress {

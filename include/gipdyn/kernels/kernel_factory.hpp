@@ -23,6 +23,8 @@ bool kernel_needs_robot(const std::string& name);
 
 // Throws gipdyn::Error, listing the valid names, unless name is one of them.
 void require_known_kernel(const std::string& name);
+// Throws gipdyn::Error when the prior has a robot whose joints differ from `joints`.
+void require_matching_robot(const RobotPrior& prior, const JointTypes& joints);
 
 // The kernel of joint `joint` (0-based) of a robot with the given feature map:
 //   "gip"               GIP kernel
