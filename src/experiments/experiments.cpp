@@ -137,6 +137,37 @@ void log_line(const std::string& out, const std::string& line) {
   log << line << "\n";
 }
 
+std::string sci(double v) {
+  if (std::isnan(v)) return "n/a";
+  char buf[32];
+  std::snprintf(buf, sizeof buf, "%.2e", v);
+  return buf;
+}
+
+std::string per_joint(const std::string& label, const Eigen::VectorXd& v) {
+  std::string line = label;
+  for (Eigen::Index j = 0; j < v.size(); ++j) line += " " + sci(v(j));
+  return line;
+}
+
+// The bookkeeping of one finished fit, whatever the experiment: counts, the
+// failure log, the time estimate and the progress line. `where` prefixes the
+// log line ("run 3 "), `metrics` ends the progress line ("nMSE 1e-3 ...").
+void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key, const std::string& out,
+                const std::string& where, const std::string& estimator, const FitAndPredict& f,
+                const std::string& metrics, const ExperimentCallback& progress) {
+  if (f.ok) {
+    ++outcome.units_done;
+  } else {
+    ++outcome.units_failed;
+    log_line(out, where + estimator + " failed: " + f.message);
+    if (progress) progress("  " + estimator + " failed: " + f.message);
+  }
+  eta.record(eta_key, f.seconds);
+  eta.finish(eta_key);
+  if (progress) progress("  " + estimator + " done in " + duration(f.seconds) + ", " + metrics);
+}
+
 double quantile(std::vector<double> v, double q) {
   v.erase(std::remove_if(v.begin(), v.end(), [](double x) { return !std::isfinite(x); }), v.end());
   if (v.empty()) return std::nan("");
@@ -147,12 +178,6 @@ double quantile(std::vector<double> v, double q) {
   return v[lo] + (pos - static_cast<double>(lo)) * (v[hi] - v[lo]);
 }
 
-std::string sci(double v) {
-  if (std::isnan(v)) return "n/a";
-  char buf[32];
-  std::snprintf(buf, sizeof buf, "%.2e", v);
-  return buf;
-}
 
 void plot_into(ExperimentOutcome& outcome, const std::string& kind, const std::string& input, const std::string& png) {
   const PlotResult p = render_plot(kind, input, png);
@@ -254,26 +279,13 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Experim
       const FitAndPredict f =
           fit_and_predict(options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r)), train.X, train.tau,
                           joints, test.X);
-      Eigen::VectorXd nmse = Eigen::VectorXd::Constant(n, std::nan(""));
-      if (f.ok) {
-        nmse = compute_accuracy(test.tau_true, f.prediction).nmse;
-        ++outcome.units_done;
-      } else {
-        ++outcome.units_failed;
-        log_line(c.out, "run " + std::to_string(r) + " " + e + " failed: " + f.message);
-        if (progress) progress("  " + e + " failed: " + f.message);
-      }
+      const Eigen::VectorXd nmse = f.ok ? compute_accuracy(test.tau_true, f.prediction).nmse
+                                        : Eigen::VectorXd::Constant(n, std::nan(""));
       std::vector<std::vector<std::string>> rows;
       for (int j = 0; j < n; ++j)
         rows.push_back({std::to_string(r), e, std::to_string(j + 1), format_number(nmse(j)), format_number(f.seconds)});
       table.append(rows);
-      eta.record(e, f.seconds);
-      eta.finish(e);
-      if (progress) {
-        std::string line = "  " + e + " done in " + duration(f.seconds) + ", nMSE";
-        for (int j = 0; j < n; ++j) line += " " + sci(nmse(j));
-        progress(line);
-      }
+      finish_fit(outcome, eta, e, c.out, "run " + std::to_string(r) + " ", e, f, per_joint("nMSE", nmse), progress);
     }
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
@@ -391,19 +403,10 @@ ExperimentOutcome run_data_efficiency_experiment(const DataEfficiencyConfig& c, 
                    duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
         const FitAndPredict f =
             fit_and_predict(options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r)), X, Y, joints, test.X);
-        double gmse = std::nan("");
-        if (f.ok) {
-          gmse = compute_accuracy(test.tau_true, f.prediction).gmse;
-          ++outcome.units_done;
-        } else {
-          ++outcome.units_failed;
-          log_line(c.out, "run " + std::to_string(r) + " size " + std::to_string(s) + " " + e + " failed: " + f.message);
-          if (progress) progress("  " + e + " failed: " + f.message);
-        }
+        const double gmse = f.ok ? compute_accuracy(test.tau_true, f.prediction).gmse : std::nan("");
         table.append({{std::to_string(r), std::to_string(s), e, format_number(gmse), format_number(f.seconds)}});
-        eta.record(e + "@" + std::to_string(s), f.seconds);
-        eta.finish(e + "@" + std::to_string(s));
-        if (progress) progress("  " + e + " done in " + duration(f.seconds) + ", GMSE " + sci(gmse));
+        finish_fit(outcome, eta, e + "@" + std::to_string(s), c.out,
+                   "run " + std::to_string(r) + " size " + std::to_string(s) + " ", e, f, "GMSE " + sci(gmse), progress);
       }
     }
   }
@@ -530,24 +533,13 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Expe
       nmse = compute_accuracy(test.tau, f.prediction).nmse;
       write_csv((fs::path(c.out) / ("predictions_" + e + ".csv")).string(), torque_column_names(n, "_hat"),
                 f.prediction);
-      ++outcome.units_done;
-    } else {
-      ++outcome.units_failed;
-      log_line(c.out, e + " failed: " + f.message);
-      if (progress) progress("  " + e + " failed: " + f.message);
     }
     std::vector<std::vector<std::string>> rows;
     for (int j = 0; j < n; ++j)
       rows.push_back({e, std::to_string(j + 1), format_number(nmse(j)), format_number(f.seconds),
                       std::to_string(d.rows())});
     table.append(rows);
-    eta.record(e, f.seconds);
-    eta.finish(e);
-    if (progress) {
-      std::string line = "  " + e + " done in " + duration(f.seconds) + ", nMSE";
-      for (int j = 0; j < n; ++j) line += " " + sci(nmse(j));
-      progress(line);
-    }
+    finish_fit(outcome, eta, e, c.out, "", e, f, per_joint("nMSE", nmse), progress);
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
 
