@@ -119,12 +119,7 @@ TEST_P(EveryEstimator, ModelFileRoundTripGivesIdenticalPredictions) {
 INSTANTIATE_TEST_SUITE_P(Names, EveryEstimator,
                          ::testing::Values("fe", "pp", "sp", "gip", "gip-friction", "rbf", "gip+rbf",
                                            "gip-friction+rbf", "nn"),
-                         [](const ::testing::TestParamInfo<std::string>& info) {
-                           std::string clean;
-                           for (char c : info.param)
-                             clean += c == '-' ? std::string("_") : c == '+' ? std::string("_plus_") : std::string(1, c);
-                           return clean;
-                         });
+                         [](const ::testing::TestParamInfo<std::string>& info) { return test::test_name(info.param); });
 
 TEST(Estimators, NeuralNetworkIsReproducibleForASeed) {
   const Split s = scara_split(0.01, 100);

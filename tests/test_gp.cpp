@@ -70,10 +70,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"RRRRRR", "gip-friction+rbf"}, Case{"RRPR", "pp"}, Case{"RRRRRR", "pp"},
                       Case{"RRPR", "sp"}, Case{"RRRRRR", "sp"}),
     [](const ::testing::TestParamInfo<Case>& info) {
-      std::string name = std::string(info.param.joints) + "_" + info.param.kernel;
-      std::string clean;
-      for (char c : name) clean += c == '-' ? std::string("_") : c == '+' ? std::string("_plus_") : std::string(1, c);
-      return clean;
+      return test::test_name(std::string(info.param.joints) + "_" + info.param.kernel);
     });
 
 TEST(Cholesky, AddsJitterToASingularMatrixAndReportsIt) {

@@ -11,6 +11,13 @@
 
 namespace gipdyn::test {
 
+// An estimator or kernel name as a GoogleTest parameter name ("gip-friction+rbf" -> "gip_friction_plus_rbf").
+inline std::string test_name(const std::string& name) {
+  std::string clean;
+  for (char c : name) clean += c == '-' ? std::string("_") : c == '+' ? std::string("_plus_") : std::string(1, c);
+  return clean;
+}
+
 // Random raw inputs (q, qd, qdd) for a joint string: revolute q in [-pi, pi],
 // prismatic q in [0, 0.3] m, qd in [-2, 2], qdd in [-3, 3].
 inline Eigen::MatrixXd random_inputs(const JointTypes& joints, int rows, unsigned seed) {
