@@ -73,6 +73,58 @@ INSTANTIATE_TEST_SUITE_P(
       return test::test_name(std::string(info.param.joints) + "_" + info.param.kernel);
     });
 
+// With a mean, the coefficients are profiled out by generalised least squares:
+// the gradient of the profiled NLL w.r.t. the log-parameters matches finite
+// differences (which see beta move with them), and beta minimises the NLL.
+TEST(ProfiledMeanNll, GradientMatchesFiniteDifferencesAndBetaIsOptimal) {
+  for (const auto& [kernel_name, kind] : {std::pair{"gip", MeanKind::Constant}, std::pair{"gip", MeanKind::Linear},
+                                          std::pair{"gip+rbf", MeanKind::Linear}, std::pair{"rbf", MeanKind::Constant}}) {
+    const JointTypes joints = JointTypes::parse("RRPR");
+    const FeatureMap fm(joints);
+    const Eigen::MatrixXd X = random_inputs(joints, 40, 31);
+    const Eigen::MatrixXd Z = fm.compute(X);
+    const Eigen::VectorXd y = (random_vector(40, -1, 1, 32).array() + 0.7 + 0.5 * X.col(5).array()).matrix();
+    auto kernel = make_kernel(kernel_name, fm, 1);
+    kernel->initialize(Z, 1.0);
+    MeanFunction mean(kind, 3 * joints.size());
+    const int P = kernel->num_params(), M = mean.num_params();
+    ASSERT_EQ(M, kind == MeanKind::Linear ? 13 : 1);
+    Eigen::VectorXd x(P + 1);
+    x.head(P) = kernel->log_params() + random_vector(P, -0.3, 0.3, 33);
+    x(P) = std::log(0.1);
+    GpWorkspace ws;
+    auto nll = [&](const Eigen::VectorXd& v) {
+      kernel->set_log_params(v.head(P));
+      const NllEvaluation e = evaluate_profiled_nll(*kernel, v(P), mean, X, Z, y, false, ws);
+      EXPECT_TRUE(e.ok) << e.message;
+      return e.nll;
+    };
+    const Eigen::VectorXd fd = finite_difference(nll, x, 1e-3);
+    kernel->set_log_params(x.head(P));
+    Eigen::VectorXd beta;
+    const NllEvaluation e = evaluate_profiled_nll(*kernel, x(P), mean, X, Z, y, true, ws, &beta);
+    ASSERT_TRUE(e.ok) << e.message;
+    ASSERT_EQ(e.gradient.size(), P + 1);
+    ASSERT_EQ(beta.size(), M);
+    EXPECT_LT((e.gradient - fd).norm() / fd.norm(), 1e-6) << kernel_name << " " << to_string(kind);
+    // beta is the minimiser: the zero-mean NLL of y - H beta' is higher for any other beta',
+    // and its finite-difference gradient in beta vanishes at beta.
+    mean.set_params(beta);
+    auto nll_at = [&](const Eigen::VectorXd& b) {
+      mean.set_params(b);
+      return evaluate_nll(*kernel, x(P), Z, y - mean.evaluate(X), false, ws).nll;
+    };
+    EXPECT_NEAR(nll_at(beta), e.nll, 1e-9 * std::abs(e.nll));
+    const Eigen::VectorXd g_beta = finite_difference(nll_at, beta, 1e-4);
+    EXPECT_LT(g_beta.norm(), 1e-5 * (1.0 + std::abs(e.nll))) << kernel_name << " " << to_string(kind);
+    for (unsigned seed = 0; seed < 3; ++seed)
+      EXPECT_GT(nll_at(beta + random_vector(M, -0.1, 0.1, 40 + seed)), e.nll) << kernel_name;
+    // Without a mean, the profiled NLL is the plain one.
+    EXPECT_EQ(evaluate_profiled_nll(*kernel, x(P), MeanFunction(), X, Z, y, false, ws).nll,
+              evaluate_nll(*kernel, x(P), Z, y, false, ws).nll);
+  }
+}
+
 TEST(Cholesky, AddsJitterToASingularMatrixAndReportsIt) {
   const Eigen::VectorXd v = random_vector(30, -1, 1, 31);
   const Eigen::MatrixXd S = v * v.transpose();  // rank one: potrf fails without jitter

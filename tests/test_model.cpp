@@ -32,11 +32,13 @@ fs::path temp_dir() {
   return d;
 }
 
-InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned seed, int max_iter = 40) {
+InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned seed, int max_iter = 40,
+                                 MeanKind mean = MeanKind::Zero) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = random_inputs(joints, rows, seed);
   TrainOptions o;
   o.kernel = kernel;
+  o.mean = mean;
   o.optimizer.max_iterations = max_iter;
   // Measurement noise keeps the model well conditioned, as on real data; with
   // noise-free data the noise variance sits at its floor and alpha is huge.
@@ -128,9 +130,11 @@ TEST(Training, ConstantStepSubsample) {
 }
 
 TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
-  for (const char* kernel : {"gip", "gip-friction", "rbf"}) {
-    InverseDynamicsModel m = small_model(kernel, 40, 46);
-    const fs::path path = temp_dir() / (std::string(kernel) + ".gipdyn");
+  for (const auto& [kernel, mean] : {std::pair{"gip", MeanKind::Zero}, std::pair{"gip-friction", MeanKind::Zero},
+                                     std::pair{"rbf", MeanKind::Zero}, std::pair{"gip", MeanKind::Linear},
+                                     std::pair{"rbf", MeanKind::Constant}}) {
+    InverseDynamicsModel m = small_model(kernel, 40, 46, 40, mean);
+    const fs::path path = temp_dir() / (std::string(kernel) + "_" + to_string(mean) + ".gipdyn");
     save_model(m, path.string());
     InverseDynamicsModel loaded = load_model(path.string());
     const Eigen::MatrixXd Xq = random_inputs(m.joints(), 25, 47);
@@ -138,6 +142,7 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
     ASSERT_EQ(a.size(), b.size());
     EXPECT_EQ(std::memcmp(a.data(), b.data(), sizeof(double) * static_cast<size_t>(a.size())), 0) << kernel;
     EXPECT_EQ(loaded.kernel_name(), kernel);
+    EXPECT_EQ(loaded.mean_kind(), mean);
     EXPECT_EQ(loaded.hyperparameters(1), m.hyperparameters(1));
     // Variance after load (factor recomputed) matches the trained model's.
     m.enable_variance();
@@ -157,6 +162,48 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
       EXPECT_NEAR(sd(j), sb(3, j), 1e-5 * sb(3, j) + 1e-9) << kernel;
     }
   }
+}
+
+// A mean function decides what a GP predicts away from its data: a local (RBF)
+// GP reverts to its prior mean. On a linear trend the linear mean extrapolates
+// the trend, the constant mean levels off at the data's level, and the zero
+// mean falls back to zero; the fitted coefficients recover the trend.
+TEST(MeanFunction, DecidesTheExtrapolationOfALocalKernel) {
+  const JointTypes joints = JointTypes::parse("R");
+  const Eigen::MatrixXd X = random_inputs(joints, 200, 71);
+  // A trend plus an even wiggle in every input: the wiggles keep every RBF length
+  // scale short, so far from the data the RBF part has decayed to nothing.
+  const Eigen::ArrayXd q = X.col(0).array(), qd = X.col(1).array(), qdd = X.col(2).array();
+  const Eigen::MatrixXd Y =
+      (5.0 + 2.0 * q - 1.5 * qdd + (3.0 * q).cos() + (3.0 * qd).cos() + (3.0 * qdd).cos()).matrix() +
+      0.01 * test::random_vector(200, -1, 1, 72);
+  Eigen::MatrixXd far = Eigen::MatrixXd::Zero(1, 3);
+  far << 8.0, 8.0, -8.0;  // far outside [-1, 1]^3
+  const double wiggles = 3.0 * std::sin(3.0) / 3.0;  // their mean over U[-1, 1]
+  const double truth = 5.0 + wiggles + 2.0 * 8.0 + 1.5 * 8.0;
+  auto fit = [&](MeanKind mean) {
+    TrainOptions o;
+    o.kernel = "rbf";
+    o.scaling = OutputScaling::None;
+    o.mean = mean;
+    TrainResult r = train_model(X, Y, joints, o);
+    EXPECT_TRUE(r.ok) << r.message;
+    return std::move(r.model);
+  };
+  const InverseDynamicsModel linear = fit(MeanKind::Linear), constant = fit(MeanKind::Constant),
+                             zero = fit(MeanKind::Zero);
+  EXPECT_NEAR(linear.predict(far)(0, 0), truth, 0.05 * truth);
+  const Eigen::VectorXd beta = linear.joint_mean(0).params();
+  EXPECT_NEAR(beta(1), 2.0, 0.1);
+  EXPECT_NEAR(beta(3), -1.5, 0.1);
+  EXPECT_NEAR(constant.predict(far)(0, 0), Y.mean(), 0.5);
+  EXPECT_NEAR(zero.predict(far)(0, 0), 0.0, 1.0);
+  // The control-loop path adds the mean too.
+  PredictionWorkspace ws(linear);
+  double tau = 0.0;
+  ws.predict(far.data(), &tau);
+  EXPECT_NEAR(tau, linear.predict(far)(0, 0), 1e-9 * std::abs(tau));
+  EXPECT_THROW(parse_mean_kind("quadratic"), Error);
 }
 
 std::string read_bytes(const fs::path& p) {

@@ -61,12 +61,15 @@ class InverseDynamicsGP:
     seed, scaling ("standardize", "center", "none"), min_noise, threads,
     learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",
     "ur10", a URDF or JSON file), robot_friction (friction columns in the
-    regressor). The non-GP estimators fe and nn are available from the CLI.
+    regressor), mean (prior mean of each joint's GP: "zero", "constant", or
+    "linear" in (q, qd, qdd)), prior ("none" for maximum likelihood, "lognormal"
+    for MAP) and prior_width. The non-GP estimators fe and nn are available from
+    the CLI.
     """
 
     def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=200, restarts=0, seed=0,
                  scaling="standardize", min_noise=1e-8, threads=0, learning_rate=0.01, verbose=False, robot=None,
-                 robot_friction=False):
+                 robot_friction=False, mean="zero", prior="none", prior_width=2.0):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -80,6 +83,9 @@ class InverseDynamicsGP:
         self.verbose = verbose
         self.robot = robot
         self.robot_friction = robot_friction
+        self.mean = mean
+        self.prior = prior
+        self.prior_width = prior_width
 
     # scikit-learn protocol -------------------------------------------------
     @classmethod
@@ -116,7 +122,8 @@ class InverseDynamicsGP:
                                   self.optimizer, int(self.max_iter), int(self.restarts), int(self.seed),
                                   self.scaling, float(self.min_noise), int(self.threads), float(self.learning_rate),
                                   bool(self.verbose), "" if self.robot is None else str(self.robot),
-                                  bool(self.robot_friction))
+                                  bool(self.robot_friction), str(self.mean), str(self.prior),
+                                  float(self.prior_width))
         self._set_fitted_attributes()
         return self
 

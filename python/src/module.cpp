@@ -34,7 +34,8 @@ struct Model {
 std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const std::string& kernel,
                              const std::string& optimizer, int max_iter, int restarts, std::uint64_t seed,
                              const std::string& scaling, double min_noise, int threads, double learning_rate,
-                             bool verbose, const std::string& robot, bool robot_friction) {
+                             bool verbose, const std::string& robot, bool robot_friction, const std::string& mean,
+                             const std::string& prior, double prior_width) {
   TrainOptions o;
   o.kernel = kernel;
   if (!robot.empty()) o.robot_prior = {std::make_shared<const RobotModel>(load_robot(robot)), robot_friction};
@@ -44,6 +45,10 @@ std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, 
   o.restarts = restarts;
   o.seed = seed;
   o.scaling = parse_output_scaling(scaling);
+  o.mean = parse_mean_kind(mean);
+  if (prior != "none" && prior != "lognormal") throw Error("prior must be 'none' or 'lognormal', not '" + prior + "'");
+  o.prior.enabled = prior == "lognormal";
+  o.prior.width = prior_width;
   o.min_noise_fraction = min_noise;
   o.threads = threads;
   const JointTypes jt = JointTypes::parse(joints);
@@ -138,7 +143,8 @@ PYBIND11_MODULE(_core, m) {
   m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("kernel"), py::arg("optimizer"),
         py::arg("max_iter"), py::arg("restarts"), py::arg("seed"), py::arg("scaling"), py::arg("min_noise"),
         py::arg("threads"), py::arg("learning_rate"), py::arg("verbose"), py::arg("robot") = "",
-        py::arg("robot_friction") = false);
+        py::arg("robot_friction") = false, py::arg("mean") = "zero", py::arg("prior") = "none",
+        py::arg("prior_width") = 2.0);
   m.def("kernel_names", &kernel_names);
 
   py::class_<RobotModel>(m, "Robot")

@@ -197,3 +197,18 @@ def test_model_based_and_hybrid_kernels(scara, tmp_path):
         np.testing.assert_array_equal(back.predict(test["X"]), est.predict(test["X"]))
     with pytest.raises(ValueError, match="needs the nominal robot"):
         gipdyn.InverseDynamicsGP(joints="RRPR", kernel="sp").fit(train["X"], train["tau"])
+
+
+def test_mean_function_and_map_prior(scara):
+    train, test = scara
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="gip", mean="constant", prior="lognormal", max_iter=30)
+    est.fit(train["X"], train["tau"])
+    assert np.all(gipdyn.nmse(test["tau_true"], est.predict(test["X"])) < 0.5)
+    assert list(est.hyperparameters_[0])[-1] == "mean.constant"
+    linear = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="rbf", mean="linear", max_iter=5).fit(train["X"], train["tau"])
+    names = list(linear.hyperparameters_[0])
+    assert names[-13:] == ["mean.constant"] + [f"mean.x{k}" for k in range(1, 13)]
+    with pytest.raises(ValueError, match="unknown mean function"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", mean="quadratic").fit(train["X"], train["tau"])
+    with pytest.raises(ValueError, match="lognormal"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", prior="gauss").fit(train["X"], train["tau"])

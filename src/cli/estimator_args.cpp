@@ -25,6 +25,10 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
         ->capture_default_str();
   app.add_option("--scaling", scaling, "GP: output scaling before the GP: none, center or standardize")
       ->capture_default_str();
+  app.add_option("--mean", mean,
+                 "GP: prior mean of each joint's GP, trained with the kernel: zero (as the paper), constant, or "
+                 "linear in (q, qd, qdd)")
+      ->capture_default_str();
   app.add_option("--min-noise", min_noise, "GP: noise-variance floor, as a fraction of the scaled output variance")
       ->capture_default_str();
   app.add_option("--prior", prior,
@@ -61,6 +65,7 @@ EstimatorOptions EstimatorArgs::build(const std::string& name) const {
   o.gp.restarts = restarts;
   o.gp.seed = seed;
   o.gp.scaling = parse_output_scaling(scaling);
+  o.gp.mean = parse_mean_kind(mean);
   o.gp.min_noise_fraction = min_noise;
   o.gp.threads = threads;
   o.gp.keep_factor = false;

@@ -10,7 +10,7 @@
 namespace gipdyn::cli {
 
 struct EstimatorArgs {
-  std::string optimizer = "lbfgs", scaling = "standardize", robot, nn_hidden, prior = "none";
+  std::string optimizer = "lbfgs", scaling = "standardize", mean = "zero", robot, nn_hidden, prior = "none";
   double prior_width = 2.0;
   int max_iter = 200, restarts = 0, threads = 0;
   std::uint64_t seed = 0;

@@ -33,6 +33,35 @@ double solve_and_nll(const Eigen::MatrixXd& L, const Eigen::VectorXd& y, Eigen::
 
 }  // namespace
 
+namespace {
+
+// NLL (and gradient) of y given ws.K = the Cholesky factor of the covariance.
+// Overwrites ws.K with K^{-1} when the gradient is asked for.
+void nll_from_factor(const Kernel& kernel, double noise, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
+                     bool with_gradient, GpWorkspace& ws, NllEvaluation& out) {
+  out.nll = solve_and_nll(ws.K, y, ws.alpha);
+  if (!std::isfinite(out.nll)) {
+    out.message = "marginal likelihood is not finite at these hyperparameters";
+    return;
+  }
+  out.ok = true;
+  if (!with_gradient) return;
+
+  if (!cholesky_inverse_in_place(ws.K)) {
+    out.ok = false;
+    out.message = "could not invert the kernel matrix (LAPACK potri failed)";
+    return;
+  }
+  const int P = kernel.num_params();
+  out.gradient = Eigen::VectorXd::Zero(P + 1);
+  kernel.contract_nll(Z, ws.alpha, ws.K, out.gradient.head(P), ws.scratch);
+  out.gradient.head(P) *= -0.5;
+  // dK/dlog(sigma^2) = sigma^2 I: -1/2 sigma^2 (alpha^T alpha - tr K^{-1}).
+  out.gradient(P) = -0.5 * noise * (ws.alpha.squaredNorm() - ws.K.diagonal().sum());
+}
+
+}  // namespace
+
 NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
                            const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,
                            const JitterPolicy& jitter) {
@@ -44,25 +73,40 @@ NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, cons
     out.message = chol.message;
     return out;
   }
-  out.nll = solve_and_nll(ws.K, y, ws.alpha);
-  if (!std::isfinite(out.nll)) {
-    out.message = "marginal likelihood is not finite at these hyperparameters";
-    return out;
-  }
-  out.ok = true;
-  if (!with_gradient) return out;
+  nll_from_factor(kernel, noise, Z, y, with_gradient, ws, out);
+  return out;
+}
 
-  if (!cholesky_inverse_in_place(ws.K)) {
-    out.ok = false;
-    out.message = "could not invert the kernel matrix (LAPACK potri failed)";
+NllEvaluation evaluate_profiled_nll(const Kernel& kernel, double log_noise_variance, const MeanFunction& mean,
+                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
+                                    bool with_gradient, GpWorkspace& ws, Eigen::VectorXd* beta,
+                                    const JitterPolicy& jitter) {
+  if (mean.kind() == MeanKind::Zero) {
+    if (beta) beta->resize(0);
+    return evaluate_nll(kernel, log_noise_variance, Z, y, with_gradient, ws, jitter);
+  }
+  NllEvaluation out;
+  const double noise = std::exp(log_noise_variance);
+  const CholeskyResult chol = factorize_covariance(kernel, noise, Z, ws, jitter);
+  out.jitter = chol.jitter;
+  if (!chol.ok()) {
+    out.message = chol.message;
     return out;
   }
-  const int P = kernel.num_params();
-  out.gradient = Eigen::VectorXd::Zero(P + 1);
-  kernel.contract_nll(Z, ws.alpha, ws.K, out.gradient.head(P), ws.scratch);
-  out.gradient.head(P) *= -0.5;
-  // dK/dlog(sigma^2) = sigma^2 I: -1/2 sigma^2 (alpha^T alpha - tr K^{-1}).
-  out.gradient(P) = -0.5 * noise * (ws.alpha.squaredNorm() - ws.K.diagonal().sum());
+  Eigen::MatrixXd H;
+  mean.basis(X, H);
+  Eigen::MatrixXd KinvH = H;
+  cholesky_solve(ws.K, KinvH);
+  // Generalised least squares; the complete orthogonal decomposition gives the
+  // minimum-norm solution when basis columns are collinear (a joint that never moves).
+  const Eigen::VectorXd b =
+      (H.transpose() * KinvH).completeOrthogonalDecomposition().solve(KinvH.transpose() * y);
+  if (!b.allFinite()) {
+    out.message = "the mean's least-squares coefficients are not finite at these hyperparameters";
+    return out;
+  }
+  if (beta) *beta = b;
+  nll_from_factor(kernel, noise, Z, y - H * b, with_gradient, ws, out);
   return out;
 }
 

@@ -37,7 +37,9 @@ ModelContainer model_to_container(const InverseDynamicsModel& model) {
                       {"log_params", to_vector(gp.kernel().log_params())},
                       {"log_noise_variance", gp.log_noise_variance()},
                       {"jitter", gp.jitter()},
-                      {"nll", gp.nll()}});
+                      {"nll", gp.nll()},
+                      {"mean", {{"kind", to_string(model.joint_mean(j).kind())},
+                                {"coefficients", to_vector(model.joint_mean(j).params())}}}});
     c.add("alpha" + std::to_string(j + 1), gp.alpha());
   }
   h["joint_models"] = joints;
@@ -64,6 +66,7 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
     }
     const FeatureMap features(joints);
     std::vector<GpRegressor> gps;
+    std::vector<MeanFunction> means;
     Eigen::VectorXd offset(n), scale(n);
     const json& jm = h.at("joint_models");
     if (static_cast<int>(jm.size()) != n) throw Error(what + " is corrupted (wrong number of joint models)");
@@ -78,12 +81,21 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
       if (alpha.rows() != N || alpha.cols() != 1) throw Error(what + " is corrupted (alpha shape); re-save the model");
       gp.set_state(alpha.col(0), e.at("jitter").get<double>(), e.at("nll").get<double>());
       gps.push_back(std::move(gp));
+      MeanFunction mean;  // files written before mean functions existed hold zero means
+      if (e.contains("mean")) {
+        mean = MeanFunction(parse_mean_kind(e.at("mean").at("kind").get<std::string>()), 3 * n);
+        const auto b = e.at("mean").at("coefficients").get<std::vector<double>>();
+        if (static_cast<int>(b.size()) != mean.num_params())
+          throw Error(what + " is corrupted (mean coefficient count); re-save the model");
+        mean.set_params(Eigen::Map<const Eigen::VectorXd>(b.data(), static_cast<Eigen::Index>(b.size())));
+      }
+      means.push_back(mean);
       offset(j) = e.at("output_offset").get<double>();
       scale(j) = e.at("output_scale").get<double>();
     }
     return InverseDynamicsModel(joints, kernel_name, X, std::move(gps),
                                 parse_output_scaling(h.at("output_scaling").get<std::string>()), offset, scale,
-                                prior);
+                                prior, std::move(means));
   } catch (const json::exception& e) {
     throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");
   }

@@ -25,12 +25,14 @@ std::string to_string(OutputScaling s) {
 
 InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                                            std::vector<GpRegressor> gps, OutputScaling scaling,
-                                           Eigen::VectorXd y_offset, Eigen::VectorXd y_scale, RobotPrior prior)
+                                           Eigen::VectorXd y_offset, Eigen::VectorXd y_scale, RobotPrior prior,
+                                           std::vector<MeanFunction> means)
     : joints_(joints),
       features_(joints),
       kernel_name_(std::move(kernel_name)),
       X_(std::move(X)),
       gps_(std::move(gps)),
+      means_(std::move(means)),
       scaling_(scaling),
       y_offset_(std::move(y_offset)),
       y_scale_(std::move(y_scale)),
@@ -39,6 +41,11 @@ InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string
   if (X_.cols() != 3 * n) throw Error("model: training inputs must have 3n columns");
   if (static_cast<int>(gps_.size()) != n || y_offset_.size() != n || y_scale_.size() != n)
     throw Error("model: one GP, offset and scale per joint are required");
+  if (means_.empty()) means_.assign(static_cast<size_t>(n), MeanFunction());
+  if (static_cast<int>(means_.size()) != n) throw Error("model: one mean function per joint is required");
+  for (const auto& m : means_)
+    if (m.kind() != means_.front().kind() || (m.kind() == MeanKind::Linear && m.input_dim() != 3 * n))
+      throw Error("model: every joint needs the same kind of mean function on the 3n inputs");
   for (const auto& gp : gps_)
     if (gp.alpha().size() != X_.rows()) throw Error("model: alpha must have one entry per training sample");
   Z_ = features_.compute(X_);
@@ -51,6 +58,9 @@ std::vector<std::pair<std::string, double>> InverseDynamicsModel::hyperparameter
   std::vector<std::pair<std::string, double>> out;
   for (size_t k = 0; k < names.size(); ++k) out.emplace_back(names[k], std::exp(p(static_cast<Eigen::Index>(k))));
   out.emplace_back("noise.variance", std::exp(gp.log_noise_variance()));
+  const MeanFunction& mean = joint_mean(j);
+  const auto mean_names = mean.param_names();
+  for (size_t k = 0; k < mean_names.size(); ++k) out.emplace_back(mean_names[k], mean.params()(static_cast<Eigen::Index>(k)));
   return out;
 }
 
@@ -73,6 +83,7 @@ void InverseDynamicsModel::predict(const Eigen::Ref<const Eigen::MatrixXd>& X, E
   Eigen::VectorXd m, v;
   for (int j = 0; j < num_joints(); ++j) {
     gps_[static_cast<size_t>(j)].predict_mean(Zs, Z_, m);
+    if (means_[static_cast<size_t>(j)].kind() != MeanKind::Zero) m += means_[static_cast<size_t>(j)].evaluate(X);
     mean.col(j) = (y_offset_(j) + y_scale_(j) * m.array()).matrix();
     if (stddev) {
       gps_[static_cast<size_t>(j)].predict_variance(Zs, Z_, v);
@@ -126,11 +137,13 @@ void PredictionWorkspace::predict(const double* x, double* tau) {
   m.features_.compute_row(x, z_.data());
   if (!gip_kernels_.empty()) {
     GipKernel::dot_rows(gip_kernels_, alphas_, z_.data(), m.Z_, f_, scratch_);
-    for (int j = 0; j < m.num_joints(); ++j) tau[j] = m.y_offset_(j) + m.y_scale_(j) * f_(j);
+    for (int j = 0; j < m.num_joints(); ++j)
+      tau[j] = m.y_offset_(j) + m.y_scale_(j) * (f_(j) + m.means_[static_cast<size_t>(j)].evaluate_one(x));
     return;
   }
   for (int j = 0; j < m.num_joints(); ++j) {
-    const double f = m.gps_[static_cast<size_t>(j)].predict_mean_one(z_.data(), m.Z_, krow_, scratch_);
+    const double f = m.gps_[static_cast<size_t>(j)].predict_mean_one(z_.data(), m.Z_, krow_, scratch_) +
+                     m.means_[static_cast<size_t>(j)].evaluate_one(x);
     tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;
   }
 }
@@ -142,7 +155,8 @@ void PredictionWorkspace::predict(const double* x, double* tau, double* stddev) 
   const int dim = m.features().feature_dim();
   for (int j = 0; j < m.num_joints(); ++j) {
     const GpRegressor& gp = m.gps_[static_cast<size_t>(j)];
-    const double f = gp.predict_mean_one(z_.data(), m.Z_, krow_, scratch_);
+    const double f =
+        gp.predict_mean_one(z_.data(), m.Z_, krow_, scratch_) + m.means_[static_cast<size_t>(j)].evaluate_one(x);
     tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;
     stddev[j] = m.y_scale_(j) * std::sqrt(gp.predict_variance_one(z_.data(), dim, krow_, v_));
   }

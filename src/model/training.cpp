@@ -60,11 +60,12 @@ namespace {
 struct JointOutcome {
   JointReport report;
   GpRegressor gp;
+  MeanFunction mean;
   bool ok = false;
 };
 
-JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
-                         const TrainOptions& o, const TrainingCallback& progress) {
+JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
+                         const Eigen::VectorXd& y, const TrainOptions& o, const TrainingCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
@@ -74,6 +75,8 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   const double target = std::max(y.squaredNorm() / static_cast<double>(y.size()), 1e-12);
   std::unique_ptr<Kernel> kernel = make_kernel(o.kernel, features, j, o.robot_prior);
   kernel->initialize(Z, target);
+  // The mean's coefficients are profiled out of the likelihood, not optimised.
+  MeanFunction mean(o.mean, static_cast<int>(X.cols()));
   const int P = kernel->num_params();
   Eigen::VectorXd x0(P + 1);
   x0.head(P) = kernel->log_params();
@@ -99,7 +102,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
-      NllEvaluation e = evaluate_nll(*trial, x(P), Z, y, true, ws, o.jitter);
+      NllEvaluation e = evaluate_profiled_nll(*trial, x(P), mean, X, Z, y, true, ws, nullptr, o.jitter);
       if (!e.ok) return false;
       f = e.nll;
       g = e.gradient;
@@ -128,8 +131,12 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     return out;
   }
   kernel->set_log_params(best_x.head(P));
+  Eigen::VectorXd beta;
+  const NllEvaluation at_best = evaluate_profiled_nll(*kernel, best_x(P), mean, X, Z, y, false, ws, &beta, o.jitter);
+  if (at_best.ok) mean.set_params(beta);
+  out.mean = mean;
   out.gp = GpRegressor(std::move(kernel), best_x(P));
-  const CholeskyResult fit = out.gp.fit(Z, y, o.keep_factor, ws, o.jitter);
+  const CholeskyResult fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
   out.report.seconds = seconds();
   if (!fit.ok()) {
     out.report.status = OptimizerResult::Status::Failed;
@@ -175,7 +182,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   auto worker = [&] {
     for (int j = next++; j < n; j = next++) {
       const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
-      outcomes[static_cast<size_t>(j)] = train_joint(j, features, Z, y, options, progress);
+      outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, y, options, progress);
     }
   };
   std::vector<std::thread> pool;
@@ -185,14 +192,16 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
 
   TrainResult result;
   std::vector<GpRegressor> gps;
+  std::vector<MeanFunction> means;
   for (auto& o : outcomes) {
     result.joints.push_back(o.report);
     if (!o.ok && result.message.empty()) result.message = o.report.message;
     gps.push_back(std::move(o.gp));
+    means.push_back(o.mean);
   }
   if (!result.message.empty()) return result;
   result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale,
-                                      options.robot_prior);
+                                      options.robot_prior, std::move(means));
   result.ok = true;
   return result;
 }

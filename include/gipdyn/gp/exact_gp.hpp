@@ -12,6 +12,7 @@
 #include <string>
 
 #include "gipdyn/gp/cholesky.hpp"
+#include "gipdyn/gp/mean_function.hpp"
 #include "gipdyn/kernels/kernel.hpp"
 
 namespace gipdyn {
@@ -36,6 +37,18 @@ struct NllEvaluation {
 NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
                            const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,
                            const JitterPolicy& jitter = {});
+
+// The same for a GP with prior mean m(x) = h(x)^T beta on the raw inputs X,
+// with beta profiled out: for the given kernel and noise, beta is the
+// generalised least-squares estimate (H^T K^-1 H)^-1 H^T K^-1 y, which
+// minimises the NLL over beta. Since dNLL/dbeta = -H^T alpha = 0 there, the
+// gradient w.r.t. [kernel log-params, log noise variance] is that of the
+// zero-mean NLL of y - H beta. The optimiser then sees only the log-parameters.
+// beta (optional) receives the coefficients.
+NllEvaluation evaluate_profiled_nll(const Kernel& kernel, double log_noise_variance, const MeanFunction& mean,
+                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
+                                    bool with_gradient, GpWorkspace& ws, Eigen::VectorXd* beta = nullptr,
+                                    const JitterPolicy& jitter = {});
 
 // A GP conditioned on training data. The training features Z are owned by the
 // caller (an inverse dynamics model shares them among its joints).

@@ -24,9 +24,10 @@ class InverseDynamicsModel {
  public:
   InverseDynamicsModel() = default;
   // X: training inputs (N x 3n). gps: one fitted GP per joint (alpha set).
+  // means: one prior mean per joint in scaled-output units (empty: zero means).
   InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                        std::vector<GpRegressor> gps, OutputScaling scaling, Eigen::VectorXd y_offset,
-                       Eigen::VectorXd y_scale, RobotPrior prior = {});
+                       Eigen::VectorXd y_scale, RobotPrior prior = {}, std::vector<MeanFunction> means = {});
 
   const JointTypes& joints() const { return joints_; }
   int num_joints() const { return joints_.size(); }
@@ -38,12 +39,15 @@ class InverseDynamicsModel {
   const Eigen::MatrixXd& training_inputs() const { return X_; }
   const Eigen::MatrixXd& training_features() const { return Z_; }
   const GpRegressor& joint_gp(int j) const { return gps_[static_cast<size_t>(j)]; }
+  const MeanFunction& joint_mean(int j) const { return means_[static_cast<size_t>(j)]; }
+  MeanKind mean_kind() const { return means_.front().kind(); }
   OutputScaling output_scaling() const { return scaling_; }
   const Eigen::VectorXd& output_offset() const { return y_offset_; }
   const Eigen::VectorXd& output_scale() const { return y_scale_; }
 
   // Hyperparameters of joint j as (name, value) with values exp(log-parameter),
-  // in the units of the scaled output; the last one is "noise.variance".
+  // in the units of the scaled output, then "noise.variance", then the mean
+  // coefficients ("mean.*", signed, stored as they are).
   std::vector<std::pair<std::string, double>> hyperparameters(int j) const;
 
   // Torques for every row of X (M x 3n) -> M x n. With stddev, also the latent
@@ -63,6 +67,7 @@ class InverseDynamicsModel {
   std::string kernel_name_;
   Eigen::MatrixXd X_, Z_;
   std::vector<GpRegressor> gps_;
+  std::vector<MeanFunction> means_;
   OutputScaling scaling_ = OutputScaling::None;
   Eigen::VectorXd y_offset_, y_scale_;
   RobotPrior prior_;

@@ -21,6 +21,8 @@ struct TrainOptions {
   RobotPrior robot_prior;
   OptimizerOptions optimizer;
   OutputScaling scaling = OutputScaling::Standardize;
+  // Prior mean of every joint's GP (on the scaled output), trained with the kernel.
+  MeanKind mean = MeanKind::Zero;
   // Restarts from perturbed starts (log-parameters + N(0, restart_spread^2)),
   // seeded; the run with the lowest NLL is kept (like scikit-learn's n_restarts_optimizer).
   int restarts = 0;
