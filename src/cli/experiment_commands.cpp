@@ -114,6 +114,11 @@ Command add_experiment(CLI::App& app) {
                 "Reference split: ur10 (train rows 1-6340, test 6341-12349, nominal robot ur10 with friction)");
   r->add_option("--train-rows", real->train_rows, "Training rows FIRST-LAST (1-based data rows)");
   r->add_option("--test-rows", real->test_rows, "Test rows FIRST-LAST (1-based data rows)");
+  r->add_option("--alternate-blocks", real->config.alternate_blocks,
+                "Split the whole log into blocks of ROWS rows instead: odd blocks train, even blocks test");
+  r->add_option("--nn-max-train", real->config.nn_max_train,
+                "nn: at most this many training rows, a constant-step subsample (0: every training row)")
+      ->capture_default_str();
   r->add_option("--max-train", real->config.max_train,
                 "GP estimators: at most this many training rows, a constant-step subsample")
       ->capture_default_str();

@@ -186,7 +186,7 @@ void plot_into(ExperimentOutcome& outcome, const std::string& kind, const std::s
 }
 
 nlohmann::json base_options_json(const EstimatorOptions& b) {
-  return {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
+  nlohmann::json j = {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
           {"max_iter", b.gp.optimizer.max_iterations},
           {"restarts", b.gp.restarts},
           {"scaling", to_string(b.gp.scaling)},
@@ -197,6 +197,9 @@ nlohmann::json base_options_json(const EstimatorOptions& b) {
           {"nn_epochs", b.nn.epochs},
           {"nn_batch", b.nn.batch_size},
           {"nn_lr", b.nn.learning_rate}};
+  // Only when set, so folders written before mean functions existed still resume.
+  if (b.gp.mean != MeanKind::Zero) j["mean"] = to_string(b.gp.mean);
+  return j;
 }
 
 void validate_estimators(const std::vector<std::string>& estimators) {
@@ -443,9 +446,15 @@ void RealRobotConfig::validate() const {
   if (data.empty()) throw Error("--data is required: the robot log (CSV, or .mat with --mat-variable)");
   if (joints.empty()) throw Error("--joints is required, e.g. RRRRRR");
   JointTypes::parse(joints);
-  if (train_rows.first < 1 || test_rows.first < 1)
-    throw Error("--train-rows and --test-rows are required (or --protocol ur10), e.g. --train-rows 1-6340");
+  if (alternate_blocks < 0) throw Error("--alternate-blocks must be >= 1 rows");
+  if (alternate_blocks > 0 && (train_rows.first > 0 || test_rows.first > 0))
+    throw Error("--alternate-blocks splits the whole log; drop --train-rows/--test-rows/--protocol or drop it");
+  if (alternate_blocks == 0 && (train_rows.first < 1 || test_rows.first < 1))
+    throw Error("--train-rows and --test-rows are required (or --protocol ur10, or --alternate-blocks ROWS), e.g. "
+                "--train-rows 1-6340");
   if (max_train < kMinTrainingRows) throw Error("--max-train must be >= " + std::to_string(kMinTrainingRows));
+  if (nn_max_train != 0 && nn_max_train < kMinTrainingRows)
+    throw Error("--nn-max-train must be 0 (every row) or >= " + std::to_string(kMinTrainingRows));
   if (plot_window < 1) throw Error("--plot-window must be >= 1");
   validate_estimators(estimators);
   for (const auto& e : estimators)
@@ -454,7 +463,7 @@ void RealRobotConfig::validate() const {
 }
 
 nlohmann::json RealRobotConfig::to_json() const {
-  return {{"experiment", "real"},
+  nlohmann::json j = {{"experiment", "real"},
           {"data", fs::absolute(data).lexically_normal().string()},
           {"mat_variable", mat_variable},
           {"joints", joints},
@@ -466,6 +475,10 @@ nlohmann::json RealRobotConfig::to_json() const {
           {"robot_friction", robot_friction},
           {"seed", base.gp.seed},
           {"options", base_options_json(base)}};
+  // Only when set, so folders written before these options existed still resume.
+  if (alternate_blocks > 0) j["alternate_blocks"] = alternate_blocks;
+  if (nn_max_train > 0) j["nn_max_train"] = nn_max_train;
+  return j;
 }
 
 void apply_protocol(const std::string& protocol, RealRobotConfig& c) {
@@ -488,17 +501,29 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Expe
   const int n = joints.size();
   const Dataset all = c.mat_variable.empty() ? read_dataset(c.data, joints, true)
                                              : read_mat_dataset(c.data, c.mat_variable, joints, true);
-  for (const auto& [name, range] : {std::pair{"--train-rows", c.train_rows}, std::pair{"--test-rows", c.test_rows}})
-    if (range.second > all.rows())
-      throw Error(std::string(name) + " ends at row " + std::to_string(range.second) + " but '" + c.data + "' has " +
-                  std::to_string(all.rows()) + " data rows");
-  auto rows_of = [](std::pair<long, long> r) {
-    std::vector<Eigen::Index> idx;
-    for (long k = r.first; k <= r.second; ++k) idx.push_back(k - 1);
-    return idx;
-  };
-  const Dataset train = all.subset(rows_of(c.train_rows)), test = all.subset(rows_of(c.test_rows));
+  // 0-based row indices of the two sets, and how to describe them.
+  std::vector<Eigen::Index> train_idx, test_idx;
+  std::string split;
+  if (c.alternate_blocks > 0) {
+    const Eigen::Index B = c.alternate_blocks;
+    if (all.rows() < 2 * B)
+      throw Error("--alternate-blocks " + std::to_string(B) + " needs at least " + std::to_string(2 * B) +
+                  " rows but '" + c.data + "' has " + std::to_string(all.rows()) + "; use smaller blocks");
+    for (Eigen::Index r = 0; r < all.rows(); ++r) ((r / B) % 2 == 0 ? train_idx : test_idx).push_back(r);
+    split = "alternating blocks of " + std::to_string(B) + " rows (odd blocks train, even blocks test)";
+  } else {
+    for (const auto& [name, range] : {std::pair{"--train-rows", c.train_rows}, std::pair{"--test-rows", c.test_rows}})
+      if (range.second > all.rows())
+        throw Error(std::string(name) + " ends at row " + std::to_string(range.second) + " but '" + c.data +
+                    "' has " + std::to_string(all.rows()) + " data rows");
+    for (long k = c.train_rows.first; k <= c.train_rows.second; ++k) train_idx.push_back(k - 1);
+    for (long k = c.test_rows.first; k <= c.test_rows.second; ++k) test_idx.push_back(k - 1);
+    split = "train rows " + std::to_string(c.train_rows.first) + "-" + std::to_string(c.train_rows.second) +
+            ", test rows " + std::to_string(c.test_rows.first) + "-" + std::to_string(c.test_rows.second);
+  }
+  const Dataset train = all.subset(train_idx), test = all.subset(test_idx);
   const Dataset train_gp = train.subset(constant_step_indices(train.rows(), c.max_train));
+  const Dataset train_nn = train.subset(constant_step_indices(train.rows(), c.nn_max_train));
   RobotPrior prior;
   if (!c.robot.empty()) {
     prior.robot = std::make_shared<const RobotModel>(load_robot(c.robot));
@@ -513,17 +538,17 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Expe
     if (table.contains({{"estimator", e}})) ++outcome.units_skipped;
     else eta.add_pending(e, 1);
   if (progress) {
-    progress("train rows " + std::to_string(c.train_rows.first) + "-" + std::to_string(c.train_rows.second) + " (" +
-             std::to_string(train_gp.rows()) + " for GP estimators, constant step), test rows " +
-             std::to_string(c.test_rows.first) + "-" + std::to_string(c.test_rows.second));
+    progress(split + ": " + std::to_string(train.rows()) + " training rows (" + std::to_string(train_gp.rows()) +
+             " for GP estimators, " + std::to_string(train_nn.rows()) + " for nn, constant step), " +
+             std::to_string(test.rows()) + " test rows");
     if (outcome.units_skipped > 0)
       progress("resuming: " + std::to_string(outcome.units_skipped) + " estimators already recorded in " + c.out);
   }
   const auto t0 = Clock::now();
   for (const auto& e : c.estimators) {
     if (table.contains({{"estimator", e}})) continue;
-    // GP estimators scale as N^3 and get the subsample; fe and nn use every training row.
-    const Dataset& d = is_gp_estimator(e) ? train_gp : train;
+    // GP estimators scale as N^3 and get the subsample; fe uses every training row, nn its own subsample.
+    const Dataset& d = is_gp_estimator(e) ? train_gp : e == "nn" ? train_nn : train;
     if (progress)
       progress(e + ": fitting " + std::to_string(d.rows()) + " rows (elapsed " +
                duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
@@ -548,7 +573,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Expe
   std::vector<std::string> header{"row"};
   for (const auto& t : torque_column_names(n)) header.push_back(t);
   Eigen::MatrixXd P(window, 1 + n);
-  for (Eigen::Index k = 0; k < window; ++k) P(k, 0) = static_cast<double>(c.test_rows.first + k);
+  for (Eigen::Index k = 0; k < window; ++k) P(k, 0) = static_cast<double>(test_idx[static_cast<size_t>(k)] + 1);
   P.rightCols(n) = test.tau.topRows(window);
   for (const auto& e : c.estimators) {
     const std::string file = (fs::path(c.out) / ("predictions_" + e + ".csv")).string();
@@ -568,9 +593,9 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Expe
   write_file_atomically(summary, [&](std::ostream& o) {
     o << "# Real robot: " << c.data << (c.mat_variable.empty() ? "" : " (variable " + c.mat_variable + ")") << ", joints "
       << joints.str() << "\n\n";
-    o << "Train rows " << c.train_rows.first << "-" << c.train_rows.second << " (GP estimators: " << train_gp.rows()
-      << " of them, constant step; fe and nn: all " << train.rows() << "), test rows " << c.test_rows.first << "-"
-      << c.test_rows.second << " (" << test.rows() << "). Test nMSE against the measured torque"
+    o << "Split: " << split << ". " << train.rows() << " training rows (GP estimators: " << train_gp.rows()
+      << " of them, constant step; nn: " << train_nn.rows() << "; fe: all), " << test.rows()
+      << " test rows. Test nMSE against the measured torque"
       << (prior.robot ? "; nominal robot " + prior.robot->name() + (prior.friction ? " with friction" : "") : "")
       << ".\n\n| estimator |";
     for (int j = 1; j <= n; ++j) o << " joint " << j << " |";

@@ -130,6 +130,27 @@ def test_real_on_a_csv_log_with_row_ranges(tmp_path, gipdyn_bin):
     assert bad.returncode != 0 and "has 300 data rows" in bad.stderr
 
 
+def test_real_with_alternating_blocks_and_a_subsampled_network(tmp_path, gipdyn_bin):
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 300)
+    out = tmp_path / "blocks"
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--alternate-blocks", "50",
+            "--max-train", "120", "--nn-max-train", "40", "--estimators", "gip,nn", "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    check_real_outputs(out, ["gip", "nn"], 4)
+    trained = {x["estimator"]: x["training_rows"] for x in rows(out / "nmse.csv")}
+    assert trained == {"gip": "120", "nn": "40"}  # of the 150 rows in blocks 1, 3, 5
+    # The test rows are exactly the even blocks: 51-100, 151-200, 251-300.
+    tested = [int(float(x["row"])) for x in rows(out / "test_window.csv")]
+    assert tested == list(range(51, 101)) + list(range(151, 201)) + list(range(251, 301))
+    bad = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--alternate-blocks", "50",
+              "--train-rows", "1-100", "--test-rows", "101-200", "--out", str(tmp_path / "bad"))
+    assert bad.returncode != 0 and "--alternate-blocks" in bad.stderr
+    big = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--alternate-blocks", "200",
+              "--out", str(tmp_path / "big"))
+    assert big.returncode != 0 and "smaller blocks" in big.stderr
+
+
 def test_real_reads_a_mat_file(tmp_path, gipdyn_bin):
     scipy_io = pytest.importorskip("scipy.io")
     log = tmp_path / "log.csv"
