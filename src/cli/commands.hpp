@@ -13,5 +13,6 @@ Command add_predict(CLI::App& app);
 Command add_evaluate(CLI::App& app);
 Command add_simulate(CLI::App& app);
 Command add_experiment(CLI::App& app);
+Command add_preprocess(CLI::App& app);
 
 }  // namespace gipdyn::cli

@@ -18,6 +18,8 @@ int main(int argc, char** argv) {
   };
   add("simulate", "Simulate a robot (scara, ur10, URDF or JSON DH file) on a random trajectory: q, qd, qdd, tau",
       gipdyn::cli::add_simulate);
+  add("preprocess", "Resample, low-pass (zero phase) and differentiate a raw robot log into a training CSV",
+      gipdyn::cli::add_preprocess);
   add("train", "Train a model (one GP per joint) on a CSV of q, qd, qdd, tau", gipdyn::cli::add_train);
   add("predict", "Predict torques and their standard deviations for a CSV of q, qd, qdd", gipdyn::cli::add_predict);
   add("evaluate", "Per-joint MSE, nMSE and the GMSE of a model on a CSV with measured torques",

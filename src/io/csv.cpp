@@ -1,5 +1,7 @@
 #include "gipdyn/io/csv.hpp"
 
+#include <cstdio>
+
 #include <algorithm>
 #include <charconv>
 #include <cmath>
@@ -119,6 +121,18 @@ void write_csv(const std::string& path, const std::vector<std::string>& header, 
       out << '\n';
     }
   });
+}
+
+void write_csv_with_sidecar(const std::string& path, const std::vector<std::string>& header,
+                            const Eigen::MatrixXd& data, const nlohmann::json& sidecar) {
+  const std::string json_path = path + ".json";
+  write_file_atomically(json_path, [&](std::ostream& out) { out << sidecar.dump(2) << "\n"; });
+  try {
+    write_csv(path, header, data);
+  } catch (...) {
+    std::remove(json_path.c_str());
+    throw;
+  }
 }
 
 }  // namespace gipdyn

@@ -3,6 +3,7 @@
 // extra (even non-numeric) columns are ignored. Errors name the file, the line
 // and the column.
 #include <Eigen/Dense>
+#include <nlohmann/json.hpp>
 #include <string>
 #include <vector>
 
@@ -22,5 +23,9 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
 
 // Writes header + rows atomically, with enough digits to round-trip doubles.
 void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data);
+
+// The CSV and PATH.json (how it was made) together: both files or neither.
+void write_csv_with_sidecar(const std::string& path, const std::vector<std::string>& header,
+                            const Eigen::MatrixXd& data, const nlohmann::json& sidecar);
 
 }  // namespace gipdyn

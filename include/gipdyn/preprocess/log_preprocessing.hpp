@@ -1,0 +1,42 @@
+#pragma once
+// From a raw robot log to a training dataset (`gipdyn preprocess`):
+//   1. resample onto a uniform time grid (linear interpolation);
+//   2. zero-phase Butterworth low-pass of q, qd (when logged) and tau;
+//   3. qd = d/dt of the filtered q when the log has no velocities, and always
+//      qdd = d/dt of the filtered qd (a logged qdd is ignored);
+//   4. optionally drop the stretches at rest.
+// Every step and its effect goes into a report (the sidecar JSON).
+#include <Eigen/Dense>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+namespace gipdyn {
+
+struct PreprocessOptions {
+  std::string time_column;     // "": "t", else "time"
+  double log_period = 0.0;     // > 0: the log has no time column, its rows are this many seconds apart
+  double dt = 0.0;             // resampling period (s); 0: the log's mean step
+  double cutoff_hz = 0.0;      // low-pass cutoff (Hz); 0: no filtering
+  int filter_order = 2;        // Butterworth order of one pass (the zero-phase filter doubles it)
+  bool drop_rest = false;
+  double rest_velocity = 0.01; // at rest: every |qd_j| below this (rad/s or m/s) ...
+  double rest_duration = 0.1;  // ... for at least this long (s), unlike a turning point
+  void validate() const;       // throws gipdyn::Error naming the option
+};
+
+struct PreprocessedLog {
+  Eigen::VectorXd t;
+  Eigen::MatrixXd q, qd, qdd, tau;  // rows x joints
+  nlohmann::json report;
+  int joints() const { return static_cast<int>(q.cols()); }
+  // t, q1..qn, qd1..qn, qdd1..qn, tau1..taun: the dataset layout of `gipdyn train`.
+  std::vector<std::string> column_names() const;
+  Eigen::MatrixXd table() const;
+};
+
+// Reads the log (columns q1..qn and tau1..taun, optionally qd1..qn, and a time
+// column) and applies the steps above. Throws gipdyn::Error naming the problem.
+PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions& options);
+
+}  // namespace gipdyn

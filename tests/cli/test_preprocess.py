@@ -1,0 +1,106 @@
+"""`gipdyn preprocess` against SciPy: the same zero-phase Butterworth filter
+(scipy.signal.butter + sosfiltfilt), numpy.gradient derivatives and
+numpy.interp resampling, plus the sidecar report and the errors."""
+import json
+import subprocess
+
+import numpy as np
+import pytest
+
+
+def run(binary, *args):
+    return subprocess.run([binary, *args], capture_output=True, text=True, timeout=120)
+
+
+def write_log(path, columns):
+    names = list(columns)
+    np.savetxt(path, np.column_stack([columns[k] for k in names]), delimiter=",", header=",".join(names),
+               comments="", fmt="%.17g")
+
+
+def read(path):
+    return np.genfromtxt(path, delimiter=",", names=True)
+
+
+def test_matches_scipy_filter_numpy_gradient_and_interp(tmp_path, gipdyn_bin):
+    signal = pytest.importorskip("scipy.signal")
+    rng = np.random.default_rng(4)
+    t = np.cumsum(rng.uniform(0.8e-3, 1.2e-3, 3000))  # irregular, about 1 kHz
+    q = np.column_stack([np.sin(2.0 * t), 0.5 * np.cos(3.0 * t)]) + 1e-3 * rng.standard_normal((t.size, 2))
+    tau = 3.0 * q + 0.2 * rng.standard_normal((t.size, 2))
+    log = tmp_path / "log.csv"
+    write_log(log, {"time": t, "q1": q[:, 0], "q2": q[:, 1], "tau1": tau[:, 0], "tau2": tau[:, 1]})
+    out = tmp_path / "data.csv"
+    r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--dt", "0.002", "--cutoff", "15",
+            "--order", "3")
+    assert r.returncode == 0, r.stderr
+
+    # The same steps with NumPy/SciPy.
+    dt, fs = 0.002, 500.0
+    grid = t[0] + dt * np.arange(int(np.floor((t[-1] - t[0]) / dt + 1e-9)) + 1)
+    sos = signal.butter(3, 15.0, fs=fs, output="sos")
+    expect = {}
+    for name, x in (("q", q), ("tau", tau)):
+        resampled = np.column_stack([np.interp(grid, t, x[:, j]) for j in range(2)])
+        expect[name] = signal.sosfiltfilt(sos, resampled, axis=0)
+    expect["qd"] = np.gradient(expect["q"], dt, axis=0, edge_order=2)
+    expect["qdd"] = np.gradient(expect["qd"], dt, axis=0, edge_order=2)
+
+    d = read(out)
+    assert list(d.dtype.names) == ["t", "q1", "q2", "qd1", "qd2", "qdd1", "qdd2", "tau1", "tau2"]
+    np.testing.assert_allclose(d["t"], grid, rtol=0, atol=1e-12)
+    for name in ("q", "qd", "qdd", "tau"):
+        got = np.column_stack([d[f"{name}1"], d[f"{name}2"]])
+        scale = np.abs(expect[name]).max()
+        np.testing.assert_allclose(got, expect[name], rtol=0, atol=1e-9 * scale, err_msg=name)
+
+    report = json.loads((tmp_path / "data.csv.json").read_text())
+    assert report["input_rows"] == 3000 and report["output_rows"] == grid.size
+    assert [s["step"] for s in report["steps"]] == ["resample", "low-pass", "derivatives"]
+    assert report["steps"][1]["cutoff_hz"] == 15.0 and report["steps"][1]["order_per_pass"] == 3
+    assert "d/dt of the filtered q" in report["steps"][2]["qd"]
+
+    # The result trains a model directly.
+    r = run(gipdyn_bin, "train", "--data", str(out), "--joints", "RR", "--out", str(tmp_path / "m.gipdyn"),
+            "--max-iter", "5", "--subsample", "200")
+    assert r.returncode == 0, r.stderr
+
+
+def test_logged_velocities_drop_rest_and_errors(tmp_path, gipdyn_bin):
+    t = np.arange(2000) * 1e-3
+    q = np.where(t < 0.5, 0.0, np.sin(4 * (t - 0.5)))
+    qd = np.where(t < 0.5, 0.0, 4 * np.cos(4 * (t - 0.5)))
+    log = tmp_path / "log.csv"
+    write_log(log, {"t": t, "q1": q, "qd1": qd, "qdd1": np.zeros_like(t), "tau1": q})
+    out = tmp_path / "data.csv"
+    r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--drop-rest")
+    assert r.returncode == 0, r.stderr
+    d = read(out)
+    # The first half second at rest is gone; the turning point at t = 0.5 + pi/8, where qd
+    # crosses zero for an instant, is kept.
+    assert d["t"][0] >= 0.5 and d.size == 1500
+    np.testing.assert_allclose(d["qd1"], qd[500:], atol=1e-12)  # logged qd kept (no filter asked)
+    np.testing.assert_allclose(d["qdd1"][1:-1], -16 * np.sin(4 * (t[501:-1] - 0.5)), atol=2e-3)  # not the logged 0
+    report = json.loads((tmp_path / "data.csv.json").read_text())
+    assert report["steps"][-1]["dropped_rows"] == 500 and report["steps"][-1]["stretches_dropped"] == 1
+    assert "ignored" in report["steps"][-2]["qdd"]
+
+    bad = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(tmp_path / "x.csv"), "--cutoff", "600")
+    assert bad.returncode == 1 and "Nyquist" in bad.stderr
+    assert not (tmp_path / "x.csv").exists() and not (tmp_path / "x.csv.json").exists()
+    write_log(tmp_path / "notime.csv", {"clock": t, "q1": q, "tau1": q})
+    bad = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "notime.csv"), "--out", str(tmp_path / "y.csv"))
+    assert bad.returncode == 1 and "--time-column" in bad.stderr
+    ok = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "notime.csv"), "--out", str(tmp_path / "y.csv"),
+             "--time-column", "clock", "--quiet")
+    assert ok.returncode == 0 and ok.stdout == ""
+    # Without a time column, --log-period: rows equally spaced from t = 0.
+    write_log(tmp_path / "rows.csv", {"q1": q, "tau1": q})
+    ok = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "rows.csv"), "--out", str(tmp_path / "z.csv"),
+             "--log-period", "0.001", "--quiet")
+    assert ok.returncode == 0, ok.stderr
+    z = read(tmp_path / "z.csv")
+    np.testing.assert_allclose(z["t"], t, atol=1e-12)
+    smooth = np.abs(t - 0.5) > 1.5e-3  # qd jumps at t = 0.5 s
+    np.testing.assert_allclose(z["qd1"][smooth], qd[smooth], atol=1e-4)  # from q by central differences
+    assert z.size == 2000
