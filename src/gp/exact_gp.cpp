@@ -60,11 +60,12 @@ void nll_from_factor(const Kernel& kernel, double noise, const Eigen::MatrixXd& 
   out.gradient(P) = -0.5 * noise * (ws.alpha.squaredNorm() - ws.K.diagonal().sum());
 }
 
-}  // namespace
-
-NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
-                           const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,
-                           const JitterPolicy& jitter) {
+// One factorisation serves both: with a mean (not zero), beta is profiled out of
+// y before the NLL of the residual is taken.
+NllEvaluation nll_with_optional_mean(const Kernel& kernel, double log_noise_variance, const MeanFunction* mean,
+                                     const Eigen::MatrixXd* X, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
+                                     bool with_gradient, GpWorkspace& ws, Eigen::VectorXd* beta,
+                                     const JitterPolicy& jitter) {
   NllEvaluation out;
   const double noise = std::exp(log_noise_variance);
   const CholeskyResult chol = factorize_covariance(kernel, noise, Z, ws, jitter);
@@ -73,28 +74,13 @@ NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, cons
     out.message = chol.message;
     return out;
   }
-  nll_from_factor(kernel, noise, Z, y, with_gradient, ws, out);
-  return out;
-}
-
-NllEvaluation evaluate_profiled_nll(const Kernel& kernel, double log_noise_variance, const MeanFunction& mean,
-                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
-                                    bool with_gradient, GpWorkspace& ws, Eigen::VectorXd* beta,
-                                    const JitterPolicy& jitter) {
-  if (mean.kind() == MeanKind::Zero) {
+  if (!mean || mean->kind() == MeanKind::Zero) {
     if (beta) beta->resize(0);
-    return evaluate_nll(kernel, log_noise_variance, Z, y, with_gradient, ws, jitter);
-  }
-  NllEvaluation out;
-  const double noise = std::exp(log_noise_variance);
-  const CholeskyResult chol = factorize_covariance(kernel, noise, Z, ws, jitter);
-  out.jitter = chol.jitter;
-  if (!chol.ok()) {
-    out.message = chol.message;
+    nll_from_factor(kernel, noise, Z, y, with_gradient, ws, out);
     return out;
   }
   Eigen::MatrixXd H;
-  mean.basis(X, H);
+  mean->basis(*X, H);
   Eigen::MatrixXd KinvH = H;
   cholesky_solve(ws.K, KinvH);
   // Generalised least squares; the complete orthogonal decomposition gives the
@@ -108,6 +94,22 @@ NllEvaluation evaluate_profiled_nll(const Kernel& kernel, double log_noise_varia
   if (beta) *beta = b;
   nll_from_factor(kernel, noise, Z, y - H * b, with_gradient, ws, out);
   return out;
+}
+
+}  // namespace
+
+NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
+                           const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,
+                           const JitterPolicy& jitter) {
+  return nll_with_optional_mean(kernel, log_noise_variance, nullptr, nullptr, Z, y, with_gradient, ws, nullptr,
+                                jitter);
+}
+
+NllEvaluation evaluate_profiled_nll(const Kernel& kernel, double log_noise_variance, const MeanFunction& mean,
+                                    const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z, const Eigen::VectorXd& y,
+                                    bool with_gradient, GpWorkspace& ws, Eigen::VectorXd* beta,
+                                    const JitterPolicy& jitter) {
+  return nll_with_optional_mean(kernel, log_noise_variance, &mean, &X, Z, y, with_gradient, ws, beta, jitter);
 }
 
 GpRegressor::GpRegressor(std::unique_ptr<Kernel> kernel, double log_noise_variance)
