@@ -131,9 +131,18 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     return out;
   }
   kernel->set_log_params(best_x.head(P));
-  Eigen::VectorXd beta;
-  const NllEvaluation at_best = evaluate_profiled_nll(*kernel, best_x(P), mean, X, Z, y, false, ws, &beta, o.jitter);
-  if (at_best.ok) mean.set_params(beta);
+  if (mean.kind() != MeanKind::Zero) {  // the coefficients that go with the chosen hyperparameters
+    Eigen::VectorXd beta;
+    const NllEvaluation at_best =
+        evaluate_profiled_nll(*kernel, best_x(P), mean, X, Z, y, false, ws, &beta, o.jitter);
+    if (!at_best.ok) {
+      out.report.status = OptimizerResult::Status::Failed;
+      out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + at_best.message;
+      if (progress) progress({j, 0, out.report.evaluations, 0.0, 0.0, seconds(), true, out.report.message});
+      return out;
+    }
+    mean.set_params(beta);
+  }
   out.mean = mean;
   out.gp = GpRegressor(std::move(kernel), best_x(P));
   const CholeskyResult fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
