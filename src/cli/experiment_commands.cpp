@@ -103,8 +103,8 @@ Command add_experiment(CLI::App& app) {
   };
   auto real = std::make_shared<RealArgs>();
   CLI::App* r = app.add_subcommand(
-      "real", "E3: a real robot log split into contiguous train and test rows; per-joint nMSE, bar plot, and "
-              "predicted vs measured torque over a test window");
+      "real", "E3: a real robot log split into contiguous train and test rows (or alternating blocks); per-joint "
+              "nMSE, bar plot, and predicted vs measured torque over a test window");
   r->add_option("--data", real->config.data, "Robot log: CSV of the documented layout, or a .mat file")
       ->required()->check(CLI::ExistingFile);
   r->add_option("--mat-variable", real->config.mat_variable,

@@ -81,9 +81,11 @@ void InverseDynamicsModel::predict(const Eigen::Ref<const Eigen::MatrixXd>& X, E
   mean.resize(X.rows(), num_joints());
   if (stddev) stddev->resize(X.rows(), num_joints());
   Eigen::VectorXd m, v;
+  Eigen::MatrixXd H;  // the mean's basis: the same for every joint
+  if (mean_kind() != MeanKind::Zero) means_.front().basis(X, H);
   for (int j = 0; j < num_joints(); ++j) {
     gps_[static_cast<size_t>(j)].predict_mean(Zs, Z_, m);
-    if (means_[static_cast<size_t>(j)].kind() != MeanKind::Zero) m += means_[static_cast<size_t>(j)].evaluate(X);
+    if (H.cols() > 0) m.noalias() += H * means_[static_cast<size_t>(j)].params();
     mean.col(j) = (y_offset_(j) + y_scale_(j) * m.array()).matrix();
     if (stddev) {
       gps_[static_cast<size_t>(j)].predict_variance(Zs, Z_, v);
