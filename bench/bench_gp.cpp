@@ -84,7 +84,7 @@ void BM_NllGradient(benchmark::State& state) {
   GpWorkspace ws;
   for (auto _ : state) {
     const NllEvaluation e = evaluate_nll(*s.kernel, s.log_noise, p.Z, s.y, true, ws);
-    if (!e.ok) state.SkipWithError(e.message.c_str());
+    if (!e.ok()) state.SkipWithError(e.message.c_str());
     benchmark::DoNotOptimize(e.gradient.data());
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, " + std::to_string(s.kernel->num_params() + 1) + " params");
@@ -108,7 +108,7 @@ void BM_PotrfPotri(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " floor");
 }
 
-InverseDynamicsModel& quick_model(int robot, int N) {
+const InverseDynamicsModel& quick_model(int robot, int N) {
   static std::map<std::pair<int, int>, InverseDynamicsModel> cache;
   auto it = cache.find({robot, N});
   if (it != cache.end()) return it->second;
@@ -121,7 +121,7 @@ InverseDynamicsModel& quick_model(int robot, int N) {
 
 void BM_PredictOneMean(benchmark::State& state) {
   use_single_threaded_blas();
-  InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   PredictionWorkspace ws(m);
   const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
   Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints());
@@ -134,8 +134,8 @@ void BM_PredictOneMean(benchmark::State& state) {
 
 void BM_PredictOneMeanVariance(benchmark::State& state) {
   use_single_threaded_blas();
-  InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  m.enable_variance();
+  const InverseDynamicsModel m =
+      quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))).with_variance();
   PredictionWorkspace ws(m);
   const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
   Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints()), sd(m.num_joints());
@@ -153,8 +153,8 @@ void BM_Train(benchmark::State& state) {
     TrainOptions o;  // the defaults: gip, L-BFGS, 200 evaluations, joints in parallel
     o.keep_factor = false;
     const TrainResult r = train_model(p.X, p.Y, p.joints, o);
-    if (!r.ok) state.SkipWithError(r.message.c_str());
-    for (const auto& j : r.joints) evaluations += j.evaluations;
+    if (!r.report.ok()) state.SkipWithError(r.report.message.c_str());
+    for (const auto& j : r.report.joints) evaluations += j.evaluations;
   }
   state.counters["nll_evals"] = evaluations;
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, default options, all joints");

@@ -1,11 +1,15 @@
 // The estimators of issue 4 behind one interface: fe, pp, sp, the GP kernels and nn.
 #include <gtest/gtest.h>
 
+#include <array>
 #include <cmath>
+#include <map>
 #include <filesystem>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/io/dataset.hpp"
@@ -58,13 +62,13 @@ std::string temp_path(const std::string& name) {
 
 }  // namespace
 
-// METHOD §5: without model bias or noise the rigid-body model is exact, so least
+// docs/method.md section 6: without model bias or noise the rigid-body model is exact, so least
 // squares and the parametric-prior GP recover KDL's torques.
 TEST(Estimators, FeAndPpRecoverNoiseFreeTorquesWithoutModelBias) {
   const Split s = scara_split(0.0);
   for (const std::string name : {"fe", "pp"}) {
     FitResult r = fit_estimator(options(name), s.train.X, s.train.tau, scara_robot().joint_types());
-    ASSERT_TRUE(r.ok) << name << ": " << r.message;
+    ASSERT_TRUE(r.report.ok()) << name << ": " << r.report.message;
     const Eigen::VectorXd nmse = test_nmse(*r.estimator, s);
     for (int j = 0; j < 4; ++j) EXPECT_LT(nmse(j), 1e-8) << name << " joint " << j + 1;
   }
@@ -83,20 +87,37 @@ TEST(Estimators, FeUsesTheBaseParametersOfTheScara) {
 
 class EveryEstimator : public ::testing::TestWithParam<std::string> {};
 
-TEST_P(EveryEstimator, FitsNoisyDataAndBeatsPredictingTheMean) {
+// Bounds about three times the test nMSE each estimator reaches on this split
+// (300 noisy samples at dt 0.1 s, 60 L-BFGS evaluations, 150 epochs), per
+// joint. Joint 4 carries a torque of a few hundredths of a N m against 0.01 N m
+// of noise: the structured estimators reach 0.23, and the generic learners (RBF,
+// NN) do worse than predicting the mean there on so few samples (the paper's
+// point about data efficiency); their bounds record that, not a goal.
+const std::map<std::string, std::array<double, 4>>& reached_nmse_bounds() {
+  static const std::map<std::string, std::array<double, 4>> bounds{
+      {"fe", {1e-6, 1e-6, 1e-5, 3e-4}},
+      {"pp", {1e-6, 1e-6, 1e-5, 3e-3}},
+      {"sp", {1e-6, 1e-6, 1e-5, 1.2e-2}},
+      {"gip", {5e-5, 5e-5, 1e-4, 0.7}},
+      {"gip-friction", {4e-4, 5e-5, 1e-3, 0.7}},
+      {"gip+rbf", {1.5e-4, 5e-5, 2.5e-4, 0.7}},
+      {"gip-friction+rbf", {7e-3, 5e-5, 2e-4, 0.7}},
+      {"rbf", {0.3, 0.12, 6e-5, 2.3}},
+      {"nn", {0.5, 0.6, 0.12, 4.5}},
+  };
+  return bounds;
+}
+
+TEST_P(EveryEstimator, FitsNoisyDataToTheAccuracyItReaches) {
   const Split s = scara_split(0.01);
   FitResult r = fit_estimator(options(GetParam()), s.train.X, s.train.tau, scara_robot().joint_types());
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
   EXPECT_EQ(r.estimator->name(), GetParam());
   const Eigen::VectorXd nmse = test_nmse(*r.estimator, s);
-  if (GetParam() == "nn" || GetParam() == "rbf") {
-    // Generic learners need far more data (the paper's point): on 300 samples they
-    // must still explain most of the large torques of joints 1-2, and beat the mean on average.
-    EXPECT_LT(nmse.mean(), 1.0) << nmse.transpose();
-    EXPECT_LT(nmse.head(2).maxCoeff(), 1.0) << nmse.transpose();
-  } else {
-    EXPECT_LT(nmse.maxCoeff(), 1.0) << nmse.transpose();
-  }
+  const auto& bound = reached_nmse_bounds().at(GetParam());
+  for (int j = 0; j < 4; ++j) EXPECT_LT(nmse(j), bound[static_cast<size_t>(j)]) << "joint " << j + 1 << ": " << nmse.transpose();
+  // The paper's claim in miniature: the structured estimators are far ahead of the generic ones on joints 1-2.
+  if (GetParam() != "rbf" && GetParam() != "nn") EXPECT_LT(nmse.head(2).maxCoeff(), 1e-2) << nmse.transpose();
 }
 
 TEST_P(EveryEstimator, ModelFileRoundTripGivesIdenticalPredictions) {
@@ -105,7 +126,7 @@ TEST_P(EveryEstimator, ModelFileRoundTripGivesIdenticalPredictions) {
   o.gp.optimizer.max_iterations = 10;
   o.nn.epochs = 5;
   FitResult r = fit_estimator(o, s.train.X, s.train.tau, scara_robot().joint_types());
-  ASSERT_TRUE(r.ok) << r.message;
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
   const std::string path = temp_path(GetParam() + ".model");
   save_estimator(*r.estimator, path);
   const std::unique_ptr<Estimator> back = load_estimator(path);
@@ -145,7 +166,8 @@ TEST(Estimators, BadOptionsAndMissingRobotAreOneLineErrors) {
   const JointTypes j = scara_robot().joint_types();
   EstimatorOptions o = options("fe");
   o.robot_prior = {};
-  EXPECT_NE(error_of([&] { fit_estimator(o, s.train.X, s.train.tau, j); }).find("pass --robot"), std::string::npos);
+  EXPECT_NE(error_of([&] { fit_estimator(o, s.train.X, s.train.tau, j); }).find("needs the nominal robot (EstimatorOptions::robot_prior)"),
+            std::string::npos);
   o = options("pp");
   o.robot_prior.robot = std::make_shared<const RobotModel>(ur10_robot());
   EXPECT_NE(error_of([&] { fit_estimator(o, s.train.X, s.train.tau, j); }).find("has joints RRRRRR"),
@@ -153,13 +175,13 @@ TEST(Estimators, BadOptionsAndMissingRobotAreOneLineErrors) {
   EXPECT_NE(error_of([&] { require_known_estimator("svm"); }).find("choose one of"), std::string::npos);
   o = options("nn");
   o.nn.learning_rate = -1;
-  EXPECT_NE(error_of([&] { fit_estimator(o, s.train.X, s.train.tau, j); }).find("--nn-lr"), std::string::npos);
+  EXPECT_NE(error_of([&] { fit_estimator(o, s.train.X, s.train.tau, j); }).find("NeuralNetworkOptions::learning_rate"), std::string::npos);
 }
 
 TEST(Estimators, LoadEstimatorRejectsTruncatedFiles) {
   const Split s = scara_split(0.0, 60);
   FitResult r = fit_estimator(options("fe"), s.train.X, s.train.tau, scara_robot().joint_types());
-  ASSERT_TRUE(r.ok);
+  ASSERT_TRUE(r.report.ok());
   const std::string path = temp_path("truncated.model");
   save_estimator(*r.estimator, path);
   std::filesystem::resize_file(path, std::filesystem::file_size(path) - 20);
@@ -211,7 +233,7 @@ TEST(HyperparameterPrior, MapTrainingKeepsHyperparametersNearTheirStart) {
     o.prior.width = width;
     o.threads = 1;
     TrainResult r = train_model(s.train.X, s.train.tau, j, o);
-    EXPECT_TRUE(r.ok) << r.message;
+    EXPECT_TRUE(r.report.ok()) << r.report.message;
     return r.model.joint_gp(0).kernel().log_params();
   };
   const Eigen::VectorXd start = fitted_params(false, 1.0, 1);  // one evaluation: the data-driven start
@@ -224,6 +246,6 @@ TEST(HyperparameterPrior, MapTrainingKeepsHyperparametersNearTheirStart) {
               HyperparameterPrior p;
               p.width = 0;
               p.validate();
-            }).find("--prior-width"),
+            }).find("HyperparameterPrior::width"),
             std::string::npos);
 }

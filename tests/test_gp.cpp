@@ -45,14 +45,14 @@ TEST_P(NllGradientTest, MatchesFiniteDifferences) {
   auto nll = [&](const Eigen::VectorXd& v) {
     kernel->set_log_params(v.head(P));
     const NllEvaluation e = evaluate_nll(*kernel, v(P), Z, y, false, ws);
-    EXPECT_TRUE(e.ok) << e.message;
+    EXPECT_TRUE(e.ok()) << e.message;
     EXPECT_EQ(e.jitter, 0.0);
     return e.nll;
   };
   const Eigen::VectorXd fd = finite_difference(nll, x, 1e-3);
   kernel->set_log_params(x.head(P));
   const NllEvaluation e = evaluate_nll(*kernel, x(P), Z, y, true, ws);
-  ASSERT_TRUE(e.ok) << e.message;
+  ASSERT_TRUE(e.ok()) << e.message;
   EXPECT_NEAR(e.nll, nll(x), 1e-12 * std::abs(e.nll));
   const double rel = (e.gradient - fd).norm() / fd.norm();
   EXPECT_LT(rel, 1e-6) << GetParam().joints << " " << GetParam().kernel;
@@ -96,14 +96,14 @@ TEST(ProfiledMeanNll, GradientMatchesFiniteDifferencesAndBetaIsOptimal) {
     auto nll = [&](const Eigen::VectorXd& v) {
       kernel->set_log_params(v.head(P));
       const NllEvaluation e = evaluate_profiled_nll(*kernel, v(P), mean, X, Z, y, false, ws);
-      EXPECT_TRUE(e.ok) << e.message;
+      EXPECT_TRUE(e.ok()) << e.message;
       return e.nll;
     };
     const Eigen::VectorXd fd = finite_difference(nll, x, 1e-3);
     kernel->set_log_params(x.head(P));
     Eigen::VectorXd beta;
     const NllEvaluation e = evaluate_profiled_nll(*kernel, x(P), mean, X, Z, y, true, ws, &beta);
-    ASSERT_TRUE(e.ok) << e.message;
+    ASSERT_TRUE(e.ok()) << e.message;
     ASSERT_EQ(e.gradient.size(), P + 1);
     ASSERT_EQ(beta.size(), M);
     EXPECT_LT((e.gradient - fd).norm() / fd.norm(), 1e-6) << kernel_name << " " << to_string(kind);
@@ -163,10 +163,10 @@ TEST(ExactGp, NllReportsFailureInsteadOfThrowing) {
   JitterPolicy none;
   none.max_relative = 0.0;
   const NllEvaluation e = evaluate_nll(*k, std::log(1e-300), Z, Eigen::VectorXd::Ones(10), true, ws, none);
-  EXPECT_FALSE(e.ok);
+  EXPECT_FALSE(e.ok());
   EXPECT_FALSE(e.message.empty());
   const NllEvaluation j = evaluate_nll(*k, std::log(1e-300), Z, Eigen::VectorXd::Ones(10), true, ws);
-  EXPECT_TRUE(j.ok) << j.message;
+  EXPECT_TRUE(j.ok()) << j.message;
   EXPECT_GT(j.jitter, 0.0);
 }
 

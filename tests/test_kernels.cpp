@@ -1,5 +1,5 @@
 // Kernel values and analytic gradients, against finite differences, a naive
-// evaluation of METHOD.md's GIP formula, and the unfused composition.
+// evaluation of the GIP formula of docs/method.md, and the unfused composition.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -141,7 +141,7 @@ TEST(RbfKernel, ValueAndGradients) {
   expect_contractions_match(*k, Z1, "rbf");
 }
 
-// METHOD.md §2 written out directly from raw inputs, with the parameter layout
+// docs/method.md section 2 written out directly from raw inputs, with the parameter layout
 // documented in gip_kernel.hpp: per joint two factors [s0, l...], then the
 // acceleration factor [s0, l_qdd..., l_qdqd...], then friction [l_v, l_c].
 double naive_gip(const JointTypes& joints, const Eigen::VectorXd& logp, const Eigen::RowVectorXd& x,

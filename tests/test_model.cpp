@@ -2,6 +2,8 @@
 // model files (round trip, truncation, corruption, versions) and CSV input errors.
 #include <gtest/gtest.h>
 
+#include <functional>
+
 #include <cstdio>
 #include <cstring>
 #include <unistd.h>
@@ -13,7 +15,7 @@
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
-#include "gipdyn/io/model_file.hpp"
+#include "gipdyn/model/model_file.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/training.hpp"
 #include "test_util.hpp"
@@ -44,7 +46,7 @@ InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned s
   // noise-free data the noise variance sits at its floor and alpha is huge.
   const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(rows, 2);
   TrainResult r = train_model(X, Y, joints, o);
-  EXPECT_TRUE(r.ok) << r.message;
+  EXPECT_TRUE(r.report.ok()) << r.report.message;
   return std::move(r.model);
 }
 
@@ -57,12 +59,12 @@ TEST(RkhsClaim, GipLearnsTwoLinkDynamicsFrom300SamplesAndRbfDoesNot) {
   TrainOptions o;
   o.kernel = "gip";
   const TrainResult gip = train_model(Xtr, Ytr, joints, o);
-  ASSERT_TRUE(gip.ok) << gip.message;
+  ASSERT_TRUE(gip.report.ok()) << gip.report.message;
   const Accuracy a = compute_accuracy(Yte, gip.model.predict(Xte));
   EXPECT_LT(a.nmse.maxCoeff(), 1e-4) << "GIP nMSE " << a.nmse.transpose();
   o.kernel = "rbf";
   const TrainResult rbf = train_model(Xtr, Ytr, joints, o);
-  ASSERT_TRUE(rbf.ok) << rbf.message;
+  ASSERT_TRUE(rbf.report.ok()) << rbf.report.message;
   const Accuracy b = compute_accuracy(Yte, rbf.model.predict(Xte));
   EXPECT_GT(b.nmse.mean(), 1e-4) << "RBF nMSE " << b.nmse.transpose();
   EXPECT_GT(b.nmse.mean(), 100 * a.nmse.mean());
@@ -80,14 +82,14 @@ TEST(Training, SameSeedSameModelWhateverTheThreads) {
   const TrainResult a = train_model(X, Y, joints, o);
   o.threads = 2;
   const TrainResult b = train_model(X, Y, joints, o);
-  ASSERT_TRUE(a.ok && b.ok);
+  ASSERT_TRUE(a.report.ok() && b.report.ok());
   for (int j = 0; j < 2; ++j) {
     EXPECT_EQ(a.model.joint_gp(j).kernel().log_params(), b.model.joint_gp(j).kernel().log_params());
-    EXPECT_EQ(a.joints[static_cast<size_t>(j)].restart_nlls.size(), 3u);
+    EXPECT_EQ(a.report.joints[static_cast<size_t>(j)].restart_nlls.size(), 3u);
   }
   o.seed = 6;
   const TrainResult c = train_model(X, Y, joints, o);
-  EXPECT_NE(a.joints[0].restart_nlls[1], c.joints[0].restart_nlls[1]);  // restarts depend on the seed
+  EXPECT_NE(a.report.joints[0].restart_nlls[1], c.report.joints[0].restart_nlls[1]);  // restarts depend on the seed
 }
 
 TEST(Training, AdamLowersTheNll) {
@@ -98,13 +100,13 @@ TEST(Training, AdamLowersTheNll) {
   o.optimizer.max_iterations = 60;
   o.optimizer.adam_learning_rate = 0.05;
   std::vector<double> first(2, 0.0);
-  TrainingCallback cb = [&](const TrainingProgress& p) {
-    if (p.iteration == 1 && !p.finished) first[static_cast<size_t>(p.joint)] = p.nll;
+  ProgressCallback cb = [&](const ProgressEvent& p) {
+    if (p.iteration == 1 && !p.finished) first[static_cast<size_t>(p.joint)] = p.objective;
   };
   o.threads = 1;
   const TrainResult r = train_model(X, two_link_torques(X), joints, o, cb);
-  ASSERT_TRUE(r.ok) << r.message;
-  for (int j = 0; j < 2; ++j) EXPECT_LT(r.joints[static_cast<size_t>(j)].nll, first[static_cast<size_t>(j)] - 10.0);
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  for (int j = 0; j < 2; ++j) EXPECT_LT(r.report.joints[static_cast<size_t>(j)].nll, first[static_cast<size_t>(j)] - 10.0);
 }
 
 TEST(Training, RejectsBadData) {
@@ -118,6 +120,38 @@ TEST(Training, RejectsBadData) {
   EXPECT_NE(error_of([&] { train_model(X, Y, joints, o); }).find("NaN"), std::string::npos);
   o.kernel = "nope";
   EXPECT_NE(error_of([&] { o.validate(); }).find("unknown kernel"), std::string::npos);
+}
+
+// The library names its own fields, never a front end's flags; front ends rename them.
+TEST(Training, OptionErrorsNameTheFieldAndFrontEndsRenameIt) {
+  struct Case {
+    std::function<void(TrainOptions&)> spoil;
+    std::string field;
+  };
+  const std::vector<Case> cases{
+      {[](TrainOptions& o) { o.restarts = -1; }, "TrainOptions::restarts"},
+      {[](TrainOptions& o) { o.min_noise_fraction = -1; }, "TrainOptions::min_noise_fraction"},
+      {[](TrainOptions& o) { o.threads = -2; }, "TrainOptions::threads"},
+      {[](TrainOptions& o) { o.optimizer.max_iterations = 0; }, "OptimizerOptions::max_iterations"},
+      {[](TrainOptions& o) { o.prior.width = 0; }, "HyperparameterPrior::width"},
+      {[](TrainOptions& o) { o.kernel = "pp"; }, "TrainOptions::robot_prior"},
+  };
+  for (const auto& c : cases) {
+    TrainOptions o;
+    c.spoil(o);
+    const std::string message = error_of([&] { o.validate(); });
+    EXPECT_NE(message.find(c.field), std::string::npos) << message;
+    EXPECT_EQ(message.find("--"), std::string::npos) << message;
+  }
+  const FieldNames cli{{"TrainOptions::min_noise_fraction", "--min-noise"},
+                       {"TrainOptions::initial_noise_fraction", "--initial-noise"},
+                       {"TrainOptions::min", "WRONG"}};
+  TrainOptions o;
+  o.min_noise_fraction = 0.5;  // above the initial fraction: the message names both fields
+  EXPECT_EQ(rename_fields(error_of([&] { o.validate(); }), cli),
+            "--min-noise must be > 0 and not above --initial-noise (0.010000)");
+  // A replacement is never rewritten again, even when it contains another field's name.
+  EXPECT_EQ(rename_fields("a.b and b", {{"a.b", "b.c"}, {"b", "x"}}), "b.c and x");
 }
 
 TEST(Training, ConstantStepSubsample) {
@@ -144,16 +178,17 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
     EXPECT_EQ(loaded.kernel_name(), kernel);
     EXPECT_EQ(loaded.mean_kind(), mean);
     EXPECT_EQ(loaded.hyperparameters(1), m.hyperparameters(1));
-    // Variance after load (factor recomputed) matches the trained model's.
-    m.enable_variance();
-    loaded.enable_variance();
+    // Variance after load (factor recomputed in a new model) matches the trained model's.
+    EXPECT_FALSE(loaded.has_variance());
+    const InverseDynamicsModel trained_with_variance = m.with_variance(), loaded_with_variance = loaded.with_variance();
+    EXPECT_FALSE(loaded.has_variance());  // the loaded model itself is unchanged
     Eigen::MatrixXd ma, sa, mb, sb;
-    m.predict(Xq, ma, &sa);
-    loaded.predict(Xq, mb, &sb);
+    trained_with_variance.predict(Xq, ma, &sa);
+    loaded_with_variance.predict(Xq, mb, &sb);
     EXPECT_EQ(std::memcmp(sa.data(), sb.data(), sizeof(double) * static_cast<size_t>(sa.size())), 0) << kernel;
     // The control-loop path agrees with the batch path up to rounding (the two
     // sum k(x*, X) in different orders; |alpha| amplifies the last bits).
-    PredictionWorkspace ws(loaded);
+    PredictionWorkspace ws(loaded_with_variance);
     Eigen::VectorXd tau(2), sd(2);
     const Eigen::VectorXd x = Xq.row(3).transpose();
     ws.predict(x.data(), tau.data(), sd.data());
@@ -188,7 +223,7 @@ TEST(HybridKernel, BeatsGipAndRbfOnRigidBodyPlusDisturbance) {
     TrainOptions o;
     o.kernel = kernels[k];
     const TrainResult r = train_model(Xtr, Ytr, joints, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.report.ok()) << r.report.message;
     nmse(k) = compute_accuracy(Yte, r.model.predict(Xte)).nmse.mean();
   }
   std::printf("mean nMSE: gip %.3g, rbf %.3g, gip+rbf %.3g\n", nmse(0), nmse(1), nmse(2));
@@ -219,7 +254,7 @@ TEST(MeanFunction, DecidesTheExtrapolationOfALocalKernel) {
     o.scaling = OutputScaling::None;
     o.mean = mean;
     TrainResult r = train_model(X, Y, joints, o);
-    EXPECT_TRUE(r.ok) << r.message;
+    EXPECT_TRUE(r.report.ok()) << r.report.message;
     return std::move(r.model);
   };
   const InverseDynamicsModel linear = fit(MeanKind::Linear), constant = fit(MeanKind::Constant),

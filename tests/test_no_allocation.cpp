@@ -80,7 +80,7 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
     o.kernel = kernel;
     o.optimizer.max_iterations = 5;
     TrainResult r = train_model(X, Y, joints, o);
-    ASSERT_TRUE(r.ok) << r.message;
+    ASSERT_TRUE(r.report.ok()) << r.report.message;
     PredictionWorkspace ws(r.model);
     const Eigen::MatrixXd Xq = test::random_inputs(joints, 10, 62);
     Eigen::VectorXd x(12), tau(4), sd(4);

@@ -61,7 +61,7 @@ TEST(SklearnCrossCheck, RbfPosteriorAndLikelihoodAgree) {
 
   GpWorkspace ws;
   const NllEvaluation e = evaluate_nll(*k, log_noise, X, y, false, ws);
-  ASSERT_TRUE(e.ok);
+  ASSERT_TRUE(e.ok());
   const double lml = ref["log_marginal_likelihood"].get<double>();
   EXPECT_NEAR(-e.nll, lml, 1e-8 * std::abs(lml));
 

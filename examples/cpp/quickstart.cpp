@@ -25,8 +25,8 @@ int main(int argc, char** argv) {
   gipdyn::TrainOptions options;  // kernel "gip", L-BFGS
   options.optimizer.max_iterations = max_iter;
   const gipdyn::TrainResult result = gipdyn::train_model(train.X, train.tau, scara.joint_types(), options);
-  if (!result.ok) {
-    std::fprintf(stderr, "training failed: %s\n", result.message.c_str());
+  if (!result.report.ok()) {
+    std::fprintf(stderr, "training failed: %s\n", result.report.message.c_str());
     return 1;
   }
   const gipdyn::Accuracy acc = gipdyn::compute_accuracy(test.tau_true, result.model.predict(test.X));

@@ -1,5 +1,5 @@
 #pragma once
-// Accuracy metrics of METHOD.md §7.
+// Accuracy metrics of docs/method.md section 7.
 #include <Eigen/Dense>
 
 namespace gipdyn {

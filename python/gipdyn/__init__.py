@@ -7,15 +7,46 @@
 
 Inputs X are (N, 3n) arrays of [q, qd, qdd]; torques Y are (N, n).
 """
-import inspect
 import json
 
 import numpy as np
 
 from . import _core
-from ._core import GipdynError, Robot
+from ._core import GipdynError, HyperparameterPrior, OptimizerOptions, Robot, SimulationOptions, TrainOptions
 
-__all__ = ["InverseDynamicsGP", "Robot", "simulate", "nmse", "neg_nmse_scorer", "GipdynError"]
+__all__ = ["InverseDynamicsGP", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
+           "SimulationOptions", "simulate", "nmse", "neg_nmse_scorer", "GipdynError"]
+
+try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
+    from sklearn.base import BaseEstimator as _BaseEstimator
+    from sklearn.base import RegressorMixin as _RegressorMixin
+    _ESTIMATOR_BASES = (_RegressorMixin, _BaseEstimator)
+except ImportError:  # pragma: no cover - exercised only without scikit-learn
+    import inspect
+
+    class _BaseEstimator:
+        """get_params / set_params / repr from the __init__ signature, as scikit-learn's."""
+
+        @classmethod
+        def _get_param_names(cls):
+            return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
+
+        def get_params(self, deep=True):
+            return {name: getattr(self, name) for name in self._get_param_names()}
+
+        def set_params(self, **params):
+            valid = self._get_param_names()
+            for key, value in params.items():
+                if key not in valid:
+                    raise ValueError(f"invalid parameter {key!r} for {type(self).__name__}; valid: {', '.join(valid)}")
+                setattr(self, key, value)
+            return self
+
+        def __repr__(self):
+            args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
+            return f"{type(self).__name__}({args})"
+
+    _ESTIMATOR_BASES = (_BaseEstimator,)
 
 
 def _as_matrix(name, a, cols=None):
@@ -39,7 +70,7 @@ def _as_matrix(name, a, cols=None):
 
 
 def nmse(Y_true, Y_pred):
-    """Per-joint MSE divided by the population variance of Y_true (METHOD.md §7)."""
+    """Per-joint MSE divided by the population variance of Y_true (docs/method.md)."""
     Y_true = np.asarray(Y_true, dtype=float)
     Y_pred = np.asarray(Y_pred, dtype=float)
     if Y_true.shape != Y_pred.shape:
@@ -52,7 +83,7 @@ def neg_nmse_scorer(estimator, X, Y):
     return -float(np.mean(estimator.nmse(X, Y)))
 
 
-class InverseDynamicsGP:
+class InverseDynamicsGP(*_ESTIMATOR_BASES):
     """One exact GP per joint, hyperparameters by maximum marginal likelihood.
 
     Parameters mirror `gipdyn train`: joints ("RRPR"), kernel ("gip",
@@ -60,11 +91,14 @@ class InverseDynamicsGP:
     "pp", "sp" that need robot), optimizer ("lbfgs", "adam"), max_iter, restarts,
     seed, scaling ("standardize", "center", "none"), min_noise, threads,
     learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",
-    "ur10", a URDF or JSON file), robot_friction (friction columns in the
-    regressor), mean (prior mean of each joint's GP: "zero", "constant", or
+    "ur10", a URDF or JSON file, or a Robot), robot_friction (friction columns in
+    the regressor), mean (prior mean of each joint's GP: "zero", "constant", or
     "linear" in (q, qd, qdd)), prior ("none" for maximum likelihood, "lognormal"
-    for MAP) and prior_width. The non-GP estimators fe and nn are available from
-    the CLI.
+    for MAP) and prior_width. They fill in the library's TrainOptions
+    (train_options()). The non-GP estimators fe and nn are available from the CLI.
+
+    score() follows scikit-learn (higher is better): the mean over joints of
+    1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
     """
 
     def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=200, restarts=0, seed=0,
@@ -87,25 +121,24 @@ class InverseDynamicsGP:
         self.prior = prior
         self.prior_width = prior_width
 
-    # scikit-learn protocol -------------------------------------------------
-    @classmethod
-    def _param_names(cls):
-        return [p for p in inspect.signature(cls.__init__).parameters if p != "self"]
-
-    def get_params(self, deep=True):
-        return {name: getattr(self, name) for name in self._param_names()}
-
-    def set_params(self, **params):
-        valid = self._param_names()
-        for key, value in params.items():
-            if key not in valid:
-                raise ValueError(f"invalid parameter {key!r} for InverseDynamicsGP; valid: {', '.join(valid)}")
-            setattr(self, key, value)
-        return self
-
-    def __repr__(self):
-        args = ", ".join(f"{k}={v!r}" for k, v in self.get_params().items())
-        return f"InverseDynamicsGP({args})"
+    def train_options(self):
+        """The library's TrainOptions for these parameters (checked when fitting)."""
+        o = TrainOptions()
+        o.kernel = str(self.kernel)
+        o.optimizer.kind = str(self.optimizer)
+        o.optimizer.max_iterations = int(self.max_iter)
+        o.optimizer.adam_learning_rate = float(self.learning_rate)
+        o.restarts = int(self.restarts)
+        o.seed = int(self.seed)
+        o.scaling = str(self.scaling)
+        o.mean = str(self.mean)
+        o.min_noise_fraction = float(self.min_noise)
+        o.threads = int(self.threads)
+        o.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
+        if self.robot is not None:
+            o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))
+        o.robot_friction = bool(self.robot_friction)
+        return o
 
     # fitting ---------------------------------------------------------------
     @property
@@ -118,12 +151,8 @@ class InverseDynamicsGP:
         Y = _as_matrix("Y", Y, n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
-        self.model_ = _core.train(np.asfortranarray(X), np.asfortranarray(Y), self.joints, self.kernel,
-                                  self.optimizer, int(self.max_iter), int(self.restarts), int(self.seed),
-                                  self.scaling, float(self.min_noise), int(self.threads), float(self.learning_rate),
-                                  bool(self.verbose), "" if self.robot is None else str(self.robot),
-                                  bool(self.robot_friction), str(self.mean), str(self.prior),
-                                  float(self.prior_width))
+        self.model_ = _core.train(np.asfortranarray(X), np.asfortranarray(Y), str(self.joints),
+                                  self.train_options(), bool(self.verbose))
         self._set_fitted_attributes()
         return self
 
@@ -150,6 +179,8 @@ class InverseDynamicsGP:
         self._check_fitted()
         X = np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints))
         if return_std:
+            if not self.model_.has_variance:  # a loaded model: build the factors once, in a new model
+                self.model_ = self.model_.with_variance()
             return self.model_.predict_with_std(X)
         return self.model_.predict(X)
 
@@ -166,10 +197,12 @@ class InverseDynamicsGP:
         Y = _as_matrix("Y", Y, self.n_joints)
         return nmse(Y, self.predict(X))
 
-    def score(self, X, Y):
-        """The mean nMSE over joints (lower is better; for scikit-learn model
-        selection use scoring=gipdyn.neg_nmse_scorer)."""
-        return float(np.mean(self.nmse(X, Y)))
+    def score(self, X, Y, sample_weight=None):
+        """The mean over joints of 1 - nMSE: higher is better, 1 is perfect, as
+        scikit-learn's score (it equals the mean per-joint R^2)."""
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported")
+        return float(np.mean(1.0 - self.nmse(X, Y)))
 
     # persistence -----------------------------------------------------------
     def save(self, path):
@@ -187,15 +220,23 @@ class InverseDynamicsGP:
         return est
 
     def __getstate__(self):
-        state = self.__dict__.copy()
+        parent = getattr(super(), "__getstate__", None)
+        state = dict(parent() if parent is not None else self.__dict__)
         if "model_" in state:
             state["model_"] = state["model_"].to_bytes()
+        if isinstance(state.get("robot"), Robot):
+            raise ValueError("a model whose robot parameter is a Robot object cannot be pickled; pass its path")
         return state
 
     def __setstate__(self, state):
+        state = dict(state)
         if "model_" in state:
             state["model_"] = _core.Model.from_bytes(state["model_"])
-        self.__dict__.update(state)
+        parent = getattr(super(), "__setstate__", None)
+        if parent is not None:
+            parent(state)
+        else:
+            self.__dict__.update(state)
 
 
 def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False):
@@ -204,9 +245,13 @@ def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_k
     qdd, X (= [q, qd, qdd]), tau (noisy), tau_true, and metadata (a dict)."""
     if isinstance(robot, str):
         robot = Robot.load(robot)
-    if int(samples) < 1:
-        raise ValueError("samples must be at least 1")
-    out = _core.simulate(robot, int(samples), int(seed), float(noise), float(dt), bool(perturb_kinematics),
-                         bool(friction))
+    o = SimulationOptions()
+    o.samples = int(samples)
+    o.seed = int(seed)
+    o.noise_std = float(noise)
+    o.dt = float(dt)
+    o.perturb_kinematics = bool(perturb_kinematics)
+    o.friction = bool(friction)
+    out = _core.simulate(robot, o)
     out["metadata"] = json.loads(out["metadata"])
     return out

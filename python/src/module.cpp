@@ -1,17 +1,20 @@
 // The gipdyn._core extension: thin bindings over the C++ library. The
-// scikit-learn-style estimator lives in Python (gipdyn/__init__.py).
+// options are the library's own structs; the scikit-learn-style estimator
+// lives in Python (gipdyn/__init__.py) and fills them in.
 #include <pybind11/eigen.h>
+#include <pybind11/functional.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
+#include <cstdio>
 #include <memory>
 #include <mutex>
 #include <nlohmann/json.hpp>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/model_file.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
+#include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -23,50 +26,58 @@ using ConstRef = Eigen::Ref<const Eigen::MatrixXd>;
 
 namespace {
 
-// A trained model plus a lazily built single-query workspace.
+// Library field names as the Python user spells them (InverseDynamicsGP's keywords).
+const FieldNames& python_field_names() {
+  static const FieldNames names{
+      {"EstimatorOptions::robot_prior", "robot"},
+      {"TrainOptions::robot_prior", "robot"},
+      {"RobotPrior::robot", "robot"},
+      {"TrainOptions::restarts", "restarts"},
+      {"TrainOptions::min_noise_fraction", "min_noise"},
+      {"TrainOptions::initial_noise_fraction", "initial_noise_fraction"},
+      {"TrainOptions::threads", "threads"},
+      {"TrainOptions::scaling", "scaling"},
+      {"TrainOptions::mean", "mean"},
+      {"TrainOptions::prior", "prior"},
+      {"HyperparameterPrior::width", "prior_width"},
+      {"OptimizerOptions::kind", "optimizer"},
+      {"OptimizerOptions::max_iterations", "max_iter"},
+      {"OptimizerOptions::adam_learning_rate", "learning_rate"},
+      {"SimulationOptions::samples", "samples"},
+      {"SimulationOptions::noise_std", "noise"},
+      {"SimulationOptions::dt", "dt"},
+  };
+  return names;
+}
+
+// A trained model, read-only and shared, plus the single-query workspace of
+// predict_one: the workspace is mutable, so calls from several Python threads
+// take turns on it.
 struct Model {
-  InverseDynamicsModel model;
+  std::shared_ptr<const InverseDynamicsModel> model;
   std::unique_ptr<PredictionWorkspace> workspace;
-  std::mutex mutex;
-  explicit Model(InverseDynamicsModel m) : model(std::move(m)) {}
+  std::mutex workspace_mutex;
+  explicit Model(InverseDynamicsModel m) : model(std::make_shared<const InverseDynamicsModel>(std::move(m))) {}
 };
 
-std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const std::string& kernel,
-                             const std::string& optimizer, int max_iter, int restarts, std::uint64_t seed,
-                             const std::string& scaling, double min_noise, int threads, double learning_rate,
-                             bool verbose, const std::string& robot, bool robot_friction, const std::string& mean,
-                             const std::string& prior, double prior_width) {
-  TrainOptions o;
-  o.kernel = kernel;
-  if (!robot.empty()) o.robot_prior = {std::make_shared<const RobotModel>(load_robot(robot)), robot_friction};
-  o.optimizer.kind = parse_optimizer(optimizer);
-  o.optimizer.max_iterations = max_iter;
-  o.optimizer.adam_learning_rate = learning_rate;
-  o.restarts = restarts;
-  o.seed = seed;
-  o.scaling = parse_output_scaling(scaling);
-  o.mean = parse_mean_kind(mean);
-  if (prior != "none" && prior != "lognormal") throw Error("prior must be 'none' or 'lognormal', not '" + prior + "'");
-  o.prior.enabled = prior == "lognormal";
-  o.prior.width = prior_width;
-  o.min_noise_fraction = min_noise;
-  o.threads = threads;
+std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
+                             bool verbose) {
   const JointTypes jt = JointTypes::parse(joints);
   std::mutex print_mutex;
-  TrainingCallback cb;
+  ProgressCallback cb;
   if (verbose)
-    cb = [&](const TrainingProgress& p) {
-      if (!p.finished && p.iteration % 10 != 0) return;
+    cb = [&](const ProgressEvent& e) {
+      if (!e.finished && e.iteration % 10 != 0) return;
       std::lock_guard<std::mutex> lock(print_mutex);
-      std::fprintf(stderr, "  joint %d %s eval %d NLL %.6g (%.1f s)\n", p.joint + 1, p.finished ? "done" : "", p.iteration,
-                   p.nll, p.seconds);
+      std::fprintf(stderr, "  %s\n", describe(e).c_str());
     };
   TrainResult r;
   {
     py::gil_scoped_release release;
-    r = train_model(X, Y, jt, o, cb);
+    r = train_model(X, Y, jt, options, cb);
   }
-  if (!r.ok) throw Error("training failed: " + r.message);
+  if (!r.report.ok()) throw Error("training failed: " + r.report.message);
+  if (verbose) std::fprintf(stderr, "%s", r.report.brief_report().c_str());
   return std::make_shared<Model>(std::move(r.model));
 }
 
@@ -91,66 +102,35 @@ Eigen::MatrixXd batch_inverse_dynamics(const RobotModel& robot, ConstRef q, Cons
   return inverse_dynamics(robot, X, friction);
 }
 
+// Options given as strings in Python are parsed by the library's own parsers.
+template <class Class, class Enum>
+void string_property(Class& cls, const char* name, Enum TrainOptions::*field, Enum (*parse)(const std::string&),
+                     std::string (*print)(Enum)) {
+  cls.def_property(
+      name, [field, print](const TrainOptions& o) { return print(o.*field); },
+      [field, parse](TrainOptions& o, const std::string& v) { o.*field = parse(v); });
+}
+
 }  // namespace
 
 PYBIND11_MODULE(_core, m) {
   m.doc() = "gipdyn C++ core: GP inverse dynamics with the GIP kernel";
-  py::register_exception<Error>(m, "GipdynError", PyExc_ValueError);
+  static py::exception<Error> gipdyn_error(m, "GipdynError", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      gipdyn_error(rename_fields(e.what(), python_field_names()).c_str());
+    }
+  });
 
-  py::class_<Model, std::shared_ptr<Model>>(m, "Model")
-      .def_property_readonly("joints", [](const Model& s) { return s.model.joints().str(); })
-      .def_property_readonly("kernel", [](const Model& s) { return s.model.kernel_name(); })
-      .def_property_readonly("num_training_samples", [](const Model& s) { return s.model.num_training_samples(); })
-      .def("hyperparameters", [](const Model& s, int j) { return s.model.hyperparameters(j); })
-      .def("nll", [](const Model& s, int j) { return s.model.joint_gp(j).nll(); })
-      .def(
-          "predict",
-          [](const Model& s, ConstRef X) {
-            py::gil_scoped_release release;
-            return s.model.predict(X);
-          },
-          py::arg("X"))
-      .def(
-          "predict_with_std",
-          [](Model& s, ConstRef X) {
-            py::gil_scoped_release release;
-            std::lock_guard<std::mutex> lock(s.mutex);  // enable_variance mutates once
-            s.model.enable_variance();
-            Eigen::MatrixXd mean, sd;
-            s.model.predict(X, mean, &sd);
-            return std::make_pair(mean, sd);
-          },
-          py::arg("X"))
-      .def(
-          "predict_one",
-          [](Model& s, const Eigen::VectorXd& x) {
-            if (x.size() != 3 * s.model.num_joints())
-              throw Error("x must have " + std::to_string(3 * s.model.num_joints()) + " entries (q, qd, qdd)");
-            std::lock_guard<std::mutex> lock(s.mutex);
-            if (!s.workspace) s.workspace = std::make_unique<PredictionWorkspace>(s.model);
-            Eigen::VectorXd tau(s.model.num_joints());
-            s.workspace->predict(x.data(), tau.data());
-            return tau;
-          },
-          py::arg("x"))
-      .def("save", [](const Model& s, const std::string& path) { save_model(s.model, path); })
-      .def("to_bytes", [](const Model& s) { return py::bytes(serialize_model(s.model)); })
-      .def_static("load", [](const std::string& path) { return std::make_shared<Model>(load_model(path)); })
-      .def_static("from_bytes", [](const py::bytes& b) {
-        return std::make_shared<Model>(deserialize_model(std::string(b), "pickled model"));
-      });
-
-  m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("kernel"), py::arg("optimizer"),
-        py::arg("max_iter"), py::arg("restarts"), py::arg("seed"), py::arg("scaling"), py::arg("min_noise"),
-        py::arg("threads"), py::arg("learning_rate"), py::arg("verbose"), py::arg("robot") = "",
-        py::arg("robot_friction") = false, py::arg("mean") = "zero", py::arg("prior") = "none",
-        py::arg("prior_width") = 2.0);
-  m.def("kernel_names", &kernel_names);
-
-  py::class_<RobotModel>(m, "Robot")
-      .def_static("from_urdf", &load_robot_urdf, py::arg("path"), "A serial robot from a URDF file")
-      .def_static("from_json", &load_robot_json, py::arg("path"), "A robot from a JSON DH description")
-      .def_static("load", &load_robot, py::arg("spec"), "'scara', 'ur10', a .urdf or a .json file")
+  py::class_<RobotModel, std::shared_ptr<RobotModel>>(m, "Robot")
+      .def_static("from_urdf", [](const std::string& p) { return std::make_shared<RobotModel>(load_robot_urdf(p)); },
+                  py::arg("path"), "A serial robot from a URDF file")
+      .def_static("from_json", [](const std::string& p) { return std::make_shared<RobotModel>(load_robot_json(p)); },
+                  py::arg("path"), "A robot from a JSON DH description")
+      .def_static("load", [](const std::string& s) { return std::make_shared<RobotModel>(load_robot(s)); },
+                  py::arg("spec"), "'scara', 'ur10', a .urdf or a .json file")
       .def_property_readonly("name", &RobotModel::name)
       .def_property_readonly("joint_types", [](const RobotModel& r) { return r.joint_types().str(); })
       .def_property_readonly("num_joints", &RobotModel::num_joints)
@@ -169,16 +149,109 @@ PYBIND11_MODULE(_core, m) {
           py::arg("q"), py::arg("qd"), py::arg("qdd"), py::arg("friction") = false)
       .def("__repr__", [](const RobotModel& r) { return "<gipdyn.Robot '" + r.name() + "' " + r.joint_types().str() + ">"; });
 
+  py::class_<OptimizerOptions>(m, "OptimizerOptions")
+      .def(py::init<>())
+      .def_property(
+          "kind", [](const OptimizerOptions& o) { return to_string(o.kind); },
+          [](OptimizerOptions& o, const std::string& v) { o.kind = parse_optimizer(v); })
+      .def_readwrite("max_iterations", &OptimizerOptions::max_iterations)
+      .def_readwrite("f_relative_tolerance", &OptimizerOptions::f_relative_tolerance)
+      .def_readwrite("gradient_tolerance", &OptimizerOptions::gradient_tolerance)
+      .def_readwrite("adam_learning_rate", &OptimizerOptions::adam_learning_rate)
+      .def("validate", &OptimizerOptions::validate);
+
+  py::class_<HyperparameterPrior>(m, "HyperparameterPrior")
+      .def(py::init<>())
+      .def_readwrite("enabled", &HyperparameterPrior::enabled)
+      .def_readwrite("width", &HyperparameterPrior::width)
+      .def("validate", &HyperparameterPrior::validate);
+  m.def("parse_hyperparameter_prior", &parse_hyperparameter_prior, py::arg("name"), py::arg("width"));
+
+  py::class_<TrainOptions> train_options(m, "TrainOptions");
+  train_options.def(py::init<>())
+      .def_readwrite("kernel", &TrainOptions::kernel)
+      .def_readwrite("optimizer", &TrainOptions::optimizer)
+      .def_readwrite("restarts", &TrainOptions::restarts)
+      .def_readwrite("restart_spread", &TrainOptions::restart_spread)
+      .def_readwrite("seed", &TrainOptions::seed)
+      .def_readwrite("initial_noise_fraction", &TrainOptions::initial_noise_fraction)
+      .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
+      .def_readwrite("threads", &TrainOptions::threads)
+      .def_readwrite("prior", &TrainOptions::prior)
+      .def_readwrite("keep_factor", &TrainOptions::keep_factor)
+      .def_property(
+          "robot", [](const TrainOptions& o) { return std::const_pointer_cast<RobotModel>(o.robot_prior.robot); },
+          [](TrainOptions& o, std::shared_ptr<RobotModel> r) { o.robot_prior.robot = std::move(r); })
+      .def_property(
+          "robot_friction", [](const TrainOptions& o) { return o.robot_prior.friction; },
+          [](TrainOptions& o, bool f) { o.robot_prior.friction = f; })
+      .def("validate", &TrainOptions::validate);
+  string_property(train_options, "scaling", &TrainOptions::scaling, &parse_output_scaling, &to_string);
+  string_property(train_options, "mean", &TrainOptions::mean, &parse_mean_kind, &to_string);
+
+  py::class_<Model, std::shared_ptr<Model>>(m, "Model")
+      .def_property_readonly("joints", [](const Model& s) { return s.model->joints().str(); })
+      .def_property_readonly("kernel", [](const Model& s) { return s.model->kernel_name(); })
+      .def_property_readonly("num_training_samples", [](const Model& s) { return s.model->num_training_samples(); })
+      .def_property_readonly("has_variance", [](const Model& s) { return s.model->has_variance(); })
+      .def("hyperparameters", [](const Model& s, int j) { return s.model->hyperparameters(j); })
+      .def("nll", [](const Model& s, int j) { return s.model->joint_gp(j).nll(); })
+      .def(
+          "with_variance",
+          [](const Model& s) {
+            py::gil_scoped_release release;
+            return std::make_shared<Model>(s.model->with_variance());
+          },
+          "A copy that has the Cholesky factors for predictive standard deviations")
+      .def(
+          "predict",
+          [](const Model& s, ConstRef X) {
+            py::gil_scoped_release release;
+            return s.model->predict(X);
+          },
+          py::arg("X"))
+      .def(
+          "predict_with_std",
+          [](const Model& s, ConstRef X) {
+            py::gil_scoped_release release;
+            Eigen::MatrixXd mean, sd;
+            s.model->predict(X, mean, &sd);
+            return std::make_pair(mean, sd);
+          },
+          py::arg("X"))
+      .def(
+          "predict_one",
+          [](Model& s, const Eigen::VectorXd& x) {
+            if (x.size() != 3 * s.model->num_joints())
+              throw Error("x must have " + std::to_string(3 * s.model->num_joints()) + " entries (q, qd, qdd)");
+            std::lock_guard<std::mutex> lock(s.workspace_mutex);
+            if (!s.workspace) s.workspace = std::make_unique<PredictionWorkspace>(*s.model);
+            Eigen::VectorXd tau(s.model->num_joints());
+            s.workspace->predict(x.data(), tau.data());
+            return tau;
+          },
+          py::arg("x"))
+      .def("save", [](const Model& s, const std::string& path) { save_model(*s.model, path); })
+      .def("to_bytes", [](const Model& s) { return py::bytes(serialize_model(*s.model)); })
+      .def_static("load", [](const std::string& path) { return std::make_shared<Model>(load_model(path)); })
+      .def_static("from_bytes", [](const py::bytes& b) {
+        return std::make_shared<Model>(deserialize_model(std::string(b), "pickled model"));
+      });
+
+  m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("verbose") = false);
+  m.def("kernel_names", &kernel_names);
+
+  py::class_<SimulationOptions>(m, "SimulationOptions")
+      .def(py::init<>())
+      .def_readwrite("samples", &SimulationOptions::samples)
+      .def_readwrite("seed", &SimulationOptions::seed)
+      .def_readwrite("noise_std", &SimulationOptions::noise_std)
+      .def_readwrite("dt", &SimulationOptions::dt)
+      .def_readwrite("perturb_kinematics", &SimulationOptions::perturb_kinematics)
+      .def_readwrite("friction", &SimulationOptions::friction);
   m.def(
       "simulate",
-      [](const RobotModel& robot, int samples, std::uint64_t seed, double noise, double dt, bool perturb, bool friction) {
-        SimulationOptions o;
-        o.samples = samples;
-        o.seed = seed;
-        o.noise_std = noise;
-        o.dt = dt;
-        o.perturb_kinematics = perturb;
-        o.friction = friction;
+      [](const RobotModel& robot, const SimulationOptions& o) {
         SimulationResult r;
         {
           py::gil_scoped_release release;
@@ -186,6 +259,5 @@ PYBIND11_MODULE(_core, m) {
         }
         return simulation_to_dict(r, robot.num_joints());
       },
-      py::arg("robot"), py::arg("samples"), py::arg("seed"), py::arg("noise"), py::arg("dt"),
-      py::arg("perturb_kinematics"), py::arg("friction"));
+      py::arg("robot"), py::arg("options"));
 }

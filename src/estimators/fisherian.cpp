@@ -1,6 +1,7 @@
 #include "gipdyn/estimators/fisherian.hpp"
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/training_data.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 
@@ -14,17 +15,15 @@ int regressor_columns(const RobotPrior& prior) { return (prior.friction ? 12 : 1
 
 FisherianEstimator::FisherianEstimator(RobotPrior prior, Eigen::VectorXd weights)
     : prior_(std::move(prior)), weights_(std::move(weights)) {
-  if (!prior_.robot) throw Error("the fe estimator needs the nominal robot; pass --robot");
+  if (!prior_.robot) throw Error("the fe estimator needs the nominal robot (EstimatorOptions::robot_prior)");
   joints_ = prior_.robot->joint_types();
   if (weights_.size() != regressor_columns(prior_)) throw Error("fe: one weight per regressor column is needed");
   base_rank_ = static_cast<int>((weights_.array() != 0.0).count());
 }
 
 FisherianEstimator FisherianEstimator::fit(const RobotPrior& prior, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
-  if (!prior.robot) throw Error("the fe estimator needs the nominal robot; pass --robot");
-  const int n = prior.robot->num_joints();
-  if (X.cols() != 3 * n || Y.cols() != n || X.rows() != Y.rows())
-    throw Error("fe: robot '" + prior.robot->name() + "' has " + std::to_string(n) + " joints; the data do not match");
+  if (!prior.robot) throw Error("the fe estimator needs the nominal robot (EstimatorOptions::robot_prior)");
+  validate_training_data(X, Y, prior.robot->joint_types());
   const BaseParameters base = compute_base_parameters(*prior.robot, prior.friction);
   const Eigen::MatrixXd Phi = base.select(stacked_regressor(*prior.robot, X, prior.friction));
   if (Phi.rows() < Phi.cols())

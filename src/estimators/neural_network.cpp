@@ -1,11 +1,13 @@
 #include "gipdyn/estimators/neural_network.hpp"
 
 #include <algorithm>
+#include <chrono>
 #include <cmath>
 #include <numeric>
 #include <random>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/training_data.hpp"
 
 #ifdef GIPDYN_HAVE_TORCH
 #include <torch/torch.h>
@@ -15,11 +17,11 @@ namespace gipdyn {
 
 void NeuralNetworkOptions::validate() const {
   for (int h : hidden)
-    if (h < 1) throw Error("--nn-hidden: every layer needs at least one unit");
-  if (epochs < 1) throw Error("--nn-epochs must be >= 1");
-  if (batch_size < 1) throw Error("--nn-batch must be >= 1");
-  if (!(learning_rate > 0.0)) throw Error("--nn-lr must be > 0");
-  if (threads < 1) throw Error("NN threads must be >= 1");
+    if (h < 1) throw Error("NeuralNetworkOptions::hidden: every layer needs at least one unit");
+  if (epochs < 1) throw Error("NeuralNetworkOptions::epochs must be >= 1");
+  if (batch_size < 1) throw Error("NeuralNetworkOptions::batch_size must be >= 1");
+  if (!(learning_rate > 0.0)) throw Error("NeuralNetworkOptions::learning_rate must be > 0");
+  if (threads < 1) throw Error("NeuralNetworkOptions::threads must be >= 1");
 }
 
 std::vector<int> NeuralNetworkOptions::hidden_for(int num_joints) const {
@@ -49,13 +51,10 @@ void standardisation(const Eigen::MatrixXd& A, Eigen::RowVectorXd& mean, Eigen::
 }  // namespace
 
 NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
-                                   const NeuralNetworkOptions& options,
-                                   const std::function<void(int, double)>& progress) {
+                                   const NeuralNetworkOptions& options, const ProgressCallback& progress) {
   options.validate();
+  validate_training_data(X, Y, joints);
   const int n = joints.size();
-  if (X.cols() != 3 * n || Y.cols() != n || X.rows() != Y.rows() || X.rows() < 1)
-    throw Error("NN: inputs must be N x " + std::to_string(3 * n) + " and torques N x " + std::to_string(n));
-  if (!X.allFinite() || !Y.allFinite()) throw Error("NN: training data contain NaN or Inf");
 #ifndef GIPDYN_HAVE_TORCH
   (void)progress;
   throw Error("this gipdyn was built without libtorch, so it cannot train the nn estimator; "
@@ -68,6 +67,7 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
   const Eigen::MatrixXd Xs = ((X.rowwise() - net.x_mean_).array().rowwise() / net.x_scale_.array()).matrix();
   const Eigen::MatrixXd Ys = ((Y.rowwise() - net.y_mean_).array().rowwise() / net.y_scale_.array()).matrix();
 
+  const auto t0 = std::chrono::steady_clock::now();
   torch::manual_seed(options.seed);
   torch::set_num_threads(options.threads);
   const std::vector<int> hidden = options.hidden_for(n);
@@ -106,7 +106,14 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
       total += loss.item<double>() * static_cast<double>(stop - start);
     }
     net.final_loss_ = total / static_cast<double>(N);
-    if (progress) progress(epoch, net.final_loss_);
+    if (progress) {
+      ProgressEvent e;
+      e.estimator = "nn";
+      e.iteration = epoch;
+      e.objective = net.final_loss_;
+      e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+      progress(e);
+    }
   }
 
   for (const auto& module : model->children()) {

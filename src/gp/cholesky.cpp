@@ -34,7 +34,7 @@ CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void
   }
   std::ostringstream msg;
   msg << "kernel matrix is not positive definite even with jitter " << policy.max_relative
-      << " x mean diagonal; raise the noise floor (--min-noise) or remove duplicate rows";
+      << " x mean diagonal; raise the noise floor (TrainOptions::min_noise_fraction) or remove duplicate rows";
   result.status = CholeskyResult::Status::NotPositiveDefinite;
   result.message = msg.str();
   return result;

@@ -44,11 +44,11 @@ void nll_from_factor(const Kernel& kernel, double noise, const Eigen::MatrixXd& 
     out.message = "marginal likelihood is not finite at these hyperparameters";
     return;
   }
-  out.ok = true;
+  out.status = NllEvaluation::Status::Ok;
   if (!with_gradient) return;
 
   if (!cholesky_inverse_in_place(ws.K)) {
-    out.ok = false;
+    out.status = NllEvaluation::Status::InversionFailed;
     out.message = "could not invert the kernel matrix (LAPACK potri failed)";
     return;
   }
@@ -71,6 +71,8 @@ NllEvaluation nll_with_optional_mean(const Kernel& kernel, double log_noise_vari
   const CholeskyResult chol = factorize_covariance(kernel, noise, Z, ws, jitter);
   out.jitter = chol.jitter;
   if (!chol.ok()) {
+    out.status = chol.status == CholeskyResult::Status::NonFinite ? NllEvaluation::Status::NonFinite
+                                                                 : NllEvaluation::Status::NotPositiveDefinite;
     out.message = chol.message;
     return out;
   }

@@ -5,7 +5,7 @@
 namespace gipdyn {
 
 void HyperparameterPrior::validate() const {
-  if (!(width > 0.0)) throw Error("--prior-width must be > 0 (the standard deviation of each log-hyperparameter)");
+  if (!(width > 0.0)) throw Error("HyperparameterPrior::width must be > 0 (the standard deviation of each log-hyperparameter)");
 }
 
 double prior_penalty(const Eigen::VectorXd& theta, const Eigen::VectorXd& mu, double width, Eigen::VectorXd* grad) {
@@ -15,5 +15,16 @@ double prior_penalty(const Eigen::VectorXd& theta, const Eigen::VectorXd& mu, do
   if (grad) *grad += inv * d;
   return 0.5 * inv * d.squaredNorm();
 }
+
+HyperparameterPrior parse_hyperparameter_prior(const std::string& name, double width) {
+  if (name != "none" && name != "lognormal")
+    throw Error("TrainOptions::prior '" + name + "' is unknown; choose none or lognormal");
+  HyperparameterPrior p;
+  p.enabled = name == "lognormal";
+  p.width = width;
+  return p;
+}
+
+std::string to_string(const HyperparameterPrior& prior) { return prior.enabled ? "lognormal" : "none"; }
 
 }  // namespace gipdyn

@@ -68,7 +68,7 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
   std::vector<size_t> wanted;
   for (const auto& c : columns) {
     auto it = index.find(c);
-    if (it == index.end()) throw Error("'" + path + "' has no column '" + c + "'; add it or check --joints");
+    if (it == index.end()) throw Error("'" + path + "' has no column '" + c + "'; add it or check the joint types");
     wanted.push_back(it->second);
   }
   const size_t needed = wanted.empty() ? 0 : *std::max_element(wanted.begin(), wanted.end()) + 1;

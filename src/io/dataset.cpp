@@ -32,8 +32,8 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
   int file_joints = 0;
   while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;
   if (file_joints != n && file_joints > 0)
-    throw Error("'" + path + "' has joint columns q1..q" + std::to_string(file_joints) + " but --joints " +
-                joints.str() + " names " + std::to_string(n) + " joints; pass a joint string of length " +
+    throw Error("'" + path + "' has joint columns q1..q" + std::to_string(file_joints) + " but the joint types " +
+                joints.str() + " name " + std::to_string(n) + " joints; pass a joint string of length " +
                 std::to_string(file_joints));
   Dataset d;
   std::vector<std::string> cols = input_column_names(n);

@@ -1,9 +1,10 @@
+#include "gipdyn/io/mat_dataset.hpp"
+
 #include <matio.h>
 
 #include <memory>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/dataset.hpp"
 
 namespace gipdyn {
 
@@ -22,7 +23,7 @@ Dataset read_mat_dataset(const std::string& path, const std::string& variable, c
       Mat_VarFree(info);
     }
     throw Error(what + " has no variable '" + variable + "'; it holds: " + (names.empty() ? "nothing" : names) +
-                " (pass one with --mat-variable)");
+                " (name the variable to read)");
   }
   if (var->rank != 2 || var->isComplex || var->data == nullptr ||
       (var->class_type != MAT_C_DOUBLE && var->class_type != MAT_C_SINGLE))

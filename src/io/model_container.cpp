@@ -50,6 +50,9 @@ const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std:
 
 std::string pack_container(const ModelContainer& c) {
   nlohmann::json h = c.header;
+  // The container owns the format: nobody else writes these two keys.
+  h["format"] = "gipdyn-model";
+  h["format_version"] = kModelFormatVersion;
   nlohmann::json list = nlohmann::json::array();
   for (const auto& [name, a] : c.arrays) list.push_back({{"name", name}, {"rows", a.rows()}, {"cols", a.cols()}});
   h["arrays"] = list;

@@ -16,12 +16,19 @@ const std::vector<std::string>& kernel_names() {
 
 bool kernel_needs_robot(const std::string& name) { return name == "pp" || name == "sp"; }
 
+bool is_gip_kernel(const std::string& name) { return name == "gip" || name == "gip-friction"; }
+
+GipKernel make_gip_kernel(const std::string& name, const FeatureMap& features, int joint) {
+  if (!is_gip_kernel(name)) throw Error("make_gip_kernel: '" + name + "' is not a GIP kernel");
+  return GipKernel(features, name == "gip-friction" ? joint : -1);
+}
+
 void require_known_kernel(const std::string& name) { require_one_of(name, kernel_names(), "kernel"); }
 
 void require_matching_robot(const RobotPrior& prior, const JointTypes& joints) {
   if (prior.robot && prior.robot->joint_types().str() != joints.str())
     throw Error("robot '" + prior.robot->name() + "' has joints " + prior.robot->joint_types().str() +
-                " but the data have " + joints.str() + "; pass the matching --robot or --joints");
+                " but the data have " + joints.str() + "; give a robot prior (RobotPrior::robot) with the data's joint types");
 }
 
 namespace {
@@ -50,11 +57,10 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
                                     const RobotPrior& prior) {
   if (joint < 0 || joint >= features.num_joints()) throw Error("make_kernel: joint index out of range");
   if (kernel_needs_robot(name)) {
-    if (!prior.robot) throw Error("kernel '" + name + "' is model-based and needs a nominal robot; pass --robot");
+    if (!prior.robot) throw Error("kernel '" + name + "' is model-based and needs the nominal robot (RobotPrior::robot)");
     require_matching_robot(prior, features.joints());
   }
-  if (name == "gip") return std::make_unique<GipKernel>(features);
-  if (name == "gip-friction") return std::make_unique<GipKernel>(features, joint);
+  if (is_gip_kernel(name)) return std::make_unique<GipKernel>(make_gip_kernel(name, features, joint));
   if (name == "rbf") return make_rbf(features);
   if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
   if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);

@@ -21,7 +21,7 @@ std::vector<std::string> dynamic_parameter_names(int num_joints, bool with_frict
 
 ParametricKernel::ParametricKernel(std::shared_ptr<const RobotModel> robot, int joint, bool with_friction)
     : robot_(std::move(robot)), joint_(joint), with_friction_(with_friction) {
-  if (!robot_) throw Error("the parametric kernel needs a robot model; pass --robot");
+  if (!robot_) throw Error("the parametric kernel needs the nominal robot (RobotPrior::robot)");
   if (joint < 0 || joint >= robot_->num_joints()) throw Error("parametric kernel: joint index out of range");
   const int p = (with_friction ? 12 : 10) * robot_->num_joints();
   log_params_ = Eigen::VectorXd::Zero(p);

@@ -11,7 +11,7 @@ OutputScaling parse_output_scaling(const std::string& name) {
   if (name == "none") return OutputScaling::None;
   if (name == "center") return OutputScaling::Center;
   if (name == "standardize") return OutputScaling::Standardize;
-  throw Error("unknown output scaling '" + name + "'; choose none, center or standardize");
+  throw Error("TrainOptions::scaling '" + name + "' is unknown; choose none, center or standardize");
 }
 
 std::string to_string(OutputScaling s) {
@@ -49,6 +49,12 @@ InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string
   for (const auto& gp : gps_)
     if (gp.alpha().size() != X_.rows()) throw Error("model: alpha must have one entry per training sample");
   Z_ = features_.compute(X_);
+  // The fused single-query path is chosen here, by kernel name, once.
+  if (is_gip_kernel(kernel_name_))
+    for (int j = 0; j < n; ++j) {
+      gip_kernels_.push_back(make_gip_kernel(kernel_name_, features_, j));
+      gip_kernels_.back().set_log_params(gps_[static_cast<size_t>(j)].kernel().log_params());
+    }
 }
 
 std::vector<std::pair<std::string, double>> InverseDynamicsModel::hyperparameters(int j) const {
@@ -75,7 +81,8 @@ void InverseDynamicsModel::predict(const Eigen::Ref<const Eigen::MatrixXd>& X, E
   if (X.cols() != 3 * num_joints())
     throw Error("inputs have " + std::to_string(X.cols()) + " columns; this " + joints_.str() + " model needs " +
                 std::to_string(3 * num_joints()) + " (q, qd, qdd)");
-  if (stddev && !has_variance()) throw Error("predictive variance is not enabled for this model; call enable_variance()");
+  if (stddev && !has_variance())
+    throw Error("this model has no Cholesky factors for predictive variance; use its with_variance() copy");
   use_single_threaded_blas();
   const Eigen::MatrixXd Zs = features_.compute(X);
   mean.resize(X.rows(), num_joints());
@@ -100,15 +107,17 @@ bool InverseDynamicsModel::has_variance() const {
   return true;
 }
 
-void InverseDynamicsModel::enable_variance() {
+InverseDynamicsModel InverseDynamicsModel::with_variance() const {
   use_single_threaded_blas();
+  InverseDynamicsModel copy = *this;
   GpWorkspace ws;
   for (int j = 0; j < num_joints(); ++j) {
-    GpRegressor& gp = gps_[static_cast<size_t>(j)];
+    GpRegressor& gp = copy.gps_[static_cast<size_t>(j)];
     if (gp.has_factor()) continue;
     const CholeskyResult r = gp.compute_factor(Z_, ws);
     if (!r.ok()) throw Error("joint " + std::to_string(j + 1) + ": cannot compute predictive variance: " + r.message);
   }
+  return copy;
 }
 
 PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
@@ -118,15 +127,9 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
       v_(model.num_training_samples()),
       f_(model.num_joints()) {
   use_single_threaded_blas();
-  for (const GpRegressor& gp : model.gps_) {
-    const auto* gip = dynamic_cast<const GipKernel*>(&gp.kernel());
-    if (!gip) {
-      gip_kernels_.clear();
-      alphas_.clear();
-      break;
-    }
-    gip_kernels_.push_back(gip);
-    alphas_.push_back(&gp.alpha());
+  for (int j = 0; j < static_cast<int>(model.gip_kernels().size()); ++j) {
+    gip_kernels_.push_back(&model.gip_kernels()[static_cast<size_t>(j)]);
+    alphas_.push_back(&model.joint_gp(j).alpha());
   }
   // Warm up every buffer the kernels use, so later calls do not allocate.
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
@@ -136,31 +139,29 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
 
 void PredictionWorkspace::predict(const double* x, double* tau) {
   const InverseDynamicsModel& m = *model_;
-  m.features_.compute_row(x, z_.data());
+  const Eigen::MatrixXd& Z = m.training_features();
+  m.features().compute_row(x, z_.data());
   if (!gip_kernels_.empty()) {
-    GipKernel::dot_rows(gip_kernels_, alphas_, z_.data(), m.Z_, f_, scratch_);
-    for (int j = 0; j < m.num_joints(); ++j)
-      tau[j] = m.y_offset_(j) + m.y_scale_(j) * (f_(j) + m.means_[static_cast<size_t>(j)].evaluate_one(x));
-    return;
+    GipKernel::dot_rows(gip_kernels_, alphas_, z_.data(), Z, f_, scratch_);
+  } else {
+    for (int j = 0; j < m.num_joints(); ++j) f_(j) = m.joint_gp(j).predict_mean_one(z_.data(), Z, krow_, scratch_);
   }
-  for (int j = 0; j < m.num_joints(); ++j) {
-    const double f = m.gps_[static_cast<size_t>(j)].predict_mean_one(z_.data(), m.Z_, krow_, scratch_) +
-                     m.means_[static_cast<size_t>(j)].evaluate_one(x);
-    tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;
-  }
+  for (int j = 0; j < m.num_joints(); ++j)
+    tau[j] = m.output_offset()(j) + m.output_scale()(j) * (f_(j) + m.joint_mean(j).evaluate_one(x));
 }
 
 void PredictionWorkspace::predict(const double* x, double* tau, double* stddev) {
   const InverseDynamicsModel& m = *model_;
-  if (!m.has_variance()) throw Error("predictive variance is not enabled for this model; call enable_variance()");
-  m.features_.compute_row(x, z_.data());
+  if (!m.has_variance())
+    throw Error("this model has no Cholesky factors for predictive variance; use its with_variance() copy");
+  const Eigen::MatrixXd& Z = m.training_features();
+  m.features().compute_row(x, z_.data());
   const int dim = m.features().feature_dim();
   for (int j = 0; j < m.num_joints(); ++j) {
-    const GpRegressor& gp = m.gps_[static_cast<size_t>(j)];
-    const double f =
-        gp.predict_mean_one(z_.data(), m.Z_, krow_, scratch_) + m.means_[static_cast<size_t>(j)].evaluate_one(x);
-    tau[j] = m.y_offset_(j) + m.y_scale_(j) * f;
-    stddev[j] = m.y_scale_(j) * std::sqrt(gp.predict_variance_one(z_.data(), dim, krow_, v_));
+    const GpRegressor& gp = m.joint_gp(j);
+    const double f = gp.predict_mean_one(z_.data(), Z, krow_, scratch_) + m.joint_mean(j).evaluate_one(x);
+    tau[j] = m.output_offset()(j) + m.output_scale()(j) * f;
+    stddev[j] = m.output_scale()(j) * std::sqrt(gp.predict_variance_one(z_.data(), dim, krow_, v_));
   }
 }
 

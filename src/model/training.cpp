@@ -4,6 +4,7 @@
 #include <atomic>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <mutex>
 #include <random>
 #include <thread>
@@ -15,44 +16,17 @@ namespace gipdyn {
 
 void TrainOptions::validate() const {
   optimizer.validate();
-  if (restarts < 0) throw Error("--restarts must be >= 0");
-  if (!(restart_spread >= 0.0)) throw Error("restart spread must be >= 0");
-  if (!(initial_noise_fraction > 0.0)) throw Error("initial noise fraction must be > 0");
+  if (restarts < 0) throw Error("TrainOptions::restarts must be >= 0");
+  if (!(restart_spread >= 0.0)) throw Error("TrainOptions::restart_spread must be >= 0");
+  if (!(initial_noise_fraction > 0.0)) throw Error("TrainOptions::initial_noise_fraction must be > 0");
   if (!(min_noise_fraction > 0.0) || min_noise_fraction > initial_noise_fraction)
-    throw Error("--min-noise must be > 0 and not above the initial noise fraction (" +
+    throw Error("TrainOptions::min_noise_fraction must be > 0 and not above TrainOptions::initial_noise_fraction (" +
                 std::to_string(initial_noise_fraction) + ")");
-  if (threads < 0) throw Error("--threads must be >= 0");
+  if (threads < 0) throw Error("TrainOptions::threads must be >= 0");
   prior.validate();
   require_known_kernel(kernel);
   if (kernel_needs_robot(kernel) && !robot_prior.robot)
-    throw Error("kernel '" + kernel + "' is model-based and needs the nominal robot; pass --robot");
-}
-
-void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints) {
-  const int n = joints.size();
-  if (X.cols() != 3 * n)
-    throw Error("inputs have " + std::to_string(X.cols()) + " columns but joints " + joints.str() + " need " +
-                std::to_string(3 * n) + " (q, qd, qdd per joint)");
-  if (Y.cols() != n)
-    throw Error("torques have " + std::to_string(Y.cols()) + " columns but joints " + joints.str() + " need " +
-                std::to_string(n));
-  if (X.rows() != Y.rows()) throw Error("inputs and torques have different numbers of rows");
-  if (X.rows() < kMinTrainingRows)
-    throw Error("only " + std::to_string(X.rows()) + " training rows; at least " + std::to_string(kMinTrainingRows) +
-                " are needed");
-  if (!X.allFinite() || !Y.allFinite()) throw Error("training data contain NaN or Inf; remove or repair those rows");
-}
-
-std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count) {
-  std::vector<Eigen::Index> idx;
-  if (count <= 0 || count >= rows) {
-    for (Eigen::Index r = 0; r < rows; ++r) idx.push_back(r);
-    return idx;
-  }
-  // floor(k rows / count): evenly spread over all rows even when rows / count is
-  // not an integer (6340 rows -> 4000 must not keep just the first 4000).
-  for (Eigen::Index k = 0; k < count; ++k) idx.push_back(k * rows / count);
-  return idx;
+    throw Error("kernel '" + kernel + "' is model-based and needs the nominal robot (TrainOptions::robot_prior)");
 }
 
 namespace {
@@ -65,7 +39,7 @@ struct JointOutcome {
 };
 
 JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
-                         const Eigen::VectorXd& y, const TrainOptions& o, const TrainingCallback& progress) {
+                         const Eigen::VectorXd& y, const TrainOptions& o, const ProgressCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
@@ -103,7 +77,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
       NllEvaluation e = evaluate_profiled_nll(*trial, x(P), mean, X, Z, y, true, ws, nullptr, o.jitter);
-      if (!e.ok) return false;
+      if (!e.ok()) return false;
       f = e.nll;
       g = e.gradient;
       if (o.prior.enabled) f += prior_penalty(x, x0, o.prior.width, &g);  // MAP
@@ -111,7 +85,14 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     };
     ProgressCallback cb;
     if (progress)
-      cb = [&](int it, double f, double gn) { progress({j, r, it, f, gn, seconds(), false, ""}); };
+      cb = [&](const ProgressEvent& optimizer_event) {
+        ProgressEvent e = optimizer_event;
+        e.estimator = o.kernel;
+        e.joint = j;
+        e.restart = r;
+        e.seconds = seconds();
+        progress(e);
+      };
     OptimizerResult res = minimize(objective, start, opt, cb);
     out.report.evaluations += res.evaluations;
     out.report.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
@@ -124,10 +105,23 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
       out.report.message = res.message;
     }
   }
-  out.report.seconds = seconds();
+  // The joint's last event, whatever the outcome.
+  auto finish = [&] {
+    out.report.seconds = seconds();
+    if (!progress) return;
+    ProgressEvent e;
+    e.estimator = o.kernel;
+    e.joint = j;
+    e.iteration = out.report.evaluations;
+    e.objective = out.ok ? out.report.nll : std::numeric_limits<double>::quiet_NaN();
+    e.seconds = out.report.seconds;
+    e.finished = true;
+    e.message = out.ok ? to_string(out.report.status) : out.report.message;
+    progress(e);
+  };
   if (best_x.size() == 0) {
     out.report.message = "joint " + std::to_string(j + 1) + ": " + out.report.message;
-    if (progress) progress({j, 0, out.report.evaluations, 0.0, 0.0, seconds(), true, out.report.message});
+    finish();
     return out;
   }
   kernel->set_log_params(best_x.head(P));
@@ -135,10 +129,10 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     Eigen::VectorXd beta;
     const NllEvaluation at_best =
         evaluate_profiled_nll(*kernel, best_x(P), mean, X, Z, y, false, ws, &beta, o.jitter);
-    if (!at_best.ok) {
+    if (!at_best.ok()) {
       out.report.status = OptimizerResult::Status::Failed;
       out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + at_best.message;
-      if (progress) progress({j, 0, out.report.evaluations, 0.0, 0.0, seconds(), true, out.report.message});
+      finish();
       return out;
     }
     mean.set_params(beta);
@@ -146,7 +140,6 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   out.mean = mean;
   out.gp = GpRegressor(std::move(kernel), best_x(P));
   const CholeskyResult fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
-  out.report.seconds = seconds();
   if (!fit.ok()) {
     out.report.status = OptimizerResult::Status::Failed;
     out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + fit.message;
@@ -155,15 +148,15 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     out.report.nll = out.gp.nll();
     out.report.jitter = fit.jitter;
   }
-  if (progress)
-    progress({j, 0, out.report.evaluations, out.report.nll, 0.0, out.report.seconds, true, out.report.message});
+  finish();
   return out;
 }
 
 }  // namespace
 
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
-                        const TrainOptions& options, const TrainingCallback& progress) {
+                        const TrainOptions& options, const ProgressCallback& progress) {
+  const auto t0 = std::chrono::steady_clock::now();
   options.validate();
   validate_training_data(X, Y, joints);
   // Checked here, not only in make_kernel: the kernels are built in worker threads.
@@ -203,15 +196,16 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   std::vector<GpRegressor> gps;
   std::vector<MeanFunction> means;
   for (auto& o : outcomes) {
-    result.joints.push_back(o.report);
-    if (!o.ok && result.message.empty()) result.message = o.report.message;
+    result.report.joints.push_back(o.report);
+    if (!o.ok && result.report.message.empty()) result.report.message = o.report.message;
     gps.push_back(std::move(o.gp));
     means.push_back(o.mean);
   }
-  if (!result.message.empty()) return result;
-  result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale,
-                                      options.robot_prior, std::move(means));
-  result.ok = true;
+  result.report.status = result.report.message.empty() ? combine_joint_statuses(result.report.joints) : FitStatus::Failed;
+  if (result.report.ok())
+    result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale,
+                                        options.robot_prior, std::move(means));
+  result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }
 

@@ -11,20 +11,30 @@ namespace gipdyn {
 OptimizerKind parse_optimizer(const std::string& name) {
   if (name == "lbfgs") return OptimizerKind::Lbfgs;
   if (name == "adam") return OptimizerKind::Adam;
-  throw Error("unknown optimizer '" + name + "'; choose lbfgs or adam");
+  throw Error("OptimizerOptions::kind '" + name + "' is unknown; choose lbfgs or adam");
 }
 
 std::string to_string(OptimizerKind kind) { return kind == OptimizerKind::Lbfgs ? "lbfgs" : "adam"; }
 
+std::string to_string(OptimizerResult::Status status) {
+  switch (status) {
+    case OptimizerResult::Status::Converged: return "converged";
+    case OptimizerResult::Status::MaxIterations: return "max-iter";
+    case OptimizerResult::Status::Stalled: return "stalled";
+    case OptimizerResult::Status::Failed: return "failed";
+  }
+  return "failed";
+}
+
 void OptimizerOptions::validate() const {
-  if (max_iterations < 1) throw Error("max iterations must be at least 1");
-  if (!(f_relative_tolerance >= 0.0)) throw Error("relative tolerance must be >= 0");
-  if (!(gradient_tolerance >= 0.0)) throw Error("gradient tolerance must be >= 0");
-  if (!(adam_learning_rate > 0.0)) throw Error("Adam learning rate must be > 0");
+  if (max_iterations < 1) throw Error("OptimizerOptions::max_iterations must be at least 1");
+  if (!(f_relative_tolerance >= 0.0)) throw Error("OptimizerOptions::f_relative_tolerance must be >= 0");
+  if (!(gradient_tolerance >= 0.0)) throw Error("OptimizerOptions::gradient_tolerance must be >= 0");
+  if (!(adam_learning_rate > 0.0)) throw Error("OptimizerOptions::adam_learning_rate must be > 0");
   if (!(adam_beta1 >= 0.0 && adam_beta1 < 1.0 && adam_beta2 >= 0.0 && adam_beta2 < 1.0))
-    throw Error("Adam betas must lie in [0, 1)");
-  if (lower_bounds.size() != upper_bounds.size()) throw Error("lower and upper bounds must have the same size");
-  if ((lower_bounds.array() > upper_bounds.array()).any()) throw Error("a lower bound exceeds its upper bound");
+    throw Error("OptimizerOptions::adam_beta1 and adam_beta2 must lie in [0, 1)");
+  if (lower_bounds.size() != upper_bounds.size()) throw Error("OptimizerOptions::lower_bounds and upper_bounds must have the same size");
+  if ((lower_bounds.array() > upper_bounds.array()).any()) throw Error("OptimizerOptions::lower_bounds exceeds upper_bounds");
 }
 
 namespace {
@@ -62,7 +72,13 @@ struct Tracker {
       best_f = f;
       best_x = x;
     }
-    if (progress) progress(evaluations, f, projected_gradient_norm(x, g, options));
+    if (progress) {
+      ProgressEvent e;
+      e.iteration = evaluations;
+      e.objective = f;
+      e.grad_norm = projected_gradient_norm(x, g, options);
+      progress(e);
+    }
     return true;
   }
 };

@@ -24,14 +24,14 @@ double median(std::vector<double> v) {
 }  // namespace
 
 void PreprocessOptions::validate() const {
-  if (dt < 0.0 || !std::isfinite(dt)) throw Error("--dt must be > 0 (or omitted: the log's median step)");
-  if (cutoff_hz < 0.0 || !std::isfinite(cutoff_hz)) throw Error("--cutoff must be > 0 Hz (or omitted: no filter)");
-  if (filter_order < 1 || filter_order > 10) throw Error("--order must be 1..10");
-  if (!(rest_velocity > 0.0)) throw Error("--rest-velocity must be > 0");
-  if (!(rest_duration >= 0.0)) throw Error("--rest-duration must be >= 0");
-  if (log_period < 0.0 || !std::isfinite(log_period)) throw Error("--log-period must be > 0 seconds");
+  if (dt < 0.0 || !std::isfinite(dt)) throw Error("PreprocessOptions::dt must be > 0 (or 0: the log's mean step)");
+  if (cutoff_hz < 0.0 || !std::isfinite(cutoff_hz)) throw Error("PreprocessOptions::cutoff_hz must be > 0 Hz (or 0: no filter)");
+  if (filter_order < 1 || filter_order > 10) throw Error("PreprocessOptions::filter_order must be 1..10");
+  if (!(rest_velocity > 0.0)) throw Error("PreprocessOptions::rest_velocity must be > 0");
+  if (!(rest_duration >= 0.0)) throw Error("PreprocessOptions::rest_duration must be >= 0");
+  if (log_period < 0.0 || !std::isfinite(log_period)) throw Error("PreprocessOptions::log_period must be > 0 seconds");
   if (log_period > 0.0 && !time_column.empty())
-    throw Error("--log-period is for logs without a time column; drop it or --time-column");
+    throw Error("PreprocessOptions::log_period is for logs without a time column; drop it or PreprocessOptions::time_column");
 }
 
 std::vector<std::string> PreprocessedLog::column_names() const {
@@ -68,7 +68,7 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   if (time_column.empty() && o.log_period == 0.0) time_column = header.has("t") ? "t" : "time";
   if (!time_column.empty() && !header.has(time_column))
     throw Error("'" + path + "' has no time column '" + time_column +
-                "'; name it with --time-column, or give --log-period if its rows are equally spaced");
+                "'; name it with PreprocessOptions::time_column, or give PreprocessOptions::log_period if its rows are equally spaced");
 
   std::vector<std::string> columns;
   if (!time_column.empty()) columns.push_back(time_column);
@@ -100,7 +100,7 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   nlohmann::json report;
   report["input"] = path;
   report["joints"] = n;
-  report["time_column"] = time_column.empty() ? "none: rows " + std::to_string(o.log_period) + " s apart (--log-period)"
+  report["time_column"] = time_column.empty() ? "none: rows " + std::to_string(o.log_period) + " s apart (log_period)"
                                               : time_column;
   report["input_rows"] = rows;
   report["input_time_span_s"] = {t(0), t(rows - 1)};
@@ -113,14 +113,14 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   // 1. Uniform grid t0 + k dt within the log's span.
   // The tolerance keeps the last sample of an already uniform log despite rounding.
   const Eigen::Index m = static_cast<Eigen::Index>(std::floor((t(rows - 1) - t(0)) / dt + 1e-9)) + 1;
-  if (m < 3) throw Error("--dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the log's span");
+  if (m < 3) throw Error("PreprocessOptions::dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the log's span");
   const Eigen::VectorXd grid =
       (t(0) + dt * Eigen::VectorXd::LinSpaced(m, 0.0, static_cast<double>(m - 1)).array()).cwiseMin(t(rows - 1));
   const Eigen::MatrixXd data = resample_linear(t, raw.rightCols(raw.cols() - 1), grid);
   steps_done.push_back({{"step", "resample"},
                         {"method", "linear interpolation onto t0 + k dt"},
                         {"dt_s", dt},
-                        {"dt_source", o.dt > 0.0 ? "--dt" : "mean step of the log"},
+                        {"dt_source", o.dt > 0.0 ? "dt option" : "mean step of the log"},
                         {"rows", m}});
 
   PreprocessedLog out;
@@ -180,8 +180,8 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
     }
     const Eigen::Index dropped = rows_now - static_cast<Eigen::Index>(keep.size());
     if (keep.size() < 3)
-      throw Error("--drop-rest would leave " + std::to_string(keep.size()) + " samples: every |qd| is below " +
-                  std::to_string(o.rest_velocity) + "; lower --rest-velocity");
+      throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(keep.size()) + " samples: every |qd| is below " +
+                  std::to_string(o.rest_velocity) + "; lower PreprocessOptions::rest_velocity");
     out.t = out.t(keep).eval();
     out.q = out.q(keep, Eigen::all).eval();
     out.qd = out.qd(keep, Eigen::all).eval();

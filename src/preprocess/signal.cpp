@@ -13,7 +13,7 @@ std::vector<Biquad> butterworth_lowpass(int order, double cutoff_hz, double fs) 
   if (!(fs > 0.0)) throw Error("sampling rate must be > 0");
   if (!(cutoff_hz > 0.0) || !(cutoff_hz < 0.5 * fs))
     throw Error("cutoff " + std::to_string(cutoff_hz) + " Hz must be above 0 and below the Nyquist frequency " +
-                std::to_string(0.5 * fs) + " Hz of the sampling period; lower --cutoff or shorten --dt");
+                std::to_string(0.5 * fs) + " Hz of the sampling period; lower PreprocessOptions::cutoff_hz or shorten PreprocessOptions::dt");
   const double pi = std::acos(-1.0);
   // Prewarped analog cutoff: the digital filter's -3 dB point lands exactly on cutoff_hz.
   const double wc = 2.0 * fs * std::tan(pi * cutoff_hz / fs);

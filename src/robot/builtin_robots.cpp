@@ -37,7 +37,7 @@ JointSpec joint(const std::string& name, JointType type, DhParameters dh, double
 // specifications, as used in Spong & Vidyasagar's SCARA example).
 // Masses and inertias are NOT manufacturer data: plausible values chosen for this
 // project (links as solid cylinders), with joints 3+4 carrying 3.5 kg so that the
-// prismatic joint holds about 34 N against gravity (METHOD.md §9).
+// prismatic joint holds about 34 N against gravity (docs/method.md section 5).
 // Friction (used only with --friction): plausible harmonic-drive values.
 RobotModel scara_robot() {
   const auto R = JointType::Revolute, P = JointType::Prismatic;

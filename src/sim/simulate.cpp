@@ -18,10 +18,10 @@ std::uint64_t derive_seed(std::uint64_t seed, std::uint32_t stream) {
 }  // namespace
 
 void SimulationOptions::validate() const {
-  if (samples < 1) throw Error("--samples must be at least 1");
-  if (!(noise_std >= 0.0)) throw Error("--noise must be >= 0");
-  if (!(dt > 0.0)) throw Error("--dt must be positive");
-  if (!(perturb_length >= 0.0) || !(perturb_angle_deg >= 0.0)) throw Error("perturbation bounds must be >= 0");
+  if (samples < 1) throw Error("SimulationOptions::samples must be at least 1");
+  if (!(noise_std >= 0.0)) throw Error("SimulationOptions::noise_std must be >= 0");
+  if (!(dt > 0.0)) throw Error("SimulationOptions::dt must be positive");
+  if (!(perturb_length >= 0.0) || !(perturb_angle_deg >= 0.0)) throw Error("SimulationOptions::perturb_length and perturb_angle_deg must be >= 0");
   trajectory.validate();
 }
 

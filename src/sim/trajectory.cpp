@@ -17,8 +17,8 @@ void TrajectoryOptions::validate() const {
 SinusoidTrajectory SinusoidTrajectory::random(const RobotModel& robot, int samples, double dt, std::uint64_t seed,
                                               const TrajectoryOptions& o) {
   o.validate();
-  if (samples < 1) throw Error("--samples must be at least 1");
-  if (!(dt > 0.0)) throw Error("--dt must be positive");
+  if (samples < 1) throw Error("trajectory samples must be at least 1");
+  if (!(dt > 0.0)) throw Error("trajectory sampling period dt must be positive");
   const int n = robot.num_joints(), K = o.sinusoids;
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> amp(-1.0, 1.0), freq(-o.max_angular_frequency, o.max_angular_frequency),

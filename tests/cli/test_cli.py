@@ -75,11 +75,18 @@ def test_quiet_and_subsample(tmp_path, gipdyn_bin):
     assert "30 of 100 rows" in r.stdout
 
 
-@pytest.mark.parametrize("command", ["train", "predict", "evaluate"])
-def test_help(gipdyn_bin, command):
+@pytest.mark.parametrize("command, flags", [
+    ("train", ["--data", "--joints", "--kernel", "--out"]),
+    ("predict", ["--model", "--data", "--out"]),
+    ("evaluate", ["--model", "--data", "--json", "--plots"]),
+    ("simulate", ["--robot", "--samples", "--seed", "--out"]),
+    ("preprocess", ["--in", "--out", "--cutoff"]),
+])
+def test_help(gipdyn_bin, command, flags):
     r = run(gipdyn_bin, command, "--help")
     assert r.returncode == 0
-    assert "--data" in r.stdout and "--model" in r.stdout or "--joints" in r.stdout
+    missing = [f for f in flags if f not in r.stdout]
+    assert not missing, f"{command} --help lacks {missing}"
 
 
 def write_text(path, text):
@@ -103,7 +110,7 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("joint mismatch", HEADER + ROWS, "RRR", [], "joint string of length 2"),
         ("bad joint string", HEADER + ROWS, "RX", [], "'X'"),
         ("unknown estimator", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown estimator"),
-        ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "unknown optimizer"),
+        ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "--optimizer 'sgd' is unknown; choose lbfgs or adam"),
     ],
 )
 def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, message):

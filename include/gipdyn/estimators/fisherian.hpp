@@ -1,10 +1,11 @@
 #pragma once
-// FE, the Fisherian estimator of METHOD.md §5: ordinary least squares of the
+// FE, the Fisherian estimator of docs/method.md section 6: ordinary least squares of the
 // stacked torques on the rigid-body regressor of the nominal robot, restricted
 // to the base parameters (robot/dynamics.hpp: a column-pivoted QR picks a
 // maximal set of independent regressor columns; the others are fixed at zero,
 // which leaves the predicted torques unchanged).
 #include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/robot/robot_model.hpp"
 
 namespace gipdyn {

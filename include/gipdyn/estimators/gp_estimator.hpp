@@ -13,9 +13,9 @@ class GpEstimator final : public Estimator {
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override { return model_.predict(X); }
   ModelContainer to_container() const override;
   nlohmann::json summary() const override;
+  const InverseDynamicsModel* gp_model() const override { return &model_; }
 
   const InverseDynamicsModel& model() const { return model_; }
-  InverseDynamicsModel& mutable_model() { return model_; }
 
  private:
   InverseDynamicsModel model_;

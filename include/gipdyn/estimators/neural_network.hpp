@@ -1,17 +1,17 @@
 #pragma once
-// NN, the paper's baseline (METHOD.md §5): a fully connected network with
+// NN, the paper's baseline (docs/method.md): a fully connected network with
 // sigmoid hidden layers, trained with Adam on the mean squared error of
 // standardised inputs and outputs. Trained with libtorch (Debian's
 // libtorch-dev); prediction runs on the stored weights with Eigen, so a
 // trained network is usable without libtorch.
 #include <Eigen/Dense>
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <vector>
 
 #include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
+#include "gipdyn/progress.hpp"
 
 namespace gipdyn {
 
@@ -23,7 +23,7 @@ struct NeuralNetworkOptions {
   double learning_rate = 1e-3;
   std::uint64_t seed = 0;
   int threads = 1;  // libtorch intra-op threads; 1 keeps results bit-reproducible
-  void validate() const;
+  void validate() const;  // throws gipdyn::Error naming the bad field
   std::vector<int> hidden_for(int num_joints) const;
 };
 
@@ -33,11 +33,11 @@ bool neural_network_training_available();
 class NeuralNetwork {
  public:
   NeuralNetwork() = default;
-  // Trains on X (N x 3n) -> Y (N x n). progress(epoch, mean training loss) is
-  // called after every epoch. Throws gipdyn::Error when libtorch is missing.
+  // Trains on X (N x 3n) -> Y (N x n); validates the options and the data first.
+  // progress gets one event per epoch (iteration = epoch, objective = mean
+  // training loss). Throws gipdyn::Error when libtorch is missing.
   static NeuralNetwork train(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
-                             const NeuralNetworkOptions& options,
-                             const std::function<void(int, double)>& progress = {});
+                             const NeuralNetworkOptions& options, const ProgressCallback& progress = {});
 
   const JointTypes& joints() const { return joints_; }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const;

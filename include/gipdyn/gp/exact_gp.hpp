@@ -1,5 +1,5 @@
 #pragma once
-// Exact GP regression for one output (METHOD.md §3).
+// Exact GP regression for one output (docs/method.md section 3).
 //
 //   K = k(X, X) + sigma_n^2 I (+ jitter only if Cholesky fails), alpha = K^{-1} y
 //   mean(x*) = k(x*, X) alpha,  var(x*) = k(x*, x*) - k(x*, X) K^{-1} k(X, x*)
@@ -26,7 +26,14 @@ struct GpWorkspace {
 };
 
 struct NllEvaluation {
-  bool ok = false;
+  enum class Status {
+    Ok,
+    NotPositiveDefinite,  // Cholesky failed even with the largest jitter
+    NonFinite,            // the NLL or the mean's coefficients are not finite
+    InversionFailed,      // LAPACK potri failed (gradient only)
+  };
+  Status status = Status::NonFinite;
+  bool ok() const { return status == Status::Ok; }
   double nll = 0.0;
   Eigen::VectorXd gradient;  // w.r.t. [kernel log-params, log noise variance]
   double jitter = 0.0;

@@ -5,6 +5,7 @@
 // samples cannot push a polynomial factor's weight to an extreme (e^(2 width)
 // away from the start costs 2 nats per parameter).
 #include <Eigen/Dense>
+#include <string>
 
 namespace gipdyn {
 
@@ -13,6 +14,10 @@ struct HyperparameterPrior {
   double width = 2.0;    // standard deviation of each log-parameter
   void validate() const;  // throws gipdyn::Error
 };
+
+// "none" (maximum likelihood) or "lognormal" (MAP) with the given width.
+HyperparameterPrior parse_hyperparameter_prior(const std::string& name, double width);
+std::string to_string(const HyperparameterPrior& prior);  // "none" | "lognormal"
 
 // -log p(theta) up to a constant: sum_k (theta_k - mu_k)^2 / (2 width^2);
 // its gradient is added to *grad when grad is not null.

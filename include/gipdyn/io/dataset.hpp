@@ -24,14 +24,7 @@ std::vector<std::string> input_column_names(int num_joints);
 std::vector<std::string> torque_column_names(int num_joints, const std::string& suffix = "");
 
 // Throws gipdyn::Error for a missing column, a joint count that does not match
-// the file (e.g. --joints RRPR on a file with q5), bad cells or no rows.
+// the file (e.g. joints RRPR on a file with q5), bad cells or no rows.
 Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau);
-
-// A numeric 2-D variable of a MATLAB .mat file (v4, v5 or v7.3, read with
-// matio) whose columns are positional: q (n), qd (n), qdd (n), then tau (n)
-// when require_tau. Extra columns are ignored. Throws gipdyn::Error naming the
-// file, the variable and the problem.
-Dataset read_mat_dataset(const std::string& path, const std::string& variable, const JointTypes& joints,
-                         bool require_tau);
 
 }  // namespace gipdyn

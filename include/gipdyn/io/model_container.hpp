@@ -20,7 +20,7 @@ namespace gipdyn {
 constexpr unsigned kModelFormatVersion = 2;
 
 struct ModelContainer {
-  nlohmann::json header;  // without "arrays": pack_container writes it from `arrays`
+  nlohmann::json header;  // without "arrays", "format", "format_version": pack_container writes those
   std::vector<std::pair<std::string, Eigen::MatrixXd>> arrays;
 
   void add(std::string name, Eigen::MatrixXd value) { arrays.emplace_back(std::move(name), std::move(value)); }

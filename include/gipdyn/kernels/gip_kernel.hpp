@@ -1,5 +1,5 @@
 #pragma once
-// The Geometrically Inspired Polynomial kernel (METHOD.md §2):
+// The Geometrically Inspired Polynomial kernel (docs/method.md section 2):
 //
 //   k(x, x') = prod_{b} MPK_2(z_b, z_b') * MPK_1(a, a')
 //              [ + l_v qd_i qd_i' + l_c sign(qd_i) sign(qd_i')   for gip-friction ]
@@ -43,7 +43,7 @@ class GipKernel final : public Kernel {
            KernelScratch& scratch) const override;
   double self(const double* z, int feature_dim) const override;
 
-  // Data-driven start (METHOD.md §9): every factor's diagonal is about
+  // Data-driven start (docs/method.md section 5): every factor's diagonal is about
   // target_variance^(1/#factors); each weight is divided by the mean square of its
   // feature; the two factors of an MPK_2 start apart (bias/weight shares 0.25/0.75 and 0.75/0.25).
   void initialize(const Eigen::MatrixXd& Z, double target_variance) override;

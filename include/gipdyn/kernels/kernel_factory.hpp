@@ -5,6 +5,7 @@
 #include <vector>
 
 #include "gipdyn/features.hpp"
+#include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/kernel.hpp"
 #include "gipdyn/robot/robot_model.hpp"
 
@@ -20,6 +21,11 @@ struct RobotPrior {
 const std::vector<std::string>& kernel_names();
 // Whether the kernel needs a RobotPrior with a robot (pp, sp).
 bool kernel_needs_robot(const std::string& name);
+
+// Whether the kernel is a GipKernel (gip, gip-friction): such models get the fused prediction path.
+bool is_gip_kernel(const std::string& name);
+// The GipKernel of joint `joint` for gip or gip-friction (default parameters).
+GipKernel make_gip_kernel(const std::string& name, const FeatureMap& features, int joint);
 
 // Throws gipdyn::Error, listing the valid names, unless name is one of them.
 void require_known_kernel(const std::string& name);

@@ -1,5 +1,5 @@
 #pragma once
-// The parametric-prior (PP) kernel of METHOD.md §5: the rigid-body regressor
+// The parametric-prior (PP) kernel of docs/method.md section 6: the rigid-body regressor
 // row of one joint, computed with the robot's nominal kinematics, with a
 // Gaussian prior of diagonal covariance on the dynamic parameters:
 //   k(x, x') = phi_i(x) diag(s) phi_i(x')^T.

@@ -1,5 +1,5 @@
 #pragma once
-// Squared-exponential kernel with ARD lengthscales (METHOD.md §5):
+// Squared-exponential kernel with ARD lengthscales (docs/method.md section 6):
 //   k(z, z') = s2 exp(-1/2 sum_d (z_d - z'_d)^2 / ell_d^2)
 // Parameters: log s2 ("rbf.variance"), log ell_d ("rbf.lengthscale_<column>").
 #include <string>

@@ -1,8 +1,9 @@
 #pragma once
 // A trained inverse dynamics model: one independent GP per joint, all sharing
-// the same training inputs. The model is read-only once built; single-query
-// prediction for control loops goes through a PredictionWorkspace that owns
-// all mutable buffers.
+// the same training inputs. The model never changes after construction, so
+// one model may serve any number of threads; single-query prediction for
+// control loops goes through a PredictionWorkspace (one per thread) that owns
+// every mutable buffer.
 #include <Eigen/Dense>
 #include <string>
 #include <vector>
@@ -55,13 +56,18 @@ class InverseDynamicsModel {
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
   void predict(const Eigen::Ref<const Eigen::MatrixXd>& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const;
 
-  // Variances need each joint's Cholesky factor: enable_variance() computes the
-  // missing ones (O(N^3) per joint), once.
+  // Variances need each joint's Cholesky factor. A trained model keeps them
+  // (TrainOptions::keep_factor); a loaded one does not. with_variance() returns
+  // a copy that has them, computing the missing ones (O(N^3) per joint); it
+  // throws gipdyn::Error if a kernel matrix is not positive definite.
   bool has_variance() const;
-  void enable_variance();
+  InverseDynamicsModel with_variance() const;
+
+  // For GIP-family kernels (gip, gip-friction): the joints' kernels as GipKernel,
+  // for the fused all-joints single-query path; empty for other kernels.
+  const std::vector<GipKernel>& gip_kernels() const { return gip_kernels_; }
 
  private:
-  friend class PredictionWorkspace;
   JointTypes joints_ = JointTypes::parse("R");
   FeatureMap features_{joints_};
   std::string kernel_name_;
@@ -71,6 +77,7 @@ class InverseDynamicsModel {
   OutputScaling scaling_ = OutputScaling::None;
   Eigen::VectorXd y_offset_, y_scale_;
   RobotPrior prior_;
+  std::vector<GipKernel> gip_kernels_;
 };
 
 // Single-query prediction without heap allocation per call (after construction):
@@ -88,7 +95,7 @@ class PredictionWorkspace {
   const InverseDynamicsModel* model_;
   Eigen::VectorXd z_, krow_, v_, f_;
   KernelScratch scratch_;
-  // Set when every joint has a GIP kernel: the fused all-joints mean path.
+  // Set when the model has GIP kernels: the fused all-joints mean path.
   std::vector<const GipKernel*> gip_kernels_;
   std::vector<const Eigen::VectorXd*> alphas_;
 };

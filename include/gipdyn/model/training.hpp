@@ -3,15 +3,17 @@
 // maximum marginal likelihood, joints trained in parallel.
 #include <Eigen/Dense>
 #include <cstdint>
-#include <functional>
 #include <string>
 #include <vector>
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
+#include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/optim/optimizer.hpp"
+#include "gipdyn/progress.hpp"
+#include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
 
@@ -37,53 +39,20 @@ struct TrainOptions {
   bool keep_factor = true;  // keep Cholesky factors so the model can give variances
   JitterPolicy jitter;
 
-  // Throws gipdyn::Error naming the bad option.
+  // Throws gipdyn::Error naming the bad field (e.g. "TrainOptions::restarts must be >= 0").
   void validate() const;
 };
 
-struct TrainingProgress {
-  int joint = 0;     // 0-based
-  int restart = 0;   // 0 = the data-driven start
-  int iteration = 0;
-  double nll = 0.0;
-  double grad_norm = 0.0;
-  double seconds = 0.0;
-  bool finished = false;  // the joint's final report
-  std::string message;
-};
-// Called from worker threads: the callback must be thread-safe.
-using TrainingCallback = std::function<void(const TrainingProgress&)>;
-
-struct JointReport {
-  int joint = 0;
-  double nll = 0.0;
-  std::vector<double> restart_nlls;
-  int evaluations = 0;
-  double seconds = 0.0;
-  double jitter = 0.0;
-  OptimizerResult::Status status = OptimizerResult::Status::Failed;
-  std::string message;
-};
-
 struct TrainResult {
-  bool ok = false;
-  std::string message;  // on failure: which joint and why
-  InverseDynamicsModel model;
-  std::vector<JointReport> joints;
+  FitReport report;            // status, per-joint reports; on failure the joint and the reason
+  InverseDynamicsModel model;  // empty unless report.ok()
 };
 
-constexpr int kMinTrainingRows = 5;
-
-// Checks shapes (X: N x 3n, Y: N x n), finiteness and N >= kMinTrainingRows;
-// throws gipdyn::Error with the first problem found.
-void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints);
-
+// The entry point: validates the options and the data once (throwing
+// gipdyn::Error), then trains every joint. Numerical trouble does not throw: it
+// is in TrainResult::report. progress gets the optimiser's events of every
+// joint and restart, and one finished event per joint, from worker threads.
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
-                        const TrainOptions& options, const TrainingCallback& progress = {});
-
-// Rows floor(k rows / count), k = 0..count-1: `count` rows with a constant
-// (possibly fractional) step over the whole range, as the paper subsampled the
-// UR10 data. count >= rows keeps everything.
-std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count);
+                        const TrainOptions& options, const ProgressCallback& progress = {});
 
 }  // namespace gipdyn

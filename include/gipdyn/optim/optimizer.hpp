@@ -6,6 +6,8 @@
 #include <functional>
 #include <string>
 
+#include "gipdyn/progress.hpp"
+
 namespace gipdyn {
 
 enum class OptimizerKind { Lbfgs, Adam };
@@ -30,8 +32,6 @@ struct OptimizerOptions {
 
 // f(x, grad, want_grad) -> ok. On !ok the point is treated as infeasible.
 using Objective = std::function<bool(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& grad)>;
-// Called after every accepted evaluation (iteration, f, |grad|_inf).
-using ProgressCallback = std::function<void(int iteration, double f, double grad_norm)>;
 
 struct OptimizerResult {
   enum class Status { Converged, MaxIterations, Stalled, Failed };
@@ -42,7 +42,10 @@ struct OptimizerResult {
   int evaluations = 0;
   bool usable() const { return status != Status::Failed; }
 };
+std::string to_string(OptimizerResult::Status status);  // converged, max-iter, stalled, failed
 
+// progress gets one event after every accepted evaluation (iteration, objective,
+// projected |grad|_inf); the caller's fields of the event are left empty.
 OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, const OptimizerOptions& options,
                          const ProgressCallback& progress = {});
 

@@ -67,7 +67,7 @@ class RobotModel {
   const Eigen::Vector3d& gravity() const { return gravity_; }
   bool is_dh() const { return !joints_.empty() && joints_.front().dh.has_value(); }
 
-  // The 10 standard inertial parameters of every link, METHOD.md §5:
+  // The 10 standard inertial parameters of every link, docs/method.md section 6:
   // (m, m cx, m cy, m cz, Ixx, Ixy, Ixz, Iyy, Iyz, Izz) with I about the link frame origin.
   Eigen::VectorXd inertial_parameters() const;
   // (viscous_1..n, coulomb_1..n).

@@ -1,5 +1,5 @@
 #pragma once
-// Simulated datasets (METHOD.md §6): a random sinusoid trajectory, torques from
+// Simulated datasets (docs/method.md section 5): a random sinusoid trajectory, torques from
 // the rigid-body model (KDL), optional friction, i.i.d. Gaussian noise, and
 // optionally a kinematic perturbation of the generating model (model bias).
 #include <Eigen/Dense>

@@ -1,0 +1,79 @@
+#include "estimator_args.hpp"
+
+#include "cli_parsing.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+
+namespace gipdyn::cli {
+
+std::string estimator_list() {
+  std::string s;
+  for (const auto& n : estimator_names()) s += (s.empty() ? "" : ", ") + n;
+  return s;
+}
+
+void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
+  app.add_option("--optimizer", optimizer, "GP hyperparameter optimiser: lbfgs or adam")->capture_default_str();
+  app.add_option("--max-iter", max_iter, "GP: maximum NLL evaluations (L-BFGS) or steps (Adam) per joint and start")
+      ->capture_default_str();
+  app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str();
+  app.add_option("--restarts", restarts, "GP: extra optimiser runs from perturbed starts; the best NLL is kept")
+      ->capture_default_str();
+  if (with_seed)
+    app.add_option("--seed", seed, "Seed for GP restarts and the network's initialisation and batches")
+        ->capture_default_str();
+  app.add_option("--scaling", scaling, "GP: output scaling before the GP: none, center or standardize")
+      ->capture_default_str();
+  app.add_option("--mean", mean,
+                 "GP: prior mean of each joint's GP, trained with the kernel: zero (as the paper), constant, or "
+                 "linear in (q, qd, qdd)")
+      ->capture_default_str();
+  app.add_option("--min-noise", min_noise, "GP: noise-variance floor, as a fraction of the scaled output variance")
+      ->capture_default_str();
+  app.add_option("--prior", prior,
+                 "GP: none (maximum likelihood) or lognormal (MAP: each log-hyperparameter ~ N(its data-driven "
+                 "start, width^2))")
+      ->capture_default_str();
+  app.add_option("--prior-width", prior_width, "GP: standard deviation of the log-normal priors")->capture_default_str();
+  app.add_option("--threads", threads, "GP: joints trained in parallel (0: one per core)")->capture_default_str();
+  if (with_robot) {
+    app.add_option("--robot", robot,
+                   "Nominal robot for the model-based estimators fe, pp, sp: scara, ur10, a URDF or a JSON DH file");
+    app.add_flag("--robot-friction", robot_friction,
+                 "fe, pp, sp: add viscous and Coulomb friction parameters to the rigid-body regressor");
+  }
+  app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)");
+  app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str();
+  app.add_option("--nn-batch", nn.batch_size, "nn: minibatch size")->capture_default_str();
+  app.add_option("--nn-lr", nn.learning_rate, "nn: Adam learning rate")->capture_default_str();
+}
+
+RobotPrior EstimatorArgs::robot_prior() const {
+  RobotPrior prior;
+  if (!robot.empty()) prior.robot = std::make_shared<const RobotModel>(load_robot(robot));
+  prior.friction = robot_friction;
+  return prior;
+}
+
+EstimatorOptions EstimatorArgs::build(const std::string& name) const {
+  EstimatorOptions o;
+  o.name = name;
+  o.gp.optimizer.kind = parse_optimizer(optimizer);
+  o.gp.optimizer.max_iterations = max_iter;
+  o.gp.optimizer.adam_learning_rate = learning_rate;
+  o.gp.restarts = restarts;
+  o.gp.seed = seed;
+  o.gp.scaling = parse_output_scaling(scaling);
+  o.gp.mean = parse_mean_kind(mean);
+  o.gp.min_noise_fraction = min_noise;
+  o.gp.threads = threads;
+  o.gp.keep_factor = false;
+  o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
+  o.nn = nn;
+  o.nn.seed = seed;
+  if (!nn_hidden.empty()) o.nn.hidden = parse_int_list(nn_hidden, "--nn-hidden", "400,400");
+  if (estimator_needs_robot(name)) o.robot_prior = robot_prior();
+  return o;
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,31 @@
+#pragma once
+// The estimator options shared by `train` and `experiment`: which estimator,
+// its optimiser, the nominal robot of model-based estimators, the network's shape.
+#include <CLI/CLI.hpp>
+#include <memory>
+#include <string>
+
+#include "gipdyn/estimators/fit_estimator.hpp"
+
+namespace gipdyn::cli {
+
+struct EstimatorArgs {
+  std::string optimizer = "lbfgs", scaling = "standardize", mean = "zero", robot, nn_hidden, prior = "none";
+  double prior_width = 2.0;
+  int max_iter = 200, restarts = 0, threads = 0;
+  std::uint64_t seed = 0;
+  double min_noise = 1e-8, learning_rate = 0.01;
+  bool robot_friction = false;
+  NeuralNetworkOptions nn;
+
+  // GP, robot and network options (not --kernel, whose help differs per command).
+  void add_to(CLI::App& app, bool with_robot, bool with_seed = true);
+  // Options for estimator `name`; loads --robot when given. Throws gipdyn::Error
+  // for text it cannot parse; the values are checked where they are used.
+  EstimatorOptions build(const std::string& name) const;
+  RobotPrior robot_prior() const;
+};
+
+std::string estimator_list();  // "gip, gip-friction, ..., fe, nn"
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,155 @@
+// `gipdyn experiment accuracy | data-efficiency | real`: the paper's experiments.
+#include <cstdio>
+#include <memory>
+
+#include "cli_parsing.hpp"
+#include "commands.hpp"
+#include "estimator_args.hpp"
+#include "gipdyn/error.hpp"
+#include "experiments/experiments.hpp"
+
+namespace gipdyn::cli {
+namespace {
+
+ProgressCallback printer(bool quiet) {
+  if (quiet) return {};
+  return [](const ProgressEvent& e) {
+    std::printf("%s\n", e.message.c_str());
+    std::fflush(stdout);
+  };
+}
+
+int report(const ExperimentOutcome& o, bool quiet) {
+  for (const auto& w : o.warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", w.c_str());
+  if (!quiet) {
+    std::printf("%d fit(s) done, %d already recorded, %d failed\n", o.units_done, o.units_skipped, o.units_failed);
+    for (const auto& f : o.files) std::printf("wrote %s\n", f.c_str());
+  }
+  // Failed fits are recorded (as nan) so the rest of the experiment stands; say so in the exit code.
+  return o.units_failed > 0 ? 2 : 0;
+}
+
+EstimatorOptions base_options(const EstimatorArgs& args) {
+  EstimatorOptions o = args.build("gip");  // the experiment's config checks the shared options
+  o.robot_prior = {};
+  return o;
+}
+
+}  // namespace
+
+Command add_experiment(CLI::App& app) {
+  app.require_subcommand(1);
+  auto quiet = std::make_shared<bool>(false);
+  const std::string estimator_help = "Comma-separated estimators from: " + estimator_list();
+
+  struct AccuracyArgs {
+    AccuracyConfig config;
+    std::string estimators = "fe,pp,sp,gip,rbf,nn";
+    EstimatorArgs est;
+  };
+  auto acc = std::make_shared<AccuracyArgs>();
+  CLI::App* a = app.add_subcommand(
+      "accuracy", "E1: accuracy under model bias. Per run: perturb the kinematics, simulate train and test "
+                  "trajectories, fit every estimator (model-based ones on the nominal robot), record per-joint nMSE");
+  a->add_option("--robot", acc->config.robot, "Nominal robot: scara, ur10, a URDF or a JSON DH file")
+      ->capture_default_str();
+  a->add_option("--runs", acc->config.runs, "Monte Carlo runs")->capture_default_str();
+  a->add_option("--samples", acc->config.samples, "Samples per trajectory (train and test)")->capture_default_str();
+  a->add_option("--seed", acc->config.seed, "Seed of the perturbations, trajectories, noise and fits")
+      ->capture_default_str();
+  a->add_option("--dt", acc->config.dt, "Sampling period of the trajectories (s)")->capture_default_str();
+  a->add_option("--noise", acc->config.noise_std, "Torque noise standard deviation")->capture_default_str();
+  a->add_option("--estimators", acc->estimators, estimator_help)->capture_default_str();
+  a->add_option("--out", acc->config.out, "Output folder: nmse.csv, summary.md, nmse_boxplot.png")->required();
+  a->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
+  acc->est.add_to(*a, false, false);  // the experiment's --seed drives everything
+
+  struct EfficiencyArgs {
+    DataEfficiencyConfig config;
+    std::string estimators = "gip,rbf,nn,pp", sizes = "100,200,500,1000,2000,4000";
+    EstimatorArgs est;
+  };
+  auto eff = std::make_shared<EfficiencyArgs>();
+  CLI::App* d = app.add_subcommand(
+      "data-efficiency", "E2: test GMSE against the number of training samples (no model bias)");
+  d->add_option("--robot", eff->config.robot, "Robot: scara, ur10, a URDF or a JSON DH file")->capture_default_str();
+  d->add_option("--train-samples", eff->config.train_samples, "Samples of the training trajectory")
+      ->capture_default_str();
+  d->add_option("--test-samples", eff->config.test_samples, "Samples of the test trajectory")->capture_default_str();
+  d->add_option("--sizes", eff->sizes, "Training sizes (constant-step subsamples of the training trajectory)")
+      ->capture_default_str();
+  d->add_option("--runs", eff->config.runs, "Independent train/test trajectory pairs")->capture_default_str();
+  d->add_option("--seed", eff->config.seed, "Seed of the trajectories, noise and fits")->capture_default_str();
+  d->add_option("--dt", eff->config.dt, "Sampling period of the trajectories (s)")->capture_default_str();
+  d->add_option("--noise", eff->config.noise_std, "Torque noise standard deviation")->capture_default_str();
+  d->add_option("--estimators", eff->estimators, estimator_help)->capture_default_str();
+  d->add_option("--out", eff->config.out, "Output folder: gmse.csv, summary.md, gmse.png")->required();
+  d->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
+  eff->est.add_to(*d, false, false);
+
+  struct RealArgs {
+    RealRobotConfig config;
+    std::string estimators, protocol, train_rows, test_rows;
+    EstimatorArgs est;
+  };
+  auto real = std::make_shared<RealArgs>();
+  CLI::App* r = app.add_subcommand(
+      "real", "E3: a real robot log split into contiguous train and test rows (or alternating blocks); per-joint "
+              "nMSE, bar plot, and predicted vs measured torque over a test window");
+  r->add_option("--data", real->config.data, "Robot log: CSV of the documented layout, or a .mat file")
+      ->required()->check(CLI::ExistingFile);
+  r->add_option("--mat-variable", real->config.mat_variable,
+                "Read this variable of a .mat file (columns q, qd, qdd, tau by position)");
+  r->add_option("--joints", real->config.joints, "Joint types, e.g. RRRRRR (ur10 protocol: RRRRRR)");
+  r->add_option("--protocol", real->protocol,
+                "Reference split: ur10 (train rows 1-6340, test 6341-12349, nominal robot ur10 with friction)");
+  r->add_option("--train-rows", real->train_rows, "Training rows FIRST-LAST (1-based data rows)");
+  r->add_option("--test-rows", real->test_rows, "Test rows FIRST-LAST (1-based data rows)");
+  r->add_option("--alternate-blocks", real->config.alternate_blocks,
+                "Split the whole log into blocks of ROWS rows instead: odd blocks train, even blocks test");
+  r->add_option("--nn-max-train", real->config.nn_max_train,
+                "nn: at most this many training rows, a constant-step subsample (0: every training row)")
+      ->capture_default_str();
+  r->add_option("--max-train", real->config.max_train,
+                "GP estimators: at most this many training rows, a constant-step subsample")
+      ->capture_default_str();
+  r->add_option("--plot-window", real->config.plot_window, "Test rows in the torque-over-time plot")
+      ->capture_default_str();
+  r->add_option("--estimators", real->estimators,
+                estimator_help + " (default: gip,gip-friction,rbf,nn, plus fe,pp,sp when a robot is known)");
+  r->add_option("--out", real->config.out,
+                "Output folder: nmse.csv, summary.md, nmse_bar.png, torque_time.png, predictions_*.csv")
+      ->required();
+  r->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
+  real->est.add_to(*r, true);
+
+  return [=]() -> int {
+    if (a->parsed()) {
+      acc->config.estimators = split_list(acc->estimators);
+      acc->config.base = base_options(acc->est);
+      return report(run_accuracy_experiment(acc->config, printer(*quiet)), *quiet);
+    }
+    if (d->parsed()) {
+      eff->config.estimators = split_list(eff->estimators);
+      eff->config.sizes = parse_int_list(eff->sizes, "--sizes", "100,200,500");
+      eff->config.base = base_options(eff->est);
+      return report(run_data_efficiency_experiment(eff->config, printer(*quiet)), *quiet);
+    }
+    RealRobotConfig& c = real->config;
+    if (!real->train_rows.empty()) c.train_rows = parse_row_range(real->train_rows, "--train-rows");
+    if (!real->test_rows.empty()) c.test_rows = parse_row_range(real->test_rows, "--test-rows");
+    c.robot = real->est.robot;
+    c.robot_friction = real->est.robot_friction;
+    apply_protocol(real->protocol, c);
+    if (!real->estimators.empty()) {
+      c.estimators = split_list(real->estimators);
+    } else if (!c.robot.empty()) {
+      c.estimators = {"gip", "gip-friction", "rbf", "nn", "fe", "pp", "sp"};
+    }
+    c.base = base_options(real->est);
+    c.base.gp.seed = real->est.seed;
+    return report(run_real_robot_experiment(c, printer(*quiet)), *quiet);
+  };
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,38 @@
+#include "field_names.hpp"
+
+namespace gipdyn::cli {
+
+const FieldNames& cli_field_names() {
+  static const FieldNames names{
+      {"EstimatorOptions::robot_prior", "--robot"},
+      {"TrainOptions::robot_prior", "--robot"},
+      {"RobotPrior::robot", "--robot"},
+      {"TrainOptions::restarts", "--restarts"},
+      {"TrainOptions::min_noise_fraction", "--min-noise"},
+      {"TrainOptions::threads", "--threads"},
+      {"TrainOptions::scaling", "--scaling"},
+      {"TrainOptions::mean", "--mean"},
+      {"HyperparameterPrior::width", "--prior-width"},
+      {"OptimizerOptions::kind", "--optimizer"},
+      {"OptimizerOptions::max_iterations", "--max-iter"},
+      {"OptimizerOptions::adam_learning_rate", "--lr"},
+      {"NeuralNetworkOptions::hidden", "--nn-hidden"},
+      {"NeuralNetworkOptions::epochs", "--nn-epochs"},
+      {"NeuralNetworkOptions::batch_size", "--nn-batch"},
+      {"NeuralNetworkOptions::learning_rate", "--nn-lr"},
+      {"SimulationOptions::samples", "--samples"},
+      {"SimulationOptions::noise_std", "--noise"},
+      {"SimulationOptions::dt", "--dt"},
+      {"PreprocessOptions::dt", "--dt"},
+      {"PreprocessOptions::cutoff_hz", "--cutoff"},
+      {"PreprocessOptions::filter_order", "--order"},
+      {"PreprocessOptions::rest_velocity", "--rest-velocity"},
+      {"PreprocessOptions::rest_duration", "--rest-duration"},
+      {"PreprocessOptions::log_period", "--log-period"},
+      {"PreprocessOptions::time_column", "--time-column"},
+      {"PreprocessOptions::drop_rest", "--drop-rest"},
+  };
+  return names;
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,49 @@
+// gipdyn: learn robot inverse dynamics with Gaussian processes and the GIP kernel.
+#include <iostream>
+#include <map>
+
+#include "commands.hpp"
+#include "field_names.hpp"
+#include "gipdyn/error.hpp"
+
+int main(int argc, char** argv) {
+  CLI::App app{
+      "gipdyn: learn a robot's inverse dynamics (q, qd, qdd -> tau) with Gaussian processes and the\n"
+      "Geometrically Inspired Polynomial kernel (Dalla Libera & Carli, RA-L 2019).\n"
+      "Run `gipdyn COMMAND --help` for the options of a command."};
+  app.require_subcommand(1);
+  std::map<CLI::App*, gipdyn::cli::Command> commands;
+  auto add = [&](const char* name, const char* help, auto adder) {
+    CLI::App* sub = app.add_subcommand(name, help);
+    commands[sub] = adder(*sub);
+  };
+  add("simulate", "Simulate a robot (scara, ur10, URDF or JSON DH file) on a random trajectory: q, qd, qdd, tau",
+      gipdyn::cli::add_simulate);
+  add("preprocess", "Resample, low-pass (zero phase) and differentiate a raw robot log into a training CSV",
+      gipdyn::cli::add_preprocess);
+  add("train", "Train a model (one GP per joint) on a CSV of q, qd, qdd, tau", gipdyn::cli::add_train);
+  add("predict", "Predict torques and their standard deviations for a CSV of q, qd, qdd", gipdyn::cli::add_predict);
+  add("evaluate", "Per-joint MSE, nMSE and the GMSE of a model on a CSV with measured torques",
+      gipdyn::cli::add_evaluate);
+  add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",
+      gipdyn::cli::add_experiment);
+  try {
+    app.parse(argc, argv);
+  } catch (const CLI::ParseError& e) {
+    return app.exit(e);
+  }
+  try {
+    for (auto& [sub, run] : commands)
+      if (sub->parsed()) return run();
+  } catch (const gipdyn::Error& e) {
+    std::cerr << "gipdyn: error: " << gipdyn::rename_fields(e.what(), gipdyn::cli::cli_field_names()) << "\n";
+    return 1;
+  } catch (const std::bad_alloc&) {
+    std::cerr << "gipdyn: error: out of memory; use fewer training rows (--subsample)\n";
+    return 1;
+  } catch (const std::exception& e) {
+    std::cerr << "gipdyn: error: " << e.what() << "\n";
+    return 1;
+  }
+  return 1;
+}

@@ -1,0 +1,45 @@
+// `gipdyn predict`: torques (and, for GP models, standard deviations) for a CSV of states.
+#include <memory>
+
+#include "commands.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/dataset.hpp"
+#include "gipdyn/model/inverse_dynamics_model.hpp"
+
+namespace gipdyn::cli {
+
+Command add_predict(CLI::App& app) {
+  struct Args {
+    std::string model, data, out;
+    bool no_std = false;
+  };
+  auto a = std::make_shared<Args>();
+  app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
+  app.add_option("--data", a->data, "CSV with columns q1..qn, qd1..qdn, qdd1..qddn (others ignored)")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--out", a->out,
+                 "Output CSV: tau1_hat..taun_hat, and tau1_std..taun_std for GP models")->required();
+  app.add_flag("--no-std", a->no_std, "Skip the standard deviations (much faster for large models)");
+  return [a]() -> int {
+    std::unique_ptr<Estimator> estimator = load_estimator(a->model);
+    const Dataset data = read_dataset(a->data, estimator->joints(), false);
+    const int n = estimator->joints().size();
+    Eigen::MatrixXd mean, sd;
+    std::vector<std::string> header = torque_column_names(n, "_hat");
+    const InverseDynamicsModel* gp = estimator->gp_model();
+    if (a->no_std || gp == nullptr) {
+      write_csv(a->out, header, estimator->predict(data.X));
+    } else {
+      gp->with_variance().predict(data.X, mean, &sd);
+      const auto std_names = torque_column_names(n, "_std");
+      header.insert(header.end(), std_names.begin(), std_names.end());
+      Eigen::MatrixXd both(mean.rows(), 2 * n);
+      both << mean, sd;
+      write_csv(a->out, header, both);
+    }
+    return 0;
+  };
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,81 @@
+// `gipdyn train`: fit any estimator on a CSV and write its model file.
+#include <cstdio>
+#include <memory>
+#include <mutex>
+
+#include "commands.hpp"
+#include "estimator_args.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/io/dataset.hpp"
+#include "gipdyn/training_data.hpp"
+
+namespace gipdyn::cli {
+namespace {
+
+struct TrainArgs {
+  std::string data, joints, kernel = "gip", out;
+  long subsample = 0;
+  bool quiet = false;
+  EstimatorArgs estimator;
+};
+
+}  // namespace
+
+Command add_train(CLI::App& app) {
+  auto a = std::make_shared<TrainArgs>();
+  app.add_option("--data", a->data, "Training CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
+      ->required();
+  app.add_option("--kernel", a->kernel,
+                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, pp, sp) or fe, nn; "
+                 "fe, pp, sp need --robot")
+      ->capture_default_str();
+  app.add_option("--subsample", a->subsample, "Keep this many training rows, taken with a constant step (0: all)")
+      ->capture_default_str();
+  a->estimator.add_to(app, true);
+  app.add_option("--out", a->out, "Model file to write")->required();
+  app.add_flag("--quiet", a->quiet, "Print nothing but errors");
+  return [a]() -> int {
+    const JointTypes joints = JointTypes::parse(a->joints);
+    const EstimatorOptions o = a->estimator.build(a->kernel);
+    if (a->subsample < 0) throw Error("--subsample must be >= 0");
+
+    Dataset data = read_dataset(a->data, joints, true);
+    const Eigen::Index total = data.rows();
+    if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
+    if (!a->quiet) {
+      std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
+                  static_cast<long>(total), a->data.c_str(), joints.str().c_str(), o.name.c_str());
+      if (is_gp_estimator(o.name))
+        std::printf(", optimizer %s (max %d), %d restart(s)", a->estimator.optimizer.c_str(),
+                    o.gp.optimizer.max_iterations, o.gp.restarts);
+      if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
+      std::printf("\n");
+      std::fflush(stdout);
+    }
+    std::mutex mu;
+    ProgressCallback progress;
+    if (!a->quiet) {
+      progress = [&mu](const ProgressEvent& e) {
+        // The optimiser reports every evaluation and a network every epoch: print a sample.
+        if (!e.finished && e.iteration != 1 && e.iteration % 10 != 0) return;
+        std::lock_guard<std::mutex> lock(mu);
+        std::printf("  %s\n", describe(e).c_str());
+        std::fflush(stdout);
+      };
+    }
+    FitResult r = fit_estimator(o, data.X, data.tau, joints, progress);
+    if (!r.report.ok()) throw Error("training failed: " + r.report.message);
+    save_estimator(*r.estimator, a->out);
+    if (!a->quiet) {
+      std::printf("\n%s", r.report.brief_report().c_str());
+      std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
+    }
+    return 0;
+  };
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,133 @@
+#include "experiments/accuracy_experiment.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <filesystem>
+#include <map>
+
+#include "experiments/experiment_runner.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/metrics.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/sim/simulate.hpp"
+#include "reports/result_table.hpp"
+#include "reports/text_format.hpp"
+
+namespace gipdyn {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+void AccuracyConfig::validate() const {
+  if (runs < 1) throw Error("--runs must be >= 1");
+  if (samples < kMinTrainingRows) throw Error("--samples must be >= " + std::to_string(kMinTrainingRows));
+  if (!(dt > 0.0)) throw Error("--dt must be > 0");
+  if (!(noise_std >= 0.0)) throw Error("--noise must be >= 0");
+  validate_estimators(estimators);
+  validate_base_options(base);
+}
+
+nlohmann::json AccuracyConfig::to_json() const {
+  // Not `runs`: an experiment may be extended with more runs.
+  return {{"experiment", "accuracy"}, {"robot", robot},   {"samples", samples},
+          {"seed", seed},             {"dt", dt},         {"noise", noise_std},  {"estimators", estimators},
+          {"options", base_options_json(base)}};
+}
+
+ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const ProgressCallback& progress) {
+  c.validate();
+  const RobotModel nominal = load_robot(c.robot);
+  const JointTypes joints = nominal.joint_types();
+  const int n = joints.size();
+  RobotPrior prior{std::make_shared<const RobotModel>(nominal), false};
+  prepare_folder(c.out, c.to_json());
+  ResultTable table((fs::path(c.out) / "nmse.csv").string(), {"run", "estimator", "joint", "nmse", "seconds"});
+  ExperimentOutcome outcome;
+  Eta eta;
+  for (const auto& row : table.rows())
+    if (row[2] == "1") eta.record(row[1], std::stod(row[4]));
+  for (int r = 1; r <= c.runs; ++r)
+    for (const auto& e : c.estimators)
+      if (!table.contains({{"run", std::to_string(r)}, {"estimator", e}})) eta.add_pending(e, 1);
+      else ++outcome.units_skipped;
+  if (outcome.units_skipped > 0)
+    note(progress, "resuming: " + std::to_string(outcome.units_skipped) + " fits already recorded in " + c.out);
+  const auto t0 = Clock::now();
+  for (int r = 1; r <= c.runs; ++r) {
+    bool all_done = true;
+    for (const auto& e : c.estimators)
+      all_done = all_done && table.contains({{"run", std::to_string(r)}, {"estimator", e}});
+    if (all_done) continue;
+    nlohmann::json drawn;
+    const RobotModel truth = nominal.with_perturbed_kinematics(mix_seed(c.seed, r, 0), 0.05, 5.0 * M_PI / 180.0, &drawn);
+    SimulationOptions so;
+    so.samples = c.samples;
+    so.dt = c.dt;
+    so.noise_std = c.noise_std;
+    so.seed = mix_seed(c.seed, r, 1);
+    const SimulationResult train = simulate(truth, so);
+    so.seed = mix_seed(c.seed, r, 2);
+    const SimulationResult test = simulate(truth, so);
+    for (const auto& e : c.estimators) {
+      if (table.contains({{"run", std::to_string(r)}, {"estimator", e}})) continue;
+      note(progress, "[run " + std::to_string(r) + "/" + std::to_string(c.runs) + "] " + e + ": fitting " +
+                 std::to_string(c.samples) + " samples (elapsed " +
+                 duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
+      const FitAndPredict f =
+          fit_and_predict(options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r)), train.X, train.tau,
+                          joints, test.X);
+      const Eigen::VectorXd nmse = f.ok ? compute_accuracy(test.tau_true, f.prediction).nmse
+                                        : Eigen::VectorXd::Constant(n, std::nan(""));
+      std::vector<std::vector<std::string>> rows;
+      for (int j = 0; j < n; ++j)
+        rows.push_back({std::to_string(r), e, std::to_string(j + 1), format_number(nmse(j)), format_number(f.seconds)});
+      table.append(rows);
+      finish_fit(outcome, eta, e, c.out, "run " + std::to_string(r) + " ", e, f, per_joint("nMSE", nmse), progress);
+    }
+  }
+  outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
+
+  // summary.md: median and quartiles per estimator and joint.
+  const std::string summary = (fs::path(c.out) / "summary.md").string();
+  write_file_atomically(summary, [&](std::ostream& o) {
+    o << "# E1, accuracy under model bias: " << nominal.name() << " (" << joints.str() << ")\n\n";
+    o << c.runs << " runs, " << c.samples << " training and " << c.samples << " test samples per run, dt " << c.dt
+      << " s, noise std " << c.noise_std << ", seed " << c.seed
+      << ". nMSE on the noise-free test torque; median [first quartile, third quartile] over runs.\n\n";
+    o << "| estimator |";
+    for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
+    o << " runs < 1 % on every joint | mean fit time |\n|---|";
+    for (int j = 0; j <= n + 1; ++j) o << "---|";
+    o << "\n";
+    for (const auto& e : c.estimators) {
+      o << "| " << e << " |";
+      std::map<std::string, bool> below;
+      double seconds = 0.0;
+      int fits = 0;
+      for (int j = 1; j <= n; ++j) {
+        std::vector<double> v;
+        for (const auto& row : table.rows())
+          if (row[1] == e && row[2] == std::to_string(j)) {
+            const double x = std::stod(row[3]);
+            v.push_back(x);
+            below[row[0]] = (below.count(row[0]) ? below[row[0]] : true) && x < 0.01;
+            if (j == 1) {
+              seconds += std::stod(row[4]);
+              ++fits;
+            }
+          }
+        o << " " << sci(quantile(v, 0.5)) << " [" << sci(quantile(v, 0.25)) << ", " << sci(quantile(v, 0.75)) << "] |";
+      }
+      int good = 0;
+      for (const auto& [run, ok] : below) good += ok;
+      o << " " << good << "/" << below.size() << " | " << (fits ? duration(seconds / fits) : "n/a") << " |\n";
+    }
+  });
+  outcome.files.push_back(summary);
+  plot_into(outcome, "boxplot", (fs::path(c.out) / "nmse.csv").string(),
+            (fs::path(c.out) / "nmse_boxplot.png").string());
+  return outcome;
+}
+
+}  // namespace gipdyn

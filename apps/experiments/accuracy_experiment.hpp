@@ -1,0 +1,32 @@
+#pragma once
+// E1 (docs/experiments.md): accuracy of every estimator under model bias, over
+// Monte Carlo runs of a perturbed robot; nMSE per run, estimator and joint.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <utility>
+#include <vector>
+
+#include "experiments/experiment_runner.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/progress.hpp"
+
+namespace gipdyn {
+
+// E1: accuracy under model bias.
+struct AccuracyConfig {
+  std::string robot = "scara";  // nominal robot: scara, ur10, URDF or JSON
+  int runs = 20;
+  int samples = 2000;       // per trajectory (train and test)
+  std::uint64_t seed = 0;
+  double dt = 0.01;
+  double noise_std = 0.01;
+  std::vector<std::string> estimators{"fe", "pp", "sp", "gip", "rbf", "nn"};
+  EstimatorOptions base;    // options of every estimator (name and robot prior are set per fit)
+  std::string out;
+  void validate() const;
+  nlohmann::json to_json() const;
+};
+ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& config, const ProgressCallback& progress = {});
+
+}  // namespace gipdyn

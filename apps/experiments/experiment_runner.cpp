@@ -1,0 +1,165 @@
+#include "experiments/experiment_runner.hpp"
+
+#include <chrono>
+#include <filesystem>
+#include <fstream>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/atomic_file.hpp"
+#include "reports/plots.hpp"
+#include "reports/text_format.hpp"
+
+namespace gipdyn {
+
+namespace fs = std::filesystem;
+using Clock = std::chrono::steady_clock;
+
+std::uint64_t mix_seed(std::uint64_t seed, std::uint64_t a, std::uint64_t b) {
+  // splitmix64 of a combination: well-separated streams for (seed, run, purpose).
+  std::uint64_t z = seed * 0x9E3779B97F4A7C15ULL + a * 0xBF58476D1CE4E5B9ULL + b * 0x94D049BB133111EBULL + 1;
+  z = (z ^ (z >> 30)) * 0xBF58476D1CE4E5B9ULL;
+  z = (z ^ (z >> 27)) * 0x94D049BB133111EBULL;
+  return z ^ (z >> 31);
+}
+
+// The folder and its config.json: a restart must use the same settings.
+void prepare_folder(const std::string& out, const nlohmann::json& config) {
+  if (out.empty()) throw Error("--out is required: the folder for the experiment's files");
+  fs::create_directories(out);
+  const std::string path = (fs::path(out) / "config.json").string();
+  if (fs::exists(path)) {
+    nlohmann::json old;
+    try {
+      std::ifstream in(path);
+      old = nlohmann::json::parse(in);
+    } catch (const std::exception&) {
+      throw Error("'" + path + "' is unreadable; delete it (and the results beside it) or use another --out");
+    }
+    if (old != config)
+      throw Error("'" + out + "' holds an experiment with other settings (config.json differs: was " + old.dump() +
+                  "); use another --out, or the same settings to resume");
+    return;
+  }
+  write_file_atomically(path, [&](std::ostream& o) { o << config.dump(2) << "\n"; });
+}
+
+void Eta::record(const std::string& key, double seconds) {
+  auto& [sum, count] = stats_[key];
+  sum += seconds;
+  ++count;
+}
+
+void Eta::add_pending(const std::string& key, int units) { pending_[key] += units; }
+
+void Eta::finish(const std::string& key) { --pending_[key]; }
+
+std::string Eta::left() const {
+  double total = 0.0, known_sum = 0.0;
+  int known = 0;
+  for (const auto& [e, sc] : stats_) {
+    known_sum += sc.first;
+    known += sc.second;
+  }
+  for (const auto& [e, n] : pending_) {
+    if (n <= 0) continue;
+    auto it = stats_.find(e);
+    if (it != stats_.end() && it->second.second > 0) total += n * it->second.first / it->second.second;
+    else if (known > 0) total += n * known_sum / known;
+    else return "time left unknown yet";
+  }
+  return "about " + duration(total) + " left";
+}
+
+FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                              const JointTypes& joints, const Eigen::MatrixXd& Xtest) {
+  FitAndPredict out;
+  const auto t0 = Clock::now();
+  try {
+    FitResult r = fit_estimator(options, X, Y, joints);
+    out.ok = r.report.ok();
+    out.message = r.report.message;
+    if (out.ok) out.prediction = r.estimator->predict(Xtest);
+    if (out.ok && !out.prediction.allFinite()) {
+      out.ok = false;
+      out.message = "predictions contain NaN or Inf";
+    }
+  } catch (const Error& e) {
+    out.message = e.what();
+  }
+  out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
+  return out;
+}
+
+EstimatorOptions options_for(const EstimatorOptions& base, const std::string& name, const RobotPrior& prior,
+                             std::uint64_t seed) {
+  EstimatorOptions o = base;
+  o.name = name;
+  if (estimator_needs_robot(name)) o.robot_prior = prior;
+  o.gp.seed = seed;
+  o.nn.seed = seed;
+  return o;
+}
+
+nlohmann::json base_options_json(const EstimatorOptions& b) {
+  nlohmann::json j = {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
+          {"max_iter", b.gp.optimizer.max_iterations},
+          {"restarts", b.gp.restarts},
+          {"scaling", to_string(b.gp.scaling)},
+          {"min_noise", b.gp.min_noise_fraction},
+          {"prior", b.gp.prior.enabled ? "lognormal" : "none"},
+          {"prior_width", b.gp.prior.width},
+          {"nn_hidden", b.nn.hidden},
+          {"nn_epochs", b.nn.epochs},
+          {"nn_batch", b.nn.batch_size},
+          {"nn_lr", b.nn.learning_rate}};
+  // Only when set, so folders written before mean functions existed still resume.
+  if (b.gp.mean != MeanKind::Zero) j["mean"] = to_string(b.gp.mean);
+  return j;
+}
+
+void validate_estimators(const std::vector<std::string>& estimators) {
+  if (estimators.empty()) throw Error("--estimators: name at least one estimator");
+  for (const auto& e : estimators) require_known_estimator(e);
+}
+
+void validate_base_options(const EstimatorOptions& base) {
+  TrainOptions gp = base.gp;
+  gp.kernel = "gip";  // the model-based kernels' robot is checked per estimator
+  gp.validate();
+  base.nn.validate();
+}
+
+void log_line(const std::string& out, const std::string& line) {
+  std::ofstream log((fs::path(out) / "experiment.log").string(), std::ios::app);
+  log << line << "\n";
+}
+
+void note(const ProgressCallback& progress, const std::string& line) {
+  if (!progress) return;
+  ProgressEvent e;
+  e.message = line;
+  progress(e);
+}
+
+void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key, const std::string& out,
+                const std::string& where, const std::string& estimator, const FitAndPredict& f,
+                const std::string& metrics, const ProgressCallback& progress) {
+  if (f.ok) {
+    ++outcome.units_done;
+  } else {
+    ++outcome.units_failed;
+    log_line(out, where + estimator + " failed: " + f.message);
+    note(progress, "  " + estimator + " failed: " + f.message);
+  }
+  eta.record(eta_key, f.seconds);
+  eta.finish(eta_key);
+  note(progress, "  " + estimator + " done in " + duration(f.seconds) + ", " + metrics);
+}
+
+void plot_into(ExperimentOutcome& outcome, const std::string& kind, const std::string& input, const std::string& png) {
+  const PlotResult p = render_plot(kind, input, png);
+  if (p.ok) outcome.files.push_back(png);
+  else outcome.warnings.push_back(p.message);
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,19 @@
+#pragma once
+// Model files of every estimator: one container (io/model_container.hpp,
+// docs/model-format.md) whose "estimator" entry says how to read it back.
+#include <memory>
+#include <string>
+
+#include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/io/model_container.hpp"
+
+namespace gipdyn {
+
+// Written atomically (temporary file + rename).
+void save_estimator(const Estimator& estimator, const std::string& path);
+// Throws gipdyn::Error for a missing, truncated, corrupted or newer-version file.
+std::unique_ptr<Estimator> load_estimator(const std::string& path);
+// `what` names the source in errors ("model file 'a.gipdyn'").
+std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& container, const std::string& what);
+
+}  // namespace gipdyn

@@ -1,0 +1,23 @@
+#pragma once
+// The estimators by name:
+//   GP kernels  gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, pp, sp
+//   fe          least squares on the rigid-body regressor (base parameters)
+//   nn          fully connected network (docs/method.md)
+// fe, pp and sp are model-based: they need the nominal robot.
+#include <string>
+#include <vector>
+
+namespace gipdyn {
+
+// How an estimator is fitted and stored: its model file's "estimator" entry.
+enum class EstimatorFamily { Gp, Fisherian, NeuralNetwork };
+
+// Names accepted by fit_estimator: the GP kernels, then fe and nn.
+const std::vector<std::string>& estimator_names();
+// Throws gipdyn::Error listing the valid names unless `name` is one of them.
+EstimatorFamily estimator_family(const std::string& name);
+bool is_gp_estimator(const std::string& name);
+bool estimator_needs_robot(const std::string& name);
+void require_known_estimator(const std::string& name);
+
+}  // namespace gipdyn

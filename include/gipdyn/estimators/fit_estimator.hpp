@@ -1,0 +1,41 @@
+#pragma once
+// Fitting any estimator by name (estimator_registry.hpp) with one options
+// struct, one progress interface and one result type.
+#include <Eigen/Dense>
+#include <memory>
+#include <string>
+
+#include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
+#include "gipdyn/estimators/neural_network.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/model/fit_report.hpp"
+#include "gipdyn/model/training.hpp"
+#include "gipdyn/progress.hpp"
+
+namespace gipdyn {
+
+struct EstimatorOptions {
+  std::string name = "gip";
+  TrainOptions gp;          // GP estimators (the kernel and robot prior are set from name and robot_prior)
+  NeuralNetworkOptions nn;  // nn
+  RobotPrior robot_prior;   // the nominal robot of fe, pp, sp
+  // Checks this struct's own fields (the name). The options of the chosen
+  // estimator (gp, nn) are checked once, by that estimator's entry point.
+  void validate() const;
+  // gp with the kernel and robot prior of this estimator.
+  TrainOptions train_options() const;
+};
+
+struct FitResult {
+  FitReport report;  // status, time, per-joint reports for GP estimators
+  std::unique_ptr<Estimator> estimator;  // null unless report.ok()
+};
+
+// Fits the named estimator. Bad options or data throw gipdyn::Error before any
+// work; a numerical failure is reported in FitResult::report. progress may be
+// called from worker threads; it ends with one finished event for the whole fit.
+FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                        const JointTypes& joints, const ProgressCallback& progress = {});
+
+}  // namespace gipdyn

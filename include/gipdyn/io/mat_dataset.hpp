@@ -1,0 +1,16 @@
+#pragma once
+// Datasets from MATLAB files.
+#include <string>
+
+#include "gipdyn/io/dataset.hpp"
+
+namespace gipdyn {
+
+// A numeric 2-D variable of a MATLAB .mat file (v4, v5 or v7.3, read with
+// matio) whose columns are positional: q (n), qd (n), qdd (n), then tau (n)
+// when require_tau. Extra columns are ignored. Throws gipdyn::Error naming the
+// file, the variable and the problem.
+Dataset read_mat_dataset(const std::string& path, const std::string& variable, const JointTypes& joints,
+                         bool require_tau);
+
+}  // namespace gipdyn

@@ -1,0 +1,47 @@
+#pragma once
+// What a fit did, for every estimator: a status, a one-line reason when it
+// failed, the time it took and, for GP estimators, one report per joint.
+// Training and fitting return it beside the model instead of throwing from
+// inside the numerics (bad options and data still throw gipdyn::Error at the
+// entry point, before any work).
+#include <string>
+#include <vector>
+
+#include "gipdyn/optim/optimizer.hpp"
+
+namespace gipdyn {
+
+enum class FitStatus {
+  Converged,     // every joint's optimiser met its stopping rule
+  NotConverged,  // a usable model, but some joint stopped at its iteration cap or stalled
+  Failed,        // no model: see FitReport::message
+};
+std::string to_string(FitStatus status);
+
+struct JointReport {
+  int joint = 0;  // 0-based
+  double nll = 0.0;
+  std::vector<double> restart_nlls;  // one per start, NaN where a start failed
+  int evaluations = 0;
+  double seconds = 0.0;
+  double jitter = 0.0;
+  OptimizerResult::Status status = OptimizerResult::Status::Failed;
+  std::string message;
+};
+
+struct FitReport {
+  FitStatus status = FitStatus::Failed;
+  std::string message;  // on failure: which joint and why
+  double seconds = 0.0;
+  std::vector<JointReport> joints;  // GP estimators: one per joint
+
+  bool ok() const { return status != FitStatus::Failed; }
+  // A few lines for people: status, then a table of the joints (status, NLL,
+  // evaluations, seconds, jitter) and the NLL of every start when there were restarts.
+  std::string brief_report() const;
+};
+
+// FitStatus from the joints' optimiser statuses (Failed if any joint failed).
+FitStatus combine_joint_statuses(const std::vector<JointReport>& joints);
+
+}  // namespace gipdyn

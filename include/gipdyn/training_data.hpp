@@ -1,0 +1,21 @@
+#pragma once
+// What every estimator asks of its training data, and how rows are thinned.
+#include <Eigen/Dense>
+#include <vector>
+
+#include "gipdyn/joint_types.hpp"
+
+namespace gipdyn {
+
+constexpr int kMinTrainingRows = 5;
+
+// Checks shapes (X: N x 3n, Y: N x n), finiteness and N >= kMinTrainingRows;
+// throws gipdyn::Error with the first problem found.
+void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints);
+
+// Rows floor(k rows / count), k = 0..count-1: `count` rows with a constant
+// (possibly fractional) step over the whole range, as the paper subsampled the
+// UR10 data. count <= 0 or count >= rows keeps everything.
+std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count);
+
+}  // namespace gipdyn

@@ -1,0 +1,86 @@
+#include "gipdyn/estimators/fit_estimator.hpp"
+
+#include <chrono>
+#include <cmath>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/estimators/fisherian.hpp"
+#include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/neural_network_estimator.hpp"
+
+namespace gipdyn {
+
+void EstimatorOptions::validate() const { require_known_estimator(name); }
+
+TrainOptions EstimatorOptions::train_options() const {
+  TrainOptions o = gp;
+  o.kernel = name;
+  o.robot_prior = robot_prior;
+  return o;
+}
+
+namespace {
+
+using Fit = FitResult (*)(const EstimatorOptions&, const Eigen::MatrixXd&, const Eigen::MatrixXd&, const JointTypes&,
+                          const ProgressCallback&);
+
+FitResult fit_gp(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                 const JointTypes& joints, const ProgressCallback& progress) {
+  TrainResult r = train_model(X, Y, joints, o.train_options(), progress);
+  FitResult result;
+  result.report = std::move(r.report);
+  if (result.report.ok()) result.estimator = std::make_unique<GpEstimator>(std::move(r.model));
+  return result;
+}
+
+FitResult fit_fisherian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                        const JointTypes& joints, const ProgressCallback&) {
+  if (o.robot_prior.robot) require_matching_robot(o.robot_prior, joints);
+  FitResult result;
+  result.estimator = std::make_unique<FisherianEstimator>(FisherianEstimator::fit(o.robot_prior, X, Y));
+  result.report.status = FitStatus::Converged;  // a direct least-squares solve
+  return result;
+}
+
+FitResult fit_network(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                      const JointTypes& joints, const ProgressCallback& progress) {
+  NeuralNetwork net = NeuralNetwork::train(X, Y, joints, o.nn, progress);
+  FitResult result;
+  if (!std::isfinite(net.final_loss())) {
+    result.report.message = "nn: the training loss diverged (NaN); lower NeuralNetworkOptions::learning_rate";
+    return result;
+  }
+  result.estimator = std::make_unique<NeuralNetworkEstimator>(std::move(net));
+  result.report.status = FitStatus::Converged;  // a fixed number of epochs: nothing else to meet
+  return result;
+}
+
+Fit fit_function(EstimatorFamily family) {
+  switch (family) {
+    case EstimatorFamily::Gp: return fit_gp;
+    case EstimatorFamily::Fisherian: return fit_fisherian;
+    case EstimatorFamily::NeuralNetwork: return fit_network;
+  }
+  return fit_gp;
+}
+
+}  // namespace
+
+FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                        const JointTypes& joints, const ProgressCallback& progress) {
+  options.validate();
+  const auto t0 = std::chrono::steady_clock::now();
+  FitResult result = fit_function(estimator_family(options.name))(options, X, Y, joints, progress);
+  result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
+  if (progress) {
+    ProgressEvent e;
+    e.estimator = options.name;
+    e.seconds = result.report.seconds;
+    e.finished = true;
+    e.message = result.report.ok() ? "fit " + to_string(result.report.status) : "failed: " + result.report.message;
+    progress(e);
+  }
+  return result;
+}
+
+}  // namespace gipdyn

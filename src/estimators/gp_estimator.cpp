@@ -1,0 +1,19 @@
+#include "gipdyn/estimators/gp_estimator.hpp"
+
+#include "gipdyn/model/model_file.hpp"
+
+namespace gipdyn {
+
+ModelContainer GpEstimator::to_container() const { return model_to_container(model_); }
+
+nlohmann::json GpEstimator::summary() const {
+  nlohmann::json joints = nlohmann::json::array();
+  for (int j = 0; j < model_.num_joints(); ++j) {
+    nlohmann::json hp = nlohmann::json::object();
+    for (const auto& [name, value] : model_.hyperparameters(j)) hp[name] = value;
+    joints.push_back({{"joint", j + 1}, {"nll", model_.joint_gp(j).nll()}, {"hyperparameters", hp}});
+  }
+  return {{"estimator", "gp"}, {"kernel", model_.kernel_name()}, {"joints", joints}};
+}
+
+}  // namespace gipdyn

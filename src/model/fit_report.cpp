@@ -1,0 +1,50 @@
+#include "gipdyn/model/fit_report.hpp"
+
+#include <cstdio>
+
+namespace gipdyn {
+
+std::string to_string(FitStatus status) {
+  switch (status) {
+    case FitStatus::Converged: return "converged";
+    case FitStatus::NotConverged: return "not converged";
+    case FitStatus::Failed: return "failed";
+  }
+  return "failed";
+}
+
+FitStatus combine_joint_statuses(const std::vector<JointReport>& joints) {
+  FitStatus s = FitStatus::Converged;
+  for (const auto& j : joints) {
+    if (j.status == OptimizerResult::Status::Failed) return FitStatus::Failed;
+    if (j.status != OptimizerResult::Status::Converged) s = FitStatus::NotConverged;
+  }
+  return s;
+}
+
+std::string FitReport::brief_report() const {
+  char buf[200];
+  std::snprintf(buf, sizeof buf, "fit %s in %.1f s", to_string(status).c_str(), seconds);
+  std::string out = buf;
+  if (!message.empty()) out += ": " + message;
+  out += "\n";
+  if (joints.empty()) return out;
+  out += " joint  status     NLL            evals  seconds  jitter\n";
+  for (const auto& j : joints) {
+    std::snprintf(buf, sizeof buf, " %5d  %-9s  %-13.6g  %5d  %7.1f  %.1e\n", j.joint + 1,
+                  to_string(j.status).c_str(), j.nll, j.evaluations, j.seconds, j.jitter);
+    out += buf;
+  }
+  for (const auto& j : joints) {
+    if (j.restart_nlls.size() < 2) continue;
+    out += " joint " + std::to_string(j.joint + 1) + " NLL over starts:";
+    for (double v : j.restart_nlls) {
+      std::snprintf(buf, sizeof buf, " %.6g", v);
+      out += buf;
+    }
+    out += "\n";
+  }
+  return out;
+}
+
+}  // namespace gipdyn

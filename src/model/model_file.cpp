@@ -1,0 +1,116 @@
+#include "gipdyn/model/model_file.hpp"
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+
+namespace gipdyn {
+namespace {
+
+std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
+
+}  // namespace
+
+ModelContainer model_to_container(const InverseDynamicsModel& model) {
+  const int n = model.num_joints();
+  ModelContainer c;
+  nlohmann::json& h = c.header;
+  h["estimator"] = "gp";
+  h["joints"] = model.joints().str();
+  h["kernel"] = model.kernel_name();
+  h["num_training_samples"] = model.num_training_samples();
+  h["output_scaling"] = to_string(model.output_scaling());
+  if (model.robot_prior().robot) {
+    h["robot"] = robot_to_storable_json(*model.robot_prior().robot);
+    h["robot_friction"] = model.robot_prior().friction;
+  }
+  nlohmann::json joints = nlohmann::json::array();
+  c.add("X", model.training_inputs());
+  for (int j = 0; j < n; ++j) {
+    const GpRegressor& gp = model.joint_gp(j);
+    joints.push_back({{"joint", j + 1},
+                      {"output_offset", model.output_offset()(j)},
+                      {"output_scale", model.output_scale()(j)},
+                      {"param_names", gp.kernel().param_names()},
+                      {"log_params", to_vector(gp.kernel().log_params())},
+                      {"log_noise_variance", gp.log_noise_variance()},
+                      {"jitter", gp.jitter()},
+                      {"nll", gp.nll()},
+                      {"mean", {{"kind", to_string(model.joint_mean(j).kind())},
+                                {"coefficients", to_vector(model.joint_mean(j).params())}}}});
+    c.add("alpha" + std::to_string(j + 1), gp.alpha());
+  }
+  h["joint_models"] = joints;
+  return c;
+}
+
+InverseDynamicsModel model_from_container(const ModelContainer& c, const std::string& what) {
+  using nlohmann::json;
+  const json& h = c.header;
+  try {
+    const std::string estimator = h.value("estimator", "gp");  // format 1 files hold GP models only
+    if (estimator != "gp")
+      throw Error(what + " holds a '" + estimator + "' estimator, not a GP model; load it with load_estimator");
+    const JointTypes joints = JointTypes::parse(h.at("joints").get<std::string>());
+    const int n = joints.size();
+    const Eigen::Index N = h.at("num_training_samples").get<Eigen::Index>();
+    const Eigen::MatrixXd& X = c.array("X", what);
+    if (X.rows() != N || X.cols() != 3 * n) throw Error(what + " is corrupted (training input shape); re-save the model");
+    const std::string kernel_name = h.at("kernel").get<std::string>();
+    RobotPrior prior;
+    if (h.contains("robot")) {
+      prior.robot = std::make_shared<const RobotModel>(robot_from_storable_json(h.at("robot"), what));
+      prior.friction = h.at("robot_friction").get<bool>();
+    }
+    const FeatureMap features(joints);
+    std::vector<GpRegressor> gps;
+    std::vector<MeanFunction> means;
+    Eigen::VectorXd offset(n), scale(n);
+    const json& jm = h.at("joint_models");
+    if (static_cast<int>(jm.size()) != n) throw Error(what + " is corrupted (wrong number of joint models)");
+    for (int j = 0; j < n; ++j) {
+      const json& e = jm.at(static_cast<size_t>(j));
+      std::unique_ptr<Kernel> k = make_kernel(kernel_name, features, j, prior);
+      const auto p = e.at("log_params").get<std::vector<double>>();
+      if (static_cast<int>(p.size()) != k->num_params()) throw Error(what + " is corrupted (parameter count)");
+      k->set_log_params(Eigen::Map<const Eigen::VectorXd>(p.data(), static_cast<Eigen::Index>(p.size())));
+      GpRegressor gp(std::move(k), e.at("log_noise_variance").get<double>());
+      const Eigen::MatrixXd& alpha = c.array("alpha" + std::to_string(j + 1), what);
+      if (alpha.rows() != N || alpha.cols() != 1) throw Error(what + " is corrupted (alpha shape); re-save the model");
+      gp.set_state(alpha.col(0), e.at("jitter").get<double>(), e.at("nll").get<double>());
+      gps.push_back(std::move(gp));
+      MeanFunction mean;  // files written before mean functions existed hold zero means
+      if (e.contains("mean")) {
+        mean = MeanFunction(parse_mean_kind(e.at("mean").at("kind").get<std::string>()), 3 * n);
+        const auto b = e.at("mean").at("coefficients").get<std::vector<double>>();
+        if (static_cast<int>(b.size()) != mean.num_params())
+          throw Error(what + " is corrupted (mean coefficient count); re-save the model");
+        mean.set_params(Eigen::Map<const Eigen::VectorXd>(b.data(), static_cast<Eigen::Index>(b.size())));
+      }
+      means.push_back(mean);
+      offset(j) = e.at("output_offset").get<double>();
+      scale(j) = e.at("output_scale").get<double>();
+    }
+    return InverseDynamicsModel(joints, kernel_name, X, std::move(gps),
+                                parse_output_scaling(h.at("output_scaling").get<std::string>()), offset, scale,
+                                prior, std::move(means));
+  } catch (const json::exception& e) {
+    throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");
+  }
+}
+
+std::string serialize_model(const InverseDynamicsModel& model) { return pack_container(model_to_container(model)); }
+
+InverseDynamicsModel deserialize_model(const std::string& bytes, const std::string& what) {
+  return model_from_container(unpack_container(bytes, what), what);
+}
+
+void save_model(const InverseDynamicsModel& model, const std::string& path) {
+  write_container(model_to_container(model), path);
+}
+
+InverseDynamicsModel load_model(const std::string& path) {
+  return deserialize_model(read_model_bytes(path), "model file '" + path + "'");
+}
+
+}  // namespace gipdyn
