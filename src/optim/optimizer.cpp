@@ -8,6 +8,13 @@
 
 namespace gipdyn {
 
+OptimizerResult::Status parse_optimizer_status(const std::string& name) {
+  for (auto s : {OptimizerResult::Status::Converged, OptimizerResult::Status::MaxIterations,
+                 OptimizerResult::Status::Stalled, OptimizerResult::Status::Failed})
+    if (to_string(s) == name) return s;
+  throw Error("unknown optimizer status '" + name + "'");
+}
+
 OptimizerKind parse_optimizer(const std::string& name) {
   if (name == "lbfgs") return OptimizerKind::Lbfgs;
   if (name == "adam") return OptimizerKind::Adam;
@@ -58,8 +65,10 @@ struct Tracker {
   const OptimizerOptions& options;
   double best_f = std::numeric_limits<double>::infinity();
   Eigen::VectorXd best_x;
+  double best_grad_norm = std::numeric_limits<double>::quiet_NaN();
   int evaluations = 0;
   int failures = 0;
+  bool at_cap = false;  // L-BFGS asked for an evaluation beyond OptimizerOptions::max_iterations
 
   bool eval(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
     ++evaluations;
@@ -68,15 +77,17 @@ struct Tracker {
       ++failures;
       return false;
     }
+    const double grad_norm = projected_gradient_norm(x, g, options);
     if (f < best_f) {
       best_f = f;
       best_x = x;
+      best_grad_norm = grad_norm;
     }
     if (progress) {
       ProgressEvent e;
       e.iteration = evaluations;
       e.objective = f;
-      e.grad_norm = projected_gradient_norm(x, g, options);
+      e.grad_norm = grad_norm;
       progress(e);
     }
     return true;
@@ -96,6 +107,11 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   opt.set_min_objective(
       [](unsigned dim, const double* x, double* grad, void* data) -> double {
         auto* tr = static_cast<Tracker*>(data);
+        // NLopt may ask for one evaluation beyond its maxeval: the cap is ours to keep.
+        if (tr->evaluations >= tr->options.max_iterations) {
+          tr->at_cap = true;
+          throw nlopt::forced_stop();
+        }
         Eigen::VectorXd xv = Eigen::Map<const Eigen::VectorXd>(x, dim), g(dim);
         double f = 0.0;
         if (!tr->eval(xv, f, g)) throw nlopt::forced_stop();
@@ -115,6 +131,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   try {
     return opt.optimize(x, f);
   } catch (const nlopt::forced_stop&) {
+    if (t.at_cap) return nlopt::MAXEVAL_REACHED;
     error = "the kernel matrix could not be factorised at a trial point";
     return nlopt::FORCED_STOP;
   } catch (const nlopt::roundoff_limited&) {
@@ -183,7 +200,8 @@ OptimizerResult run_adam(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
       r.message = "converged (gradient below tolerance)";
       return r;
     }
-    if (t.best_f < last_best - o.f_relative_tolerance * std::abs(last_best)) {
+    // The first step always counts: inf - tol * inf would be NaN and never compare true.
+    if (!std::isfinite(last_best) || t.best_f < last_best - o.f_relative_tolerance * std::abs(last_best)) {
       last_best = t.best_f;
       since_improvement = 0;
     } else if (++since_improvement >= o.adam_patience) {
@@ -219,6 +237,7 @@ OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, 
   }
   r.x = tracker.best_x;
   r.f = tracker.best_f;
+  r.grad_norm = tracker.best_grad_norm;
   return r;
 }
 

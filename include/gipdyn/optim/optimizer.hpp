@@ -39,10 +39,12 @@ struct OptimizerResult {
   std::string message;
   Eigen::VectorXd x;  // best point evaluated
   double f = 0.0;
+  double grad_norm = 0.0;  // projected |grad|_inf at x
   int evaluations = 0;
   bool usable() const { return status != Status::Failed; }
 };
 std::string to_string(OptimizerResult::Status status);  // converged, max-iter, stalled, failed
+OptimizerResult::Status parse_optimizer_status(const std::string& name);  // the inverse; throws gipdyn::Error
 
 // progress gets one event after every accepted evaluation (iteration, objective,
 // projected |grad|_inf); the caller's fields of the event are left empty.

@@ -1,0 +1,96 @@
+// The minimisers on functions whose minima are known.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gipdyn/optim/optimizer.hpp"
+
+using namespace gipdyn;
+
+namespace {
+
+// sum_k (x_k - 3)^2: minimum 0 at x = 3.
+bool shifted_quadratic(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+  const Eigen::VectorXd d = x.array() - 3.0;
+  f = d.squaredNorm();
+  g = 2.0 * d;
+  return true;
+}
+
+bool rosenbrock(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+  const double a = 1.0 - x(0), b = x(1) - x(0) * x(0);
+  f = a * a + 100.0 * b * b;
+  g.resize(2);
+  g << -2.0 * a - 400.0 * x(0) * b, 200.0 * b;
+  return true;
+}
+
+}  // namespace
+
+// Adam moves each coordinate by at most about one learning rate per step, so
+// from 0 it needs several hundred steps to reach 3: nearly every one of them
+// improves the objective, and the patience rule must not stop it after
+// adam_patience steps.
+TEST(Adam, KeepsGoingWhileItImprovesBeyondThePatience) {
+  OptimizerOptions o;
+  o.kind = OptimizerKind::Adam;
+  o.adam_learning_rate = 0.01;
+  o.adam_patience = 20;
+  o.max_iterations = 2000;
+  const OptimizerResult r = minimize(shifted_quadratic, Eigen::VectorXd::Zero(2), o);
+  EXPECT_GT(r.evaluations, 10 * o.adam_patience) << r.message;
+  EXPECT_LT(r.f, 1e-2) << r.message;
+  EXPECT_NEAR(r.x(0), 3.0, 0.1);
+}
+
+TEST(Adam, StopsWhenNothingImprovesForPatienceSteps) {
+  OptimizerOptions o;
+  o.kind = OptimizerKind::Adam;
+  o.adam_patience = 5;
+  o.gradient_tolerance = 0.0;
+  o.max_iterations = 1000;
+  // Flat: every step has the same objective, so none is an improvement after the first.
+  const Objective flat = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+    f = 1.0;
+    g = Eigen::VectorXd::Constant(x.size(), 1e-3);
+    return true;
+  };
+  const OptimizerResult r = minimize(flat, Eigen::VectorXd::Zero(2), o);
+  EXPECT_EQ(r.status, OptimizerResult::Status::Converged);
+  EXPECT_EQ(r.evaluations, 1 + o.adam_patience);
+}
+
+TEST(Lbfgs, ConvergesOnRosenbrockAndReportsTheGradientThere) {
+  OptimizerOptions o;
+  o.max_iterations = 500;
+  o.f_relative_tolerance = 1e-14;
+  const OptimizerResult r = minimize(rosenbrock, Eigen::Vector2d(-1.2, 1.0), o);
+  EXPECT_EQ(r.status, OptimizerResult::Status::Converged) << r.message;
+  EXPECT_NEAR(r.x(0), 1.0, 1e-4);
+  EXPECT_NEAR(r.x(1), 1.0, 1e-4);
+  EXPECT_LT(r.grad_norm, 1e-3);
+  EXPECT_LT(r.evaluations, o.max_iterations);
+}
+
+TEST(Lbfgs, StaysInsideTheBoxAndProjectsTheGradientThere) {
+  OptimizerOptions o;
+  o.lower_bounds = Eigen::Vector2d(-10.0, -10.0);
+  o.upper_bounds = Eigen::Vector2d(2.0, 10.0);  // the minimum x0 = 3 lies outside
+  const OptimizerResult r = minimize(shifted_quadratic, Eigen::Vector2d(0.0, 0.0), o);
+  EXPECT_TRUE(r.usable()) << r.message;
+  EXPECT_NEAR(r.x(0), 2.0, 1e-8);
+  EXPECT_NEAR(r.x(1), 3.0, 1e-5);
+  EXPECT_LT(r.grad_norm, 1e-4);  // the outward gradient at the active bound does not count
+}
+
+TEST(Minimize, ReportsFailureWhenNoPointCanBeEvaluated) {
+  const Objective broken = [](const Eigen::VectorXd&, double&, Eigen::VectorXd&) { return false; };
+  for (OptimizerKind kind : {OptimizerKind::Lbfgs, OptimizerKind::Adam}) {
+    OptimizerOptions o;
+    o.kind = kind;
+    const OptimizerResult r = minimize(broken, Eigen::VectorXd::Zero(3), o);
+    EXPECT_EQ(r.status, OptimizerResult::Status::Failed);
+    EXPECT_FALSE(r.usable());
+    EXPECT_NE(r.message.find("not positive definite"), std::string::npos);
+  }
+}
