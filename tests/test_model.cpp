@@ -109,6 +109,31 @@ TEST(Training, AdamLowersTheNll) {
   for (int j = 0; j < 2; ++j) EXPECT_LT(r.report.joints[static_cast<size_t>(j)].nll, first[static_cast<size_t>(j)] - 10.0);
 }
 
+TEST(Training, ReportsEachJointsStopAndWarnsAboutTheCap) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, 40, 44);
+  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(40, 2);
+  TrainOptions o;
+  o.optimizer.max_iterations = 3;  // far too few: every joint stops at the cap
+  const TrainResult r = train_model(X, Y, joints, o);
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  EXPECT_EQ(r.report.status, FitStatus::NotConverged);
+  ASSERT_EQ(r.report.joints.size(), 2u);
+  for (int j = 0; j < 2; ++j) {
+    const JointReport& jr = r.report.joints[static_cast<size_t>(j)];
+    EXPECT_EQ(jr.status, OptimizerResult::Status::MaxIterations);
+    EXPECT_EQ(jr.evaluations, 3);
+    EXPECT_GT(jr.grad_norm, 0.0);
+    // The reported noise is the model's own.
+    EXPECT_DOUBLE_EQ(jr.noise_variance, std::exp(r.model.joint_gp(j).log_noise_variance()));
+  }
+  const auto warnings = r.report.warnings();
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_NE(warnings[0].find("joint(s) 1, 2"), std::string::npos) << warnings[0];
+  EXPECT_NE(warnings[0].find("OptimizerOptions::max_iterations"), std::string::npos) << warnings[0];
+  EXPECT_NE(r.report.brief_report().find("max-iter"), std::string::npos);
+}
+
 TEST(Training, RejectsBadData) {
   const JointTypes joints = JointTypes::parse("RR");
   Eigen::MatrixXd X = random_inputs(joints, 20, 45);
@@ -178,6 +203,16 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
     EXPECT_EQ(loaded.kernel_name(), kernel);
     EXPECT_EQ(loaded.mean_kind(), mean);
     EXPECT_EQ(loaded.hyperparameters(1), m.hyperparameters(1));
+    // How each joint was trained travels with the model.
+    ASSERT_EQ(loaded.training_report().size(), 2u) << kernel;
+    for (size_t j = 0; j < 2; ++j) {
+      const JointReport &a_report = m.training_report()[j], &b_report = loaded.training_report()[j];
+      EXPECT_EQ(b_report.status, a_report.status);
+      EXPECT_EQ(b_report.evaluations, a_report.evaluations);
+      EXPECT_EQ(b_report.grad_norm, a_report.grad_norm);
+      EXPECT_EQ(b_report.noise_variance, a_report.noise_variance);
+      EXPECT_EQ(b_report.nll, a_report.nll);
+    }
     // Variance after load (factor recomputed in a new model) matches the trained model's.
     EXPECT_FALSE(loaded.has_variance());
     const InverseDynamicsModel trained_with_variance = m.with_variance(), loaded_with_variance = loaded.with_variance();

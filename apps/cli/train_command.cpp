@@ -5,6 +5,7 @@
 
 #include "commands.hpp"
 #include "estimator_args.hpp"
+#include "field_names.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
@@ -73,6 +74,9 @@ Command add_train(CLI::App& app) {
     if (!a->quiet) {
       std::printf("\n%s", r.report.brief_report().c_str());
       std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
+      std::fflush(stdout);
+      for (const auto& w : r.report.warnings())
+        std::fprintf(stderr, "gipdyn: warning: %s\n", rename_fields(w, cli_field_names()).c_str());
     }
     return 0;
   };

@@ -83,6 +83,7 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
       for (int j = 0; j < n; ++j)
         rows.push_back({std::to_string(r), e, std::to_string(j + 1), format_number(nmse(j)), format_number(f.seconds)});
       table.append(rows);
+      record_fit_report(c.out, {{"run", std::to_string(r)}}, e, f);
       finish_fit(outcome, eta, e, c.out, "run " + std::to_string(r) + " ", e, f, per_joint("nMSE", nmse), progress);
     }
   }

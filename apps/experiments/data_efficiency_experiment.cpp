@@ -90,6 +90,7 @@ ExperimentOutcome run_data_efficiency_experiment(const DataEfficiencyConfig& c, 
             fit_and_predict(options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r)), X, Y, joints, test.X);
         const double gmse = f.ok ? compute_accuracy(test.tau_true, f.prediction).gmse : std::nan("");
         table.append({{std::to_string(r), std::to_string(s), e, format_number(gmse), format_number(f.seconds)}});
+        record_fit_report(c.out, {{"run", std::to_string(r)}, {"size", std::to_string(s)}}, e, f);
         finish_fit(outcome, eta, e + "@" + std::to_string(s), c.out,
                    "run " + std::to_string(r) + " size " + std::to_string(s) + " ", e, f, "GMSE " + sci(gmse), progress);
       }

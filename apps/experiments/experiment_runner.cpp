@@ -7,6 +7,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/atomic_file.hpp"
 #include "reports/plots.hpp"
+#include "reports/result_table.hpp"
 #include "reports/text_format.hpp"
 
 namespace gipdyn {
@@ -78,6 +79,7 @@ FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::Matr
     FitResult r = fit_estimator(options, X, Y, joints);
     out.ok = r.report.ok();
     out.message = r.report.message;
+    out.report = r.report;
     if (out.ok) out.prediction = r.estimator->predict(Xtest);
     if (out.ok && !out.prediction.allFinite()) {
       out.ok = false;
@@ -154,6 +156,39 @@ void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key
   eta.record(eta_key, f.seconds);
   eta.finish(eta_key);
   note(progress, "  " + estimator + " done in " + duration(f.seconds) + ", " + metrics);
+}
+
+void record_fit_report(const std::string& out, const std::vector<std::pair<std::string, std::string>>& key,
+                       const std::string& estimator, const FitAndPredict& fit) {
+  std::vector<std::string> columns;
+  for (const auto& [name, value] : key) columns.push_back(name);
+  for (const char* c : {"estimator", "joint", "status", "evaluations", "nll", "grad_norm", "noise_variance", "jitter"})
+    columns.push_back(c);
+  ResultTable table((fs::path(out) / "fit_reports.csv").string(), columns);
+  auto row_start = [&] {
+    std::vector<std::string> row;
+    for (const auto& [name, value] : key) row.push_back(value);
+    row.push_back(estimator);
+    return row;
+  };
+  std::vector<std::vector<std::string>> rows;
+  for (const JointReport& j : fit.report.joints) {
+    std::vector<std::string> row = row_start();
+    for (const std::string& v :
+         {std::to_string(j.joint + 1), to_string(j.status), std::to_string(j.evaluations), format_number(j.nll),
+          format_number(j.grad_norm), format_number(j.noise_variance), format_number(j.jitter)})
+      row.push_back(v);
+    rows.push_back(row);
+  }
+  if (rows.empty()) {
+    std::vector<std::string> row = row_start();
+    const std::string status = fit.ok ? to_string(fit.report.status) : "failed";
+    for (const std::string& v : {std::string("all"), status, std::string("nan"), std::string("nan"), std::string("nan"),
+                                 std::string("nan"), std::string("nan")})
+      row.push_back(v);
+    rows.push_back(row);
+  }
+  table.append(rows);
 }
 
 void plot_into(ExperimentOutcome& outcome, const std::string& kind, const std::string& input, const std::string& png) {

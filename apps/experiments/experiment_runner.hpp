@@ -50,6 +50,7 @@ struct FitAndPredict {
   std::string message;
   double seconds = 0.0;
   Eigen::MatrixXd prediction;
+  FitReport report;  // how the fit went, per joint for GP estimators
 };
 // Fits and predicts Xtest; every error becomes a message (an experiment goes on).
 FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
@@ -75,6 +76,13 @@ void note(const ProgressCallback& progress, const std::string& line);
 void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key, const std::string& out,
                 const std::string& where, const std::string& estimator, const FitAndPredict& f,
                 const std::string& metrics, const ProgressCallback& progress);
+
+// Appends how one fit went to OUT/fit_reports.csv: per joint of a GP estimator
+// its stop reason, evaluations, NLL, gradient norm, noise variance and jitter
+// (one row with joint "all" for the other estimators). `key` names the unit
+// (e.g. {{"run", "3"}}); the same key columns must be used for every call on one folder.
+void record_fit_report(const std::string& out, const std::vector<std::pair<std::string, std::string>>& key,
+                       const std::string& estimator, const FitAndPredict& fit);
 
 // Draws a plot into the outcome: the PNG on success, a warning otherwise.
 void plot_into(ExperimentOutcome& outcome, const std::string& kind, const std::string& input, const std::string& png);

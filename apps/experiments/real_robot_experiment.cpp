@@ -146,6 +146,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
       rows.push_back({e, std::to_string(j + 1), format_number(nmse(j)), format_number(f.seconds),
                       std::to_string(d.rows())});
     table.append(rows);
+    record_fit_report(c.out, {}, e, f);
     finish_fit(outcome, eta, e, c.out, "", e, f, per_joint("nMSE", nmse), progress);
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());

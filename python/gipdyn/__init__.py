@@ -8,18 +8,20 @@
 Inputs X are (N, 3n) arrays of [q, qd, qdd]; torques Y are (N, n).
 """
 import json
+import warnings
 
 import numpy as np
 
 from . import _core
 from ._core import GipdynError, HyperparameterPrior, OptimizerOptions, Robot, SimulationOptions, TrainOptions
 
-__all__ = ["InverseDynamicsGP", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "ConvergenceWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "nmse", "neg_nmse_scorer", "GipdynError"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator
     from sklearn.base import RegressorMixin as _RegressorMixin
+    from sklearn.exceptions import ConvergenceWarning
     _ESTIMATOR_BASES = (_RegressorMixin, _BaseEstimator)
 except ImportError:  # pragma: no cover - exercised only without scikit-learn
     import inspect
@@ -47,6 +49,9 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
             return f"{type(self).__name__}({args})"
 
     _ESTIMATOR_BASES = (_BaseEstimator,)
+
+    class ConvergenceWarning(UserWarning):
+        """A joint's hyperparameter optimisation stopped before it converged."""
 
 
 def _as_matrix(name, a, cols=None):
@@ -154,6 +159,11 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.model_ = _core.train(np.asfortranarray(X), np.asfortranarray(Y), str(self.joints),
                                   self.train_options(), bool(self.verbose))
         self._set_fitted_attributes()
+        capped = [r["joint"] for r in self.training_report_ if r["status"] != "converged"]
+        if capped:
+            warnings.warn(f"joint(s) {', '.join(map(str, capped))} stopped before the optimiser converged "
+                          f"(see training_report_); raise max_iter or add restarts", ConvergenceWarning,
+                          stacklevel=2)
         return self
 
     def fit_trajectory(self, q, qd, qdd, tau):
@@ -168,6 +178,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.n_features_in_ = 3 * len(m.joints)
         self.hyperparameters_ = [dict(m.hyperparameters(j)) for j in range(len(m.joints))]
         self.log_marginal_likelihood_ = np.array([-m.nll(j) for j in range(len(m.joints))])
+        self.training_report_ = list(m.training_report)
 
     def _check_fitted(self):
         if not hasattr(self, "model_"):

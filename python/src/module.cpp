@@ -196,6 +196,25 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("has_variance", [](const Model& s) { return s.model->has_variance(); })
       .def("hyperparameters", [](const Model& s, int j) { return s.model->hyperparameters(j); })
       .def("nll", [](const Model& s, int j) { return s.model->joint_gp(j).nll(); })
+      .def_property_readonly(
+          "training_report",
+          [](const Model& s) {
+            py::list out;
+            for (const JointReport& r : s.model->training_report()) {
+              py::dict d;
+              d["joint"] = r.joint + 1;
+              d["status"] = to_string(r.status);
+              d["evaluations"] = r.evaluations;
+              d["nll"] = r.nll;
+              d["grad_norm"] = r.grad_norm;
+              d["noise_variance"] = r.noise_variance;
+              d["jitter"] = r.jitter;
+              d["restart_nlls"] = r.restart_nlls;
+              out.append(d);
+            }
+            return out;
+          },
+          "How each joint's hyperparameters were found (empty for models saved before it was recorded)")
       .def(
           "with_variance",
           [](const Model& s) {

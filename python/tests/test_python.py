@@ -103,12 +103,16 @@ def test_sklearn_cross_validation_and_grid_search(scara):
     est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10)
     scores = cross_val_score(est, train["X"], train["tau"], cv=KFold(3))
     assert scores.shape == (3,) and np.isfinite(scores).all()
-    # GIP is far better than RBF here: both the default scoring (score(), higher is
-    # better) and the nMSE scorer must prefer it.
-    for scoring in (None, gipdyn.neg_nmse_scorer):
-        grid = GridSearchCV(est, {"kernel": ["rbf", "gip"]}, cv=KFold(2), scoring=scoring)
+    # score() (the default scoring) is 1 - mean nMSE: higher is better, and it ranks
+    # candidates exactly as the nMSE scorer does.
+    results = {}
+    for name, scoring in (("score", None), ("neg_nmse", gipdyn.neg_nmse_scorer)):
+        grid = GridSearchCV(est, {"kernel": ["rbf", "gip"]}, cv=KFold(2, shuffle=True, random_state=0),
+                            scoring=scoring)
         grid.fit(train["X"], train["tau"])
-        assert grid.best_params_["kernel"] == "gip", (scoring, grid.cv_results_["mean_test_score"])
+        results[name] = (grid.best_params_["kernel"], grid.cv_results_["mean_test_score"])
+    assert results["score"][0] == results["neg_nmse"][0]
+    np.testing.assert_allclose(results["score"][1], 1.0 + results["neg_nmse"][1], rtol=1e-12)
     assert est.set_params(kernel="rbf") is est and est.kernel == "rbf"
     with pytest.raises(ValueError):
         est.set_params(colour="red")
@@ -137,6 +141,17 @@ def test_is_a_scikit_learn_regressor():
     assert isinstance(est, BaseEstimator) and isinstance(est, RegressorMixin) and is_regressor(est)
     copy = clone(est)
     assert copy is not est and copy.get_params() == est.get_params()
+
+
+def test_training_report_and_convergence_warning(scara):
+    train, _ = scara
+    with pytest.warns(gipdyn.ConvergenceWarning, match="raise max_iter"):
+        est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"], train["tau"])
+    report = est.training_report_
+    assert [r["joint"] for r in report] == [1, 2, 3, 4]
+    assert all(r["status"] in ("max-iter", "stalled") and r["evaluations"] <= 3 and r["noise_variance"] > 0
+               for r in report), report
+    assert [r["nll"] for r in report] == pytest.approx(-est.log_marginal_likelihood_)
 
 
 def test_train_options_are_the_librarys_own():

@@ -29,10 +29,11 @@ std::string FitReport::brief_report() const {
   if (!message.empty()) out += ": " + message;
   out += "\n";
   if (joints.empty()) return out;
-  out += " joint  status     NLL            evals  seconds  jitter\n";
+  out += " joint  status     NLL            evals  |grad|     noise var  jitter   seconds\n";
   for (const auto& j : joints) {
-    std::snprintf(buf, sizeof buf, " %5d  %-9s  %-13.6g  %5d  %7.1f  %.1e\n", j.joint + 1,
-                  to_string(j.status).c_str(), j.nll, j.evaluations, j.seconds, j.jitter);
+    std::snprintf(buf, sizeof buf, " %5d  %-9s  %-13.6g  %5d  %-9.2e  %-9.2e  %-7.1e  %7.1f\n", j.joint + 1,
+                  to_string(j.status).c_str(), j.nll, j.evaluations, j.grad_norm, j.noise_variance, j.jitter,
+                  j.seconds);
     out += buf;
   }
   for (const auto& j : joints) {
@@ -44,6 +45,25 @@ std::string FitReport::brief_report() const {
     }
     out += "\n";
   }
+  return out;
+}
+
+std::vector<std::string> FitReport::warnings() const {
+  std::vector<std::string> out;
+  std::string capped, stalled;
+  for (const auto& j : joints) {
+    if (j.status == OptimizerResult::Status::MaxIterations) capped += (capped.empty() ? "" : ", ") + std::to_string(j.joint + 1);
+    if (j.status == OptimizerResult::Status::Stalled) stalled += (stalled.empty() ? "" : ", ") + std::to_string(j.joint + 1);
+  }
+  if (!capped.empty())
+    out.push_back("joint(s) " + capped +
+                  " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");
+  if (!stalled.empty())
+    out.push_back("joint(s) " + stalled + " stalled (the line search broke down) before converging; try restarts");
+  for (const auto& j : joints)
+    if (j.jitter > 0.0)
+      out.push_back("joint " + std::to_string(j.joint + 1) + " needed a jitter of " + std::to_string(j.jitter) +
+                    " on the kernel diagonal; raise TrainOptions::min_noise_fraction or remove duplicate rows");
   return out;
 }
 

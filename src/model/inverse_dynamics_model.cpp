@@ -26,7 +26,7 @@ std::string to_string(OutputScaling s) {
 InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                                            std::vector<GpRegressor> gps, OutputScaling scaling,
                                            Eigen::VectorXd y_offset, Eigen::VectorXd y_scale, RobotPrior prior,
-                                           std::vector<MeanFunction> means)
+                                           std::vector<MeanFunction> means, std::vector<JointReport> training)
     : joints_(joints),
       features_(joints),
       kernel_name_(std::move(kernel_name)),
@@ -36,12 +36,15 @@ InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string
       scaling_(scaling),
       y_offset_(std::move(y_offset)),
       y_scale_(std::move(y_scale)),
-      prior_(std::move(prior)) {
+      prior_(std::move(prior)),
+      training_(std::move(training)) {
   const int n = joints_.size();
   if (X_.cols() != 3 * n) throw Error("model: training inputs must have 3n columns");
   if (static_cast<int>(gps_.size()) != n || y_offset_.size() != n || y_scale_.size() != n)
     throw Error("model: one GP, offset and scale per joint are required");
   if (means_.empty()) means_.assign(static_cast<size_t>(n), MeanFunction());
+  if (!training_.empty() && static_cast<int>(training_.size()) != n)
+    throw Error("model: one training report per joint (or none) is required");
   if (static_cast<int>(means_.size()) != n) throw Error("model: one mean function per joint is required");
   for (const auto& m : means_)
     if (m.kind() != means_.front().kind() || (m.kind() == MeanKind::Linear && m.input_dim() != 3 * n))

@@ -1,5 +1,7 @@
 #include "gipdyn/model/model_file.hpp"
 
+#include <limits>
+
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -8,6 +10,30 @@ namespace gipdyn {
 namespace {
 
 std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
+
+nlohmann::json training_to_json(const JointReport& r) {
+  return {{"status", to_string(r.status)},       {"evaluations", r.evaluations}, {"nll", r.nll},
+          {"grad_norm", r.grad_norm},            {"noise_variance", r.noise_variance},
+          {"jitter", r.jitter},                  {"seconds", r.seconds},         {"restart_nlls", r.restart_nlls},
+          {"message", r.message}};
+}
+
+JointReport training_from_json(const nlohmann::json& t, int joint) {
+  JointReport r;
+  r.joint = joint;
+  r.status = parse_optimizer_status(t.at("status").get<std::string>());
+  r.evaluations = t.at("evaluations").get<int>();
+  r.nll = t.at("nll").get<double>();
+  r.grad_norm = t.at("grad_norm").get<double>();
+  r.noise_variance = t.at("noise_variance").get<double>();
+  r.jitter = t.at("jitter").get<double>();
+  r.seconds = t.at("seconds").get<double>();
+  // NaN marks a failed start; JSON stores it as null.
+  for (const auto& v : t.at("restart_nlls"))
+    r.restart_nlls.push_back(v.is_null() ? std::numeric_limits<double>::quiet_NaN() : v.get<double>());
+  r.message = t.at("message").get<std::string>();
+  return r;
+}
 
 }  // namespace
 
@@ -38,6 +64,8 @@ ModelContainer model_to_container(const InverseDynamicsModel& model) {
                       {"nll", gp.nll()},
                       {"mean", {{"kind", to_string(model.joint_mean(j).kind())},
                                 {"coefficients", to_vector(model.joint_mean(j).params())}}}});
+    if (!model.training_report().empty())
+      joints.back()["training"] = training_to_json(model.training_report()[static_cast<size_t>(j)]);
     c.add("alpha" + std::to_string(j + 1), gp.alpha());
   }
   h["joint_models"] = joints;
@@ -65,6 +93,7 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
     const FeatureMap features(joints);
     std::vector<GpRegressor> gps;
     std::vector<MeanFunction> means;
+    std::vector<JointReport> training;  // files written before it was recorded have none
     Eigen::VectorXd offset(n), scale(n);
     const json& jm = h.at("joint_models");
     if (static_cast<int>(jm.size()) != n) throw Error(what + " is corrupted (wrong number of joint models)");
@@ -88,12 +117,14 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
         mean.set_params(Eigen::Map<const Eigen::VectorXd>(b.data(), static_cast<Eigen::Index>(b.size())));
       }
       means.push_back(mean);
+      if (e.contains("training")) training.push_back(training_from_json(e.at("training"), j));
       offset(j) = e.at("output_offset").get<double>();
       scale(j) = e.at("output_scale").get<double>();
     }
     return InverseDynamicsModel(joints, kernel_name, X, std::move(gps),
                                 parse_output_scaling(h.at("output_scaling").get<std::string>()), offset, scale,
-                                prior, std::move(means));
+                                prior, std::move(means),
+                                static_cast<int>(training.size()) == n ? std::move(training) : std::vector<JointReport>{});
   } catch (const json::exception& e) {
     throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");
   }

@@ -101,6 +101,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
       best_x = res.x;
       out.report.status = res.status;
       out.report.message = res.message;
+      out.report.grad_norm = res.grad_norm;
     } else if (best_x.size() == 0) {
       out.report.message = res.message;
     }
@@ -146,6 +147,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   } else {
     out.ok = true;
     out.report.nll = out.gp.nll();
+    out.report.noise_variance = std::exp(best_x(P));
     out.report.jitter = fit.jitter;
   }
   finish();
@@ -204,7 +206,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   result.report.status = result.report.message.empty() ? combine_joint_statuses(result.report.joints) : FitStatus::Failed;
   if (result.report.ok())
     result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale,
-                                        options.robot_prior, std::move(means));
+                                        options.robot_prior, std::move(means), result.report.joints);
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

@@ -48,6 +48,16 @@ def test_accuracy_writes_documented_files_and_resumes(tmp_path, gipdyn_bin):
     summary = (out / "summary.md").read_text()
     assert "| gip |" in summary and "joint 4" in summary
     assert is_png(out / "nmse_boxplot.png")
+    # How every fit went: per joint for the GP estimators, one row for the others.
+    fits = rows(out / "fit_reports.csv")
+    assert header(out / "fit_reports.csv") == ["run", "estimator", "joint", "status", "evaluations", "nll",
+                                               "grad_norm", "noise_variance", "jitter"]
+    gp_rows = [x for x in fits if x["estimator"] in ("pp", "gip")]
+    assert len(gp_rows) == 2 * 2 * 4 and len(fits) == len(gp_rows) + 2 * 2
+    assert all(x["status"] in ("converged", "max-iter", "stalled") for x in gp_rows)
+    assert all(0 < int(x["evaluations"]) and float(x["grad_norm"]) >= 0 and float(x["noise_variance"]) > 0
+               for x in gp_rows)
+    assert {x["joint"] for x in fits if x["estimator"] in ("fe", "nn")} == {"all"}
 
     # Nothing left to do: a rerun fits nothing and keeps every recorded number.
     before = (out / "nmse.csv").read_text()

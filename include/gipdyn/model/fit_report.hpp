@@ -22,10 +22,12 @@ struct JointReport {
   int joint = 0;  // 0-based
   double nll = 0.0;
   std::vector<double> restart_nlls;  // one per start, NaN where a start failed
-  int evaluations = 0;
+  int evaluations = 0;      // NLL evaluations over every start
+  double grad_norm = 0.0;   // projected |dNLL/dtheta|_inf at the kept point
+  double noise_variance = 0.0;  // learned, in units of the scaled output (a share of its variance when standardised)
   double seconds = 0.0;
   double jitter = 0.0;
-  OptimizerResult::Status status = OptimizerResult::Status::Failed;
+  OptimizerResult::Status status = OptimizerResult::Status::Failed;  // of the kept start
   std::string message;
 };
 
@@ -37,8 +39,12 @@ struct FitReport {
 
   bool ok() const { return status != FitStatus::Failed; }
   // A few lines for people: status, then a table of the joints (status, NLL,
-  // evaluations, seconds, jitter) and the NLL of every start when there were restarts.
+  // evaluations, gradient, noise, jitter, seconds) and the NLL of every start
+  // when there were restarts.
   std::string brief_report() const;
+  // One line per problem a user should act on: joints that did not converge
+  // (naming OptimizerOptions::max_iterations), joints that needed jitter.
+  std::vector<std::string> warnings() const;
 };
 
 // FitStatus from the joints' optimiser statuses (Failed if any joint failed).

@@ -13,6 +13,7 @@
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/model/fit_report.hpp"
 
 namespace gipdyn {
 
@@ -26,9 +27,12 @@ class InverseDynamicsModel {
   InverseDynamicsModel() = default;
   // X: training inputs (N x 3n). gps: one fitted GP per joint (alpha set).
   // means: one prior mean per joint in scaled-output units (empty: zero means).
+  // training: how each joint's hyperparameters were found (empty when unknown,
+  // as for files written before it was recorded).
   InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                        std::vector<GpRegressor> gps, OutputScaling scaling, Eigen::VectorXd y_offset,
-                       Eigen::VectorXd y_scale, RobotPrior prior = {}, std::vector<MeanFunction> means = {});
+                       Eigen::VectorXd y_scale, RobotPrior prior = {}, std::vector<MeanFunction> means = {},
+                       std::vector<JointReport> training = {});
 
   const JointTypes& joints() const { return joints_; }
   int num_joints() const { return joints_.size(); }
@@ -45,6 +49,8 @@ class InverseDynamicsModel {
   OutputScaling output_scaling() const { return scaling_; }
   const Eigen::VectorXd& output_offset() const { return y_offset_; }
   const Eigen::VectorXd& output_scale() const { return y_scale_; }
+  // One report per joint (stop reason, evaluations, gradient, noise), or empty.
+  const std::vector<JointReport>& training_report() const { return training_; }
 
   // Hyperparameters of joint j as (name, value) with values exp(log-parameter),
   // in the units of the scaled output, then "noise.variance", then the mean
@@ -77,6 +83,7 @@ class InverseDynamicsModel {
   OutputScaling scaling_ = OutputScaling::None;
   Eigen::VectorXd y_offset_, y_scale_;
   RobotPrior prior_;
+  std::vector<JointReport> training_;
   std::vector<GipKernel> gip_kernels_;
 };
 
