@@ -18,6 +18,7 @@
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/training.hpp"
+#include "gipdyn/progress.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -427,3 +428,32 @@ TEST(Metrics, NmseUsesPopulationVariance) {
 
 }  // namespace
 }  // namespace gipdyn
+
+TEST(Progress, DescribesOptimiserStepsJointEndsAndWholeFits) {
+  using gipdyn::describe;
+  using gipdyn::ProgressEvent;
+  ProgressEvent step;
+  step.estimator = "gip";
+  step.joint = 1;
+  step.iteration = 40;
+  step.objective = -1234.5;
+  step.grad_norm = 0.012;
+  step.seconds = 3.1;
+  EXPECT_EQ(describe(step), "gip joint 2 iteration 40: objective -1234.5 |grad| 0.012 (3.1 s)");
+  ProgressEvent joint_end = step;
+  joint_end.finished = true;
+  joint_end.message = "converged";
+  EXPECT_EQ(describe(joint_end), "gip joint 2 done after 40 iterations (3.1 s): objective -1234.5, converged");
+  ProgressEvent fit_end;
+  fit_end.estimator = "gip";
+  fit_end.finished = true;
+  fit_end.seconds = 81.8;
+  fit_end.message = "fit not converged";
+  EXPECT_EQ(describe(fit_end), "gip fit not converged (81.8 s)");
+  ProgressEvent epoch;
+  epoch.estimator = "nn";
+  epoch.iteration = 7;
+  epoch.objective = 0.25;
+  epoch.seconds = 1.0;
+  EXPECT_EQ(describe(epoch), "nn iteration 7: objective 0.25 (1.0 s)");
+}

@@ -10,6 +10,11 @@ std::string describe(const ProgressEvent& e) {
   auto add = [&line](const std::string& s) { line += (line.empty() ? "" : " ") + s; };
   if (e.joint >= 0) add("joint " + std::to_string(e.joint + 1));
   char buf[160];
+  if (e.finished && e.iteration == 0) {  // a whole fit: its outcome and time
+    std::snprintf(buf, sizeof buf, " (%.1f s)", e.seconds);
+    add(e.message + buf);
+    return line;
+  }
   if (e.finished) {
     std::snprintf(buf, sizeof buf, "done after %d iterations (%.1f s)", e.iteration, e.seconds);
     add(buf);
