@@ -13,6 +13,7 @@ Command add_predict(CLI::App& app);     // predict_command.cpp
 Command add_evaluate(CLI::App& app);    // evaluate_command.cpp
 Command add_simulate(CLI::App& app);    // simulate_command.cpp
 Command add_preprocess(CLI::App& app);  // preprocess_command.cpp
+Command add_physics(CLI::App& app);     // physics_command.cpp
 Command add_experiment(CLI::App& app);  // experiment_commands.cpp
 
 }  // namespace gipdyn::cli

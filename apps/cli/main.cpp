@@ -25,6 +25,8 @@ int main(int argc, char** argv) {
   add("predict", "Predict torques and their standard deviations for a CSV of q, qd, qdd", gipdyn::cli::add_predict);
   add("evaluate", "Per-joint MSE, nMSE and the GMSE of a model on a CSV with measured torques",
       gipdyn::cli::add_evaluate);
+  add("physics", "Gravity, inertia matrix, Coriolis and friction torques of a learned model (gip, pp, fe) at given states",
+      gipdyn::cli::add_physics);
   add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",
       gipdyn::cli::add_experiment);
   try {

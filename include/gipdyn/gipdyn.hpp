@@ -11,6 +11,7 @@
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
+#include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"

@@ -203,6 +203,31 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             raise ValueError("predict_one takes a single sample")
         return self.model_.predict_one(x[0])
 
+    # rigid-body terms (gip, gip-friction, pp; docs/method.md) ------------------
+    def gravity(self, q):
+        """Gravity torques g(q): (N, n) for positions q of shape (N, n)."""
+        self._check_fitted()
+        return self.model_.gravity(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
+
+    def inertia(self, q):
+        """Inertia matrices M(q): (N, n, n) for positions q of shape (N, n)."""
+        self._check_fitted()
+        return self.model_.inertia(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
+
+    def coriolis(self, q, qd):
+        """Coriolis and centrifugal torques C(q, qd) qd: (N, n)."""
+        return self._velocity_terms(q, qd)[0]
+
+    def friction(self, q, qd):
+        """Friction torques (the part of the prediction odd in qd): (N, n)."""
+        return self._velocity_terms(q, qd)[1]
+
+    def _velocity_terms(self, q, qd):
+        self._check_fitted()
+        q = np.asfortranarray(_as_matrix("q", q, self.n_joints))
+        qd = np.asfortranarray(_as_matrix("qd", qd, self.n_joints))
+        return self.model_.velocity_terms(q, qd)
+
     def nmse(self, X, Y):
         """Per-joint nMSE of the predictions against Y."""
         Y = _as_matrix("Y", Y, self.n_joints)

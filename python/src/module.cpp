@@ -3,6 +3,7 @@
 // lives in Python (gipdyn/__init__.py) and fills them in.
 #include <pybind11/eigen.h>
 #include <pybind11/functional.h>
+#include <pybind11/numpy.h>
 #include <pybind11/pybind11.h>
 #include <pybind11/stl.h>
 
@@ -12,6 +13,8 @@
 #include <nlohmann/json.hpp>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/model_file.hpp"
@@ -54,11 +57,23 @@ const FieldNames& python_field_names() {
 // predict_one: the workspace is mutable, so calls from several Python threads
 // take turns on it.
 struct Model {
-  std::shared_ptr<const InverseDynamicsModel> model;
+  std::shared_ptr<const GpEstimator> estimator;  // the physics functions take an Estimator
+  const InverseDynamicsModel* model;
   std::unique_ptr<PredictionWorkspace> workspace;
   std::mutex workspace_mutex;
-  explicit Model(InverseDynamicsModel m) : model(std::make_shared<const InverseDynamicsModel>(std::move(m))) {}
+  explicit Model(InverseDynamicsModel m)
+      : estimator(std::make_shared<const GpEstimator>(std::move(m))), model(&estimator->model()) {}
 };
+
+// (rows, n, n) NumPy array of the inertia matrices.
+py::array_t<double> stack_matrices(const std::vector<Eigen::MatrixXd>& Ms, int n) {
+  py::array_t<double> out({static_cast<py::ssize_t>(Ms.size()), static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(n)});
+  auto view = out.mutable_unchecked<3>();
+  for (size_t r = 0; r < Ms.size(); ++r)
+    for (int i = 0; i < n; ++i)
+      for (int j = 0; j < n; ++j) view(static_cast<py::ssize_t>(r), i, j) = Ms[r](i, j);
+  return out;
+}
 
 std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
                              bool verbose) {
@@ -238,6 +253,32 @@ PYBIND11_MODULE(_core, m) {
             return std::make_pair(mean, sd);
           },
           py::arg("X"))
+      .def(
+          "gravity",
+          [](const Model& s, ConstRef Q) {
+            py::gil_scoped_release release;
+            return gravity(*s.estimator, Q);
+          },
+          py::arg("Q"))
+      .def(
+          "inertia",
+          [](const Model& s, ConstRef Q) {
+            std::vector<Eigen::MatrixXd> Ms;
+            {
+              py::gil_scoped_release release;
+              Ms = inertia(*s.estimator, Q);
+            }
+            return stack_matrices(Ms, s.model->num_joints());
+          },
+          py::arg("Q"))
+      .def(
+          "velocity_terms",
+          [](const Model& s, ConstRef Q, ConstRef QD) {
+            py::gil_scoped_release release;
+            VelocityTerms t = velocity_terms(*s.estimator, Q, QD);
+            return std::make_pair(t.coriolis, t.friction);
+          },
+          py::arg("Q"), py::arg("QD"))
       .def(
           "predict_one",
           [](Model& s, const Eigen::VectorXd& x) {

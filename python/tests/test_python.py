@@ -154,6 +154,30 @@ def test_training_report_and_convergence_warning(scara):
     assert [r["nll"] for r in report] == pytest.approx(-est.log_marginal_likelihood_)
 
 
+def test_gravity_inertia_and_coriolis_match_the_robot(scara):
+    # pp on the true robot is exact up to the noise of 200 samples: every term within 0.1 % of the robot's.
+    train, test = scara
+    robot = gipdyn.Robot.load("scara")
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="pp", robot="scara", max_iter=30).fit(train["X"], train["tau"])
+    q, qd = test["q"][:20], test["qd"][:20]
+    zero = np.zeros_like(q)
+
+    def relative_error(a, b):
+        return np.linalg.norm(a - b) / np.linalg.norm(b)
+
+    g_true = robot.inverse_dynamics(q, zero, zero)
+    assert relative_error(est.gravity(q), g_true) < 1e-3
+    M = est.inertia(q)
+    assert M.shape == (20, 4, 4)
+    M_true = np.stack([robot.inverse_dynamics(q, zero, np.tile(np.eye(4)[j], (20, 1))) - g_true for j in range(4)],
+                      axis=2)
+    assert relative_error(M, M_true) < 1e-3
+    assert relative_error(est.coriolis(q, qd), robot.inverse_dynamics(q, qd, zero) - g_true) < 1e-3
+    np.testing.assert_allclose(est.friction(q, qd), 0.0, atol=1e-9)  # no friction columns: nothing odd in qd
+    with pytest.raises(ValueError, match="cannot give gravity"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="rbf", max_iter=2).fit(train["X"], train["tau"]).gravity(q)
+
+
 def test_train_options_are_the_librarys_own():
     o = gipdyn.InverseDynamicsGP(joints="RR", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, seed=5,
                                  scaling="center", min_noise=1e-6, mean="linear", prior="lognormal",

@@ -1,0 +1,90 @@
+// `gipdyn physics`: gravity, inertia, Coriolis and friction torques of a learned model.
+#include <cstdio>
+#include <limits>
+#include <memory>
+
+#include "commands.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/io/csv.hpp"
+
+namespace gipdyn::cli {
+
+namespace {
+
+std::vector<std::string> names(const std::string& prefix, int n) {
+  std::vector<std::string> out;
+  for (int j = 1; j <= n; ++j) out.push_back(prefix + std::to_string(j));
+  return out;
+}
+
+}  // namespace
+
+Command add_physics(CLI::App& app) {
+  struct Args {
+    std::string model, data, out;
+  };
+  auto a = std::make_shared<Args>();
+  app.description(
+      "Rigid-body terms of a learned model (gip, gip-friction, pp, fe): gravity g(q), the inertia matrix M(q)\n"
+      "and, when the states have velocities, the Coriolis/centrifugal torque C(q, qd) qd and the friction\n"
+      "torque, all from the model's torque predictions; plus per row how physical M is (asymmetry, smallest\n"
+      "eigenvalue of its symmetric part).");
+  app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
+  app.add_option("--data", a->data, "CSV of states: q1..qn, and qd1..qdn for the velocity terms (others ignored)")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--out", a->out,
+                 "Output CSV: g1..gn, M1_1..Mn_n (row i, column j), [coriolis1..n, friction1..n], "
+                 "M_asymmetry, M_min_eigenvalue")
+      ->required();
+  return [a]() -> int {
+    const std::unique_ptr<Estimator> model = load_estimator(a->model);
+    require_physics(*model);
+    const int n = model->joints().size();
+    const Eigen::MatrixXd Q = read_csv_columns(a->data, names("q", n));
+    const bool with_velocity = read_csv_header(a->data).has("qd1");
+    const Eigen::MatrixXd g = gravity(*model, Q);
+    const std::vector<Eigen::MatrixXd> M = inertia(*model, Q);
+    VelocityTerms v;
+    if (with_velocity) v = velocity_terms(*model, Q, read_csv_columns(a->data, names("qd", n)));
+
+    std::vector<std::string> header = names("g", n);
+    for (int i = 1; i <= n; ++i)
+      for (const auto& c : names("M" + std::to_string(i) + "_", n)) header.push_back(c);
+    if (with_velocity) {
+      for (const auto& c : names("coriolis", n)) header.push_back(c);
+      for (const auto& c : names("friction", n)) header.push_back(c);
+    }
+    header.push_back("M_asymmetry");
+    header.push_back("M_min_eigenvalue");
+    Eigen::MatrixXd table(Q.rows(), static_cast<Eigen::Index>(header.size()));
+    double worst_asymmetry = 0.0, smallest_eigenvalue = std::numeric_limits<double>::infinity();
+    int not_positive = 0;
+    for (Eigen::Index r = 0; r < Q.rows(); ++r) {
+      Eigen::Index c = 0;
+      table.row(r).segment(c, n) = g.row(r);
+      c += n;
+      for (int i = 0; i < n; ++i, c += n) table.row(r).segment(c, n) = M[static_cast<size_t>(r)].row(i);
+      if (with_velocity) {
+        table.row(r).segment(c, n) = v.coriolis.row(r);
+        table.row(r).segment(c + n, n) = v.friction.row(r);
+        c += 2 * n;
+      }
+      const InertiaDiagnostics d = diagnose_inertia(M[static_cast<size_t>(r)]);
+      table(r, c) = d.asymmetry;
+      table(r, c + 1) = d.min_eigenvalue;
+      worst_asymmetry = std::max(worst_asymmetry, d.asymmetry);
+      smallest_eigenvalue = std::min(smallest_eigenvalue, d.min_eigenvalue);
+      not_positive += d.min_eigenvalue <= 0.0;
+    }
+    write_csv(a->out, header, table);
+    std::printf("%ld states -> %s: gravity, inertia%s\n", static_cast<long>(Q.rows()), a->out.c_str(),
+                with_velocity ? ", Coriolis and friction" : " (no qd columns: no velocity terms)");
+    std::printf(" inertia: largest relative asymmetry %.3g, smallest eigenvalue %.3g, %d of %ld not positive definite\n",
+                worst_asymmetry, smallest_eigenvalue, not_positive, static_cast<long>(Q.rows()));
+    return 0;
+  };
+}
+
+}  // namespace gipdyn::cli

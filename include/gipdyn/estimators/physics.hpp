@@ -1,0 +1,51 @@
+#pragma once
+// Rigid-body terms of a learned inverse dynamics model.
+//
+// For the GIP family, the rigid-body regressor (fe, pp) and their prior means,
+// the predicted torque is affine in the accelerations and, apart from
+// friction, even in the velocities (they enter as products qd_j qd_k):
+//
+//   f(q, qd, qdd) = M(q) qdd + C(q, qd) qd + g(q) + friction(q, qd)
+//
+// with friction odd in qd. So, from torque predictions alone:
+//   g(q)        = f(q, 0, 0)
+//   M(q) e_j    = f(q, 0, e_j) - g(q)
+//   C(q, qd) qd = (f(q, qd, 0) + f(q, -qd, 0)) / 2 - g(q)
+//   friction    = (f(q, qd, 0) - f(q, -qd, 0)) / 2
+// Models without that structure (rbf, the hybrids and sp, which add an RBF,
+// and nn) cannot give these terms: asking is a gipdyn::Error.
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+#include "gipdyn/estimators/estimator.hpp"
+
+namespace gipdyn {
+
+// Whether the estimator of this name has the structure above.
+bool estimator_gives_physics(const std::string& name);
+// Throws gipdyn::Error naming the estimator and the ones that qualify, unless it does.
+void require_physics(const Estimator& estimator);
+
+// Q: rows x n joint positions. Returns rows x n gravity torques.
+Eigen::MatrixXd gravity(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q);
+// One n x n inertia matrix per row of Q.
+std::vector<Eigen::MatrixXd> inertia(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q);
+
+// The velocity terms at (Q, QD), rows x n each.
+struct VelocityTerms {
+  Eigen::MatrixXd coriolis;  // C(q, qd) qd: centrifugal and Coriolis torques
+  Eigen::MatrixXd friction;  // the part odd in qd (zero for plain GIP, pp and fe without friction)
+};
+VelocityTerms velocity_terms(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
+                             const Eigen::Ref<const Eigen::MatrixXd>& QD);
+
+// How physical a learned inertia matrix is: max |M - M^T| / max |M|, and the
+// smallest eigenvalue of (M + M^T) / 2 (positive for a physical M).
+struct InertiaDiagnostics {
+  double asymmetry = 0.0;
+  double min_eigenvalue = 0.0;
+};
+InertiaDiagnostics diagnose_inertia(const Eigen::MatrixXd& M);
+
+}  // namespace gipdyn
