@@ -6,6 +6,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/io/atomic_file.hpp"
@@ -112,6 +113,8 @@ Command add_evaluate(CLI::App& app) {
                  "models, the share of the output variance the model calls noise (PNG + diagnostics.json)");
   app.add_option("--plot-window", a->plot_window, "Rows shown in the torque-over-time plot")->capture_default_str();
   return [a]() -> int {
+    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--json", a->json}});
+    if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     const Dataset data = read_dataset(a->data, model->joints(), true);
     const bool noise_free = data.tau_true.size() > 0;

@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -39,6 +40,7 @@ Command add_physics(CLI::App& app) {
                  "M_asymmetry, M_min_eigenvalue")
       ->required();
   return [a]() -> int {
+    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     require_physics(*model);
     const int n = model->joints().size();

@@ -2,6 +2,8 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
+#include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
@@ -22,6 +24,7 @@ Command add_predict(CLI::App& app) {
                  "Output CSV: tau1_hat..taun_hat, and tau1_std..taun_std for GP models")->required();
   app.add_flag("--no-std", a->no_std, "Skip the standard deviations (much faster for large models)");
   return [a]() -> int {
+    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
     const Dataset data = read_dataset(a->data, estimator->joints(), false);
     const int n = estimator->joints().size();

@@ -3,6 +3,8 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
+#include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/preprocess/log_preprocessing.hpp"
 
@@ -38,6 +40,7 @@ Command add_preprocess(CLI::App& app) {
       ->capture_default_str();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
+    refuse_overwriting_inputs({{"--in", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
     const PreprocessedLog log = preprocess_log(a->in, a->options);
     write_csv_with_sidecar(a->out, log.column_names(), log.table(), log.report);
     if (!a->quiet) {

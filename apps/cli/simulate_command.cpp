@@ -3,6 +3,8 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
+#include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -30,6 +32,7 @@ Command add_simulate(CLI::App& app) {
   app.add_option("--out", a->out, "Output CSV (a sidecar OUT.json records how to regenerate it)")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
+    refuse_overwriting_inputs({{"--robot", a->robot}}, {{"--out", a->out}, {"--out (its .json sidecar)", a->out + ".json"}});
     const RobotModel robot = load_robot(a->robot);
     SimulationResult r = simulate(robot, a->sim);
     r.metadata["robot_spec"] = a->robot;

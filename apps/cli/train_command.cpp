@@ -4,6 +4,7 @@
 #include <mutex>
 
 #include "commands.hpp"
+#include "output_guard.hpp"
 #include "estimator_args.hpp"
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
@@ -40,6 +41,7 @@ Command add_train(CLI::App& app) {
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
+    refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}}, {{"--out", a->out}});
     const JointTypes joints = JointTypes::parse(a->joints);
     const EstimatorOptions o = a->estimator.build(a->kernel);
     if (a->subsample < 0) throw Error("--subsample must be >= 0");

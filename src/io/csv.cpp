@@ -45,7 +45,16 @@ CsvHeader parse_header(std::ifstream& in, const std::string& path) {
   if (!std::getline(in, line) || trim(line).empty())
     throw Error("'" + path + "' is empty; expected a header row such as q1,...,qd1,...,qdd1,...,tau1,...");
   CsvHeader h;
-  for (auto& c : split(line)) h.names.push_back(trim(c));
+  for (auto& c : split(line)) {
+    const std::string name = trim(c);
+    // A repeated name would make "the column q1" ambiguous: which copy was meant?
+    const auto first = std::find(h.names.begin(), h.names.end(), name);
+    if (!name.empty() && first != h.names.end())
+      throw Error("'" + path + "' names column '" + name + "' twice (columns " +
+                  std::to_string(first - h.names.begin() + 1) + " and " + std::to_string(h.names.size() + 1) +
+                  " of the header); rename or remove one");
+    h.names.push_back(name);
+  }
   return h;
 }
 
@@ -71,7 +80,6 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
     if (it == index.end()) throw Error("'" + path + "' has no column '" + c + "'; add it or check the joint types");
     wanted.push_back(it->second);
   }
-  const size_t needed = wanted.empty() ? 0 : *std::max_element(wanted.begin(), wanted.end()) + 1;
 
   std::vector<double> values;
   std::string line;
@@ -81,9 +89,10 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
     ++line_no;
     if (trim(line).empty()) continue;
     const auto cells = split(line);
-    if (cells.size() < needed)
+    if (cells.size() != header.names.size())
       throw Error("'" + path + "' line " + std::to_string(line_no) + " has " + std::to_string(cells.size()) +
-                  " cells but the header has " + std::to_string(header.names.size()) + " (truncated file?)");
+                  " cells but the header has " + std::to_string(header.names.size()) +
+                  (cells.size() < header.names.size() ? " (truncated file?)" : " (a stray comma or a merged row?)"));
     for (size_t k = 0; k < wanted.size(); ++k) {
       const std::string cell = trim(cells[wanted[k]]);
       double v = 0.0;
@@ -91,6 +100,9 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
       const char* e = b + cell.size();
       if (!cell.empty() && *b == '+') ++b;
       const auto res = std::from_chars(b, e, v);
+      if (!cell.empty() && res.ec == std::errc::result_out_of_range && res.ptr == e)
+        throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] + "': '" + cell +
+                    "' is outside the range of a double (about 1e308)");
       if (cell.empty() || res.ec != std::errc() || res.ptr != e)
         throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] + "': '" + cell +
                     "' is not a number");
@@ -108,6 +120,16 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
 }
 
 void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data) {
+  if (static_cast<Eigen::Index>(header.size()) != data.cols())
+    throw Error("write_csv: " + std::to_string(header.size()) + " column names for " + std::to_string(data.cols()) +
+                " columns");
+  // No NaN or Inf ever reaches a file: say which value, and write nothing.
+  for (Eigen::Index c = 0; c < data.cols(); ++c)
+    for (Eigen::Index r = 0; r < data.rows(); ++r)
+      if (!std::isfinite(data(r, c)))
+        throw Error("'" + path + "' would get a non-finite value (NaN or Inf) in data row " + std::to_string(r + 1) +
+                    ", column '" + header[static_cast<size_t>(c)] +
+                    "'; nothing was written: check the inputs or options that produced that row");
   write_file_atomically(path, [&](std::ostream& out) {
     for (size_t k = 0; k < header.size(); ++k) out << (k ? "," : "") << header[k];
     out << "\n";

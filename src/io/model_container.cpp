@@ -71,8 +71,10 @@ std::string pack_container(const ModelContainer& c) {
 ModelContainer unpack_container(const std::string& buf, const std::string& what) {
   using nlohmann::json;
   if (buf.size() < kPrefix || std::memcmp(buf.data(), kMagic, sizeof(kMagic)) != 0)
-    throw Error(what + " is not a gipdyn model (bad magic or truncated header); train one with `gipdyn train`");
+    throw Error(what + " is not a gipdyn model file (bad magic or truncated header)");
   const auto version = get<std::uint32_t>(buf, 8);
+  if (version < 1)
+    throw Error(what + " has format version 0, which no gipdyn writes: the file is corrupted; re-save the model");
   if (version > kModelFormatVersion)
     throw Error(what + " has format version " + std::to_string(version) + ", newer than this gipdyn reads (" +
                 std::to_string(kModelFormatVersion) + "); upgrade gipdyn");
@@ -105,6 +107,10 @@ ModelContainer unpack_container(const std::string& buf, const std::string& what)
       Eigen::MatrixXd a(shape.first, shape.second);
       std::memcpy(a.data(), buf.data() + at, sizeof(double) * static_cast<size_t>(a.size()));
       at += sizeof(double) * static_cast<size_t>(a.size());
+      // A valid checksum over NaN says only that the NaN was written: no model of ours holds one.
+      if (!a.allFinite())
+        throw Error(what + " holds a non-finite number (NaN or Inf) in its array '" + name +
+                    "'; the model is unusable: train it again");
       c.arrays.emplace_back(name, std::move(a));
     }
   } catch (const json::exception& e) {
@@ -115,6 +121,10 @@ ModelContainer unpack_container(const std::string& buf, const std::string& what)
 }
 
 void write_container(const ModelContainer& container, const std::string& path) {
+  for (const auto& [name, a] : container.arrays)
+    if (!a.allFinite())
+      throw Error("the model to write to '" + path + "' holds a non-finite number (NaN or Inf) in its array '" + name +
+                  "'; nothing was written");
   const std::string buf = pack_container(container);
   write_file_atomically(path, [&](std::ostream& out) { out.write(buf.data(), static_cast<std::streamsize>(buf.size())); },
                         true);

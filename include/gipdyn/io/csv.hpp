@@ -17,11 +17,13 @@ struct CsvHeader {
 CsvHeader read_csv_header(const std::string& path);
 
 // Reads the named columns (in the given order) into a rows x columns matrix.
-// Throws gipdyn::Error for a missing file or column, a non-numeric cell, NaN/Inf
-// or a row with too few cells.
+// Throws gipdyn::Error for a missing file or column, a header that names a
+// column twice, a row with more or fewer cells than the header, a non-numeric
+// cell, a number outside the range of a double, or NaN/Inf.
 Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns);
 
 // Writes header + rows atomically, with enough digits to round-trip doubles.
+// Throws gipdyn::Error, writing nothing, if any value is NaN or Inf.
 void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data);
 
 // The CSV and PATH.json (how it was made) together: both files or neither.
