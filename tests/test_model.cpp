@@ -16,6 +16,7 @@
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/model/model_file.hpp"
+#include "gipdyn/memory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/progress.hpp"
@@ -369,6 +370,48 @@ TEST(ModelFile, FailedWriteLeavesNoFile) {
     EXPECT_EQ(entry.path().filename().string().find(".partial.csv.tmp"), std::string::npos);
 }
 
+std::string file_text(const fs::path& p) {
+  std::ifstream in(p);
+  return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());
+}
+
+// A CSV and its sidecar are replaced as a pair: when the new pair cannot be
+// written, the old pair stays as it was, and no temporary is left behind.
+TEST(AtomicFiles, AFailedPairLeavesTheOldPairAndNoTemporaries) {
+  const fs::path dir = temp_dir() / "pair";
+  fs::create_directories(dir);
+  const fs::path csv = dir / "data.csv";
+  write_csv_with_sidecar(csv.string(), {"a"}, Eigen::MatrixXd::Constant(2, 1, 1.0), {{"version", 1}});
+  const std::string old_csv = file_text(csv), old_json = file_text(dir / "data.csv.json");
+  Eigen::MatrixXd bad = Eigen::MatrixXd::Constant(3, 1, 2.0);
+  bad(1, 0) = std::nan("");
+  EXPECT_NE(error_of([&] { write_csv_with_sidecar(csv.string(), {"a"}, bad, {{"version", 2}}); })
+                .find("data row 2, column 'a'"),
+            std::string::npos);
+  // A sidecar whose writer fails after the data's temporary was written.
+  EXPECT_THROW(write_files_atomically({{csv.string(), [](std::ostream& o) { o << "a\n3\n"; }},
+                                       {(dir / "data.csv.json").string(),
+                                        [](std::ostream&) { throw Error("simulated failure"); }}}),
+               Error);
+  EXPECT_EQ(file_text(csv), old_csv);
+  EXPECT_EQ(file_text(dir / "data.csv.json"), old_json);
+  for (const auto& entry : fs::directory_iterator(dir))
+    EXPECT_EQ(entry.path().filename().string().find(".tmp."), std::string::npos) << entry.path();
+}
+
+// A killed run leaves ".NAME.tmp.PID"; the next write removes it, unless that process still runs.
+TEST(AtomicFiles, TemporariesOfDeadProcessesAreRemoved) {
+  const fs::path dir = temp_dir() / "stale";
+  fs::create_directories(dir);
+  const fs::path dead = dir / ".out.csv.tmp.2147483000", alive = dir / ".out.csv.tmp.1";
+  std::ofstream(dead) << "half";
+  std::ofstream(alive) << "in progress";
+  write_csv((dir / "out.csv").string(), {"a"}, Eigen::MatrixXd::Ones(1, 1));
+  EXPECT_FALSE(fs::exists(dead));
+  EXPECT_TRUE(fs::exists(alive));  // pid 1 is running: its write may still finish
+  EXPECT_EQ(file_text(dir / "out.csv"), "a\n1\n");
+}
+
 TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
   const fs::path dir = temp_dir();
   auto write = [&](const std::string& name, const std::string& text) {
@@ -456,4 +499,14 @@ TEST(Progress, DescribesOptimiserStepsJointEndsAndWholeFits) {
   epoch.objective = 0.25;
   epoch.seconds = 1.0;
   EXPECT_EQ(describe(epoch), "nn iteration 7: objective 0.25 (1.0 s)");
+}
+
+TEST(Memory, RefusesWhatTheMachineCannotHoldWithTheEstimate) {
+  EXPECT_EQ(gipdyn::format_bytes(512), "512 B");
+  EXPECT_EQ(gipdyn::format_bytes(1.5 * 1024 * 1024 * 1024), "1.5 GiB");
+  EXPECT_GT(gipdyn::available_memory_bytes(), 1u << 20);
+  gipdyn::require_memory(1024, "a small thing", "nothing to do");
+  const std::string message = gipdyn::test::error_of([] { gipdyn::require_memory(1e30, "a huge thing", "ask less"); });
+  EXPECT_NE(message.find("a huge thing needs about"), std::string::npos) << message;
+  EXPECT_NE(message.find("available; ask less"), std::string::npos) << message;
 }

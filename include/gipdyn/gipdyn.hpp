@@ -23,6 +23,7 @@
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
+#include "gipdyn/memory.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/kernel.hpp"

@@ -7,6 +7,7 @@
 #include <random>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/memory.hpp"
 #include "gipdyn/training_data.hpp"
 
 #ifdef GIPDYN_HAVE_TORCH
@@ -55,6 +56,19 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
   options.validate();
   validate_training_data(X, Y, joints);
   const int n = joints.size();
+  {
+    // Weights, gradients and Adam's two moments, plus one batch of activations per layer.
+    double weights = 0.0, activations = 0.0;
+    int width = 3 * n;
+    for (int h : options.hidden_for(n)) {
+      weights += (width + 1.0) * h;
+      activations += static_cast<double>(options.batch_size) * h;
+      width = h;
+    }
+    weights += (width + 1.0) * n;
+    require_memory(8.0 * (4.0 * weights + 3.0 * activations), "a network of this shape",
+                   "use narrower layers (NeuralNetworkOptions::hidden) or smaller batches");
+  }
 #ifndef GIPDYN_HAVE_TORCH
   (void)progress;
   throw Error("this gipdyn was built without libtorch, so it cannot train the nn estimator; "

@@ -119,7 +119,10 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
   return out;
 }
 
-void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data) {
+namespace {
+
+// Throws unless every value is finite and there is one name per column.
+void require_writable(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data) {
   if (static_cast<Eigen::Index>(header.size()) != data.cols())
     throw Error("write_csv: " + std::to_string(header.size()) + " column names for " + std::to_string(data.cols()) +
                 " columns");
@@ -130,31 +133,36 @@ void write_csv(const std::string& path, const std::vector<std::string>& header, 
         throw Error("'" + path + "' would get a non-finite value (NaN or Inf) in data row " + std::to_string(r + 1) +
                     ", column '" + header[static_cast<size_t>(c)] +
                     "'; nothing was written: check the inputs or options that produced that row");
-  write_file_atomically(path, [&](std::ostream& out) {
-    for (size_t k = 0; k < header.size(); ++k) out << (k ? "," : "") << header[k];
-    out << "\n";
-    char buf[64];
-    for (Eigen::Index r = 0; r < data.rows(); ++r) {
-      for (Eigen::Index c = 0; c < data.cols(); ++c) {
-        const auto res = std::to_chars(buf, buf + sizeof(buf), data(r, c));  // shortest round-trip form
-        if (c) out << ',';
-        out.write(buf, res.ptr - buf);
-      }
-      out << '\n';
-    }
-  });
+}
+
+FileContent csv_content(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data) {
+  require_writable(path, header, data);
+  return {path, [&header, &data](std::ostream& out) {
+            for (size_t k = 0; k < header.size(); ++k) out << (k ? "," : "") << header[k];
+            out << "\n";
+            char buf[64];
+            for (Eigen::Index r = 0; r < data.rows(); ++r) {
+              for (Eigen::Index c = 0; c < data.cols(); ++c) {
+                const auto res = std::to_chars(buf, buf + sizeof(buf), data(r, c));  // shortest round-trip form
+                if (c) out << ',';
+                out.write(buf, res.ptr - buf);
+              }
+              out << '\n';
+            }
+          }};
+}
+
+}  // namespace
+
+void write_csv(const std::string& path, const std::vector<std::string>& header, const Eigen::MatrixXd& data) {
+  write_files_atomically({csv_content(path, header, data)});
 }
 
 void write_csv_with_sidecar(const std::string& path, const std::vector<std::string>& header,
                             const Eigen::MatrixXd& data, const nlohmann::json& sidecar) {
-  const std::string json_path = path + ".json";
-  write_file_atomically(json_path, [&](std::ostream& out) { out << sidecar.dump(2) << "\n"; });
-  try {
-    write_csv(path, header, data);
-  } catch (...) {
-    std::remove(json_path.c_str());
-    throw;
-  }
+  // Both temporaries first, the sidecar renamed last: a failure leaves the old pair as it was.
+  write_files_atomically({csv_content(path, header, data),
+                          {path + ".json", [&sidecar](std::ostream& out) { out << sidecar.dump(2) << "\n"; }}});
 }
 
 }  // namespace gipdyn

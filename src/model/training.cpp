@@ -10,13 +10,14 @@
 #include <thread>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/memory.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 
 namespace gipdyn {
 
 void TrainOptions::validate() const {
   optimizer.validate();
-  if (restarts < 0) throw Error("TrainOptions::restarts must be >= 0");
+  if (restarts < 0 || restarts > 1000) throw Error("TrainOptions::restarts must be between 0 and 1000");
   if (!(restart_spread >= 0.0)) throw Error("TrainOptions::restart_spread must be >= 0");
   if (!(initial_noise_fraction > 0.0)) throw Error("TrainOptions::initial_noise_fraction must be > 0");
   if (!(min_noise_fraction > 0.0) || min_noise_fraction > initial_noise_fraction)
@@ -182,6 +183,15 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   std::vector<JointOutcome> outcomes(static_cast<size_t>(n));
   int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, n);
+  // Every joint in flight holds two N x N matrices (the kernel, reused for its
+  // inverse, and the gradient's scratch); kept factors add one per joint. Train
+  // fewer joints at once when memory is short, refuse when even one cannot fit.
+  const double square = 8.0 * static_cast<double>(X.rows()) * static_cast<double>(X.rows());
+  const double kept = options.keep_factor ? n * square : 0.0;
+  require_memory(kept + 2.0 * square, "training on " + std::to_string(X.rows()) + " rows",
+                 "train on fewer rows (a constant-step subsample)" +
+                     std::string(options.keep_factor ? " or without kept factors (TrainOptions::keep_factor)" : ""));
+  threads = std::min<int>(threads, std::max(1.0, (static_cast<double>(available_memory_bytes()) - kept) / (2.0 * square)));
   std::atomic<int> next{0};
   auto worker = [&] {
     for (int j = next++; j < n; j = next++) {

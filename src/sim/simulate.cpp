@@ -3,6 +3,7 @@
 #include <random>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/memory.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 
 namespace gipdyn {
@@ -27,6 +28,9 @@ void SimulationOptions::validate() const {
 
 SimulationResult simulate(const RobotModel& nominal, const SimulationOptions& o) {
   o.validate();
+  // X, tau and tau_true, and their copies on the way out.
+  require_memory(4.0 * 8.0 * o.samples * 5.0 * nominal.num_joints(),
+                 "simulating " + std::to_string(o.samples) + " samples", "ask for fewer SimulationOptions::samples");
   SimulationResult r;
   nlohmann::json drawn = nullptr;
   const RobotModel robot = o.perturb_kinematics

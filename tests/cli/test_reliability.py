@@ -107,3 +107,16 @@ def test_evaluate_checks_all_its_options_before_writing(folder, gipdyn_bin):
                    "--json", str(folder / "r.json"), "--plots", str(folder / "plots"), "--plot-window", "0"),
                "--plot-window")
     assert not (folder / "r.json").exists()
+
+
+@pytest.mark.parametrize("args, words", [
+    (["simulate", "--robot", "scara", "--samples", "2000000000", "--out", "{d}/s.csv"], ["needs about", "--samples"]),
+    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--kernel", "nn", "--nn-hidden", "2000000000",
+      "--out", "{d}/n.gipdyn"], ["needs about", "--nn-hidden"]),
+    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--restarts", "5000", "--out", "{d}/r.gipdyn"],
+     ["--restarts must be between 0 and 1000"]),
+])
+def test_sizes_beyond_the_machine_are_refused_before_allocating(folder, gipdyn_bin, args, words):
+    before = snapshot(folder)
+    fails_with(run(gipdyn_bin, *[a.format(d=folder) for a in args]), *words)
+    assert snapshot(folder) == before
