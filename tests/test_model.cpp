@@ -19,6 +19,7 @@
 #include "gipdyn/memory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/training.hpp"
+#include "gipdyn/training_data.hpp"
 #include "gipdyn/progress.hpp"
 #include "test_util.hpp"
 
@@ -509,4 +510,19 @@ TEST(Memory, RefusesWhatTheMachineCannotHoldWithTheEstimate) {
   const std::string message = gipdyn::test::error_of([] { gipdyn::require_memory(1e30, "a huge thing", "ask less"); });
   EXPECT_NE(message.find("a huge thing needs about"), std::string::npos) << message;
   EXPECT_NE(message.find("available; ask less"), std::string::npos) << message;
+}
+
+TEST(TrainingData, FindsConstantColumnsAndRowsSharedWithTraining) {
+  Eigen::MatrixXd X = gipdyn::test::random_inputs(gipdyn::JointTypes::parse("RR"), 30, 7);
+  X.col(3).setConstant(0.25);
+  X.col(5).setConstant(1e6);
+  X(4, 5) += 1e-9;  // nearly constant: a change at rounding level of the column's size
+  EXPECT_EQ(gipdyn::constant_columns(X), (std::vector<Eigen::Index>{3, 5}));
+  Eigen::MatrixXd test = gipdyn::test::random_inputs(gipdyn::JointTypes::parse("RR"), 10, 8);
+  EXPECT_EQ(gipdyn::count_shared_rows(X, test), 0);
+  test.row(2) = X.row(17);
+  test.row(6) = X.row(0);
+  EXPECT_EQ(gipdyn::count_shared_rows(X, test), 2);
+  test(6, 1) = std::nextafter(test(6, 1), 10.0);  // one bit away is another state
+  EXPECT_EQ(gipdyn::count_shared_rows(X, test), 1);
 }

@@ -14,6 +14,7 @@
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
+#include "gipdyn/training_data.hpp"
 #include "reports/plots.hpp"
 
 namespace gipdyn::cli {
@@ -120,6 +121,14 @@ Command add_evaluate(CLI::App& app) {
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
     const Eigen::MatrixXd prediction = model->predict(data.X);
+    if (const InverseDynamicsModel* gp = model->gp_model()) {
+      const Eigen::Index shared = count_shared_rows(gp->training_inputs(), data.X);
+      if (shared > 0)
+        std::fprintf(stderr,
+                     "gipdyn: warning: %ld of the %ld rows of %s are training rows of this model: their error is "
+                     "not a test error\n",
+                     static_cast<long>(shared), static_cast<long>(data.rows()), a->data.c_str());
+    }
     const Accuracy acc = compute_accuracy(target, prediction);
     std::printf("%ld test rows, target %s\n", static_cast<long>(data.rows()),
                 noise_free ? "noise-free tau*_true" : "measured tau*");

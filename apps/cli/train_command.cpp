@@ -47,6 +47,14 @@ Command add_train(CLI::App& app) {
     if (a->subsample < 0) throw Error("--subsample must be >= 0");
 
     Dataset data = read_dataset(a->data, joints, true);
+    if (!a->quiet) {
+      const std::vector<std::string> names = input_column_names(joints.size());
+      for (Eigen::Index c : constant_columns(data.X))
+        std::fprintf(stderr,
+                     "gipdyn: warning: column %s of %s is constant: the model cannot learn how the torque depends "
+                     "on it\n",
+                     names[static_cast<size_t>(c)].c_str(), a->data.c_str());
+    }
     const Eigen::Index total = data.rows();
     if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
     if (!a->quiet) {

@@ -84,6 +84,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
                                              : read_mat_dataset(c.data, c.mat_variable, joints, true);
   // 0-based row indices of the two sets, and how to describe them.
   std::vector<Eigen::Index> train_idx, test_idx;
+  std::vector<std::string> outcome_warnings;
   std::string split;
   if (c.alternate_blocks > 0) {
     const Eigen::Index B = c.alternate_blocks;
@@ -103,6 +104,9 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
             ", test rows " + std::to_string(c.test_rows.first) + "-" + std::to_string(c.test_rows.second);
   }
   const Dataset train = all.subset(train_idx), test = all.subset(test_idx);
+  if (const Eigen::Index shared = count_shared_rows(train.X, test.X); shared > 0)
+    outcome_warnings.push_back(std::to_string(shared) + " of the " + std::to_string(test.rows()) +
+                               " test rows also appear among the training rows: their error is not a test error");
   const Dataset train_gp = train.subset(constant_step_indices(train.rows(), c.max_train));
   const Dataset train_nn = train.subset(constant_step_indices(train.rows(), c.nn_max_train));
   RobotPrior prior;
@@ -114,6 +118,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
   ResultTable table((fs::path(c.out) / "nmse.csv").string(),
                     {"estimator", "joint", "nmse", "seconds", "training_rows"});
   ExperimentOutcome outcome;
+  outcome.warnings = outcome_warnings;
   Eta eta;
   for (const auto& e : c.estimators)
     if (table.contains({{"estimator", e}})) ++outcome.units_skipped;

@@ -18,4 +18,11 @@ void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, 
 // UR10 data. count <= 0 or count >= rows keeps everything.
 std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count);
 
+// Columns of X whose values (almost) do not vary: max - min <= tolerance x
+// (1 + max |value|). A model cannot learn how the torque depends on them.
+std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tolerance = 1e-12);
+
+// How many rows of `test` also occur, bit for bit, as rows of `train`.
+Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::MatrixXd& test);
+
 }  // namespace gipdyn

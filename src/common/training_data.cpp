@@ -2,6 +2,9 @@
 
 #include "gipdyn/error.hpp"
 
+#include <string>
+#include <unordered_set>
+
 namespace gipdyn {
 
 void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints) {
@@ -29,6 +32,31 @@ std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index 
   // not an integer (6340 rows -> 4000 must not keep just the first 4000).
   for (Eigen::Index k = 0; k < count; ++k) idx.push_back(k * rows / count);
   return idx;
+}
+
+std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tolerance) {
+  std::vector<Eigen::Index> out;
+  if (X.rows() == 0) return out;
+  for (Eigen::Index c = 0; c < X.cols(); ++c) {
+    const double lo = X.col(c).minCoeff(), hi = X.col(c).maxCoeff();
+    if (hi - lo <= tolerance * (1.0 + X.col(c).cwiseAbs().maxCoeff())) out.push_back(c);
+  }
+  return out;
+}
+
+Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::MatrixXd& test) {
+  if (train.cols() != test.cols()) return 0;
+  // Row-major copies make each row one contiguous run of bytes to compare.
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const RowMajor a = train, b = test;
+  const size_t width = sizeof(double) * static_cast<size_t>(a.cols());
+  std::unordered_set<std::string> rows;
+  for (Eigen::Index r = 0; r < a.rows(); ++r)
+    rows.emplace(reinterpret_cast<const char*>(a.row(r).data()), width);
+  Eigen::Index shared = 0;
+  for (Eigen::Index r = 0; r < b.rows(); ++r)
+    shared += rows.count(std::string(reinterpret_cast<const char*>(b.row(r).data()), width)) > 0;
+  return shared;
 }
 
 }  // namespace gipdyn

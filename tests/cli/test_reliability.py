@@ -120,3 +120,24 @@ def test_sizes_beyond_the_machine_are_refused_before_allocating(folder, gipdyn_b
     before = snapshot(folder)
     fails_with(run(gipdyn_bin, *[a.format(d=folder) for a in args]), *words)
     assert snapshot(folder) == before
+
+
+def test_constant_columns_and_test_rows_from_training_are_warned_about(folder, gipdyn_bin, tmp_path):
+    lines = (folder / "d.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    k = header.index("qd2")
+    rows = [l.split(",") for l in lines[1:]]
+    for r in rows:
+        r[k] = "0.5"
+    (tmp_path / "c.csv").write_text("\n".join([lines[0]] + [",".join(r) for r in rows]) + "\n")
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "c.csv"), "--joints", "RR", "--max-iter", "3",
+            "--out", str(tmp_path / "c.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "warning: column qd2 of" in r.stderr and "is constant" in r.stderr
+    r = run(gipdyn_bin, "evaluate", "--model", str(folder / "m.gipdyn"), "--data", str(folder / "d.csv"))
+    assert r.returncode == 0, r.stderr
+    assert "warning: 40 of the 40 rows" in r.stderr and "not a test error" in r.stderr
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(folder / "d.csv"), "--joints", "RR", "--train-rows",
+            "1-30", "--test-rows", "21-40", "--estimators", "gip", "--max-iter", "3", "--out", str(tmp_path / "e3"))
+    assert r.returncode == 0, r.stderr
+    assert "warning: 10 of the 20 test rows also appear among the training rows" in r.stderr
