@@ -47,14 +47,12 @@ Command add_train(CLI::App& app) {
     if (a->subsample < 0) throw Error("--subsample must be >= 0");
 
     Dataset data = read_dataset(a->data, joints, true);
-    if (!a->quiet) {
-      const std::vector<std::string> names = input_column_names(joints.size());
-      for (Eigen::Index c : constant_columns(data.X))
-        std::fprintf(stderr,
-                     "gipdyn: warning: column %s of %s is constant: the model cannot learn how the torque depends "
-                     "on it\n",
-                     names[static_cast<size_t>(c)].c_str(), a->data.c_str());
-    }
+    // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
+    std::vector<std::string> data_warnings;
+    const std::vector<std::string> names = input_column_names(joints.size());
+    for (Eigen::Index c : constant_columns(data.X))
+      data_warnings.push_back("column " + names[static_cast<size_t>(c)] + " of " + a->data +
+                              " is constant: the model cannot learn how the torque depends on it");
     const Eigen::Index total = data.rows();
     if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
     if (!a->quiet) {
@@ -85,6 +83,7 @@ Command add_train(CLI::App& app) {
       std::printf("\n%s", r.report.brief_report().c_str());
       std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
       std::fflush(stdout);
+      for (const auto& w : data_warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", w.c_str());
       for (const auto& w : r.report.warnings())
         std::fprintf(stderr, "gipdyn: warning: %s\n", rename_fields(w, cli_field_names()).c_str());
     }
