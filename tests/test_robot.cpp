@@ -249,6 +249,10 @@ TEST(RobotInput, BadDescriptionsGiveClearErrors) {
   EXPECT_NE(error_of([&] { load_robot_json(write("gipdyn_bad1.json", "{\"joints\": [ {\"type\": \"R\"")); })
                 .find("not valid JSON"),
             std::string::npos);
+  // Found by tests/test_fuzz.cpp: a field of the wrong type used to escape as a JSON library exception.
+  EXPECT_NE(error_of([&] { load_robot_json(write("gipdyn_bad_name.json", R"({"name": {}, "joints": [{}]})")); })
+                .find("a field has the wrong type"),
+            std::string::npos);
   EXPECT_NE(error_of([&] {
               load_robot_json(write("gipdyn_bad2.json", R"({"joints": [{"type": "X", "dh": {}}]})"));
             }).find("\"type\" must be"),

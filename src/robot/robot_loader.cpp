@@ -32,7 +32,9 @@ Eigen::Vector3d vec3(const nlohmann::json& j, const char* key, const std::string
 
 }  // namespace
 
-RobotModel robot_from_json(const nlohmann::json& d, const std::string& source) {
+namespace {
+
+RobotModel parse_robot_json(const nlohmann::json& d, const std::string& source) {
   if (!d.is_object()) throw Error(source + ": the robot description must be a JSON object");
   const std::string name = d.value("name", std::filesystem::path(source).stem().string());
   Eigen::Vector3d gravity(0, 0, -9.81);
@@ -83,6 +85,17 @@ RobotModel robot_from_json(const nlohmann::json& d, const std::string& source) {
     joints.push_back(j);
   }
   return RobotModel::from_dh(name, joints, gravity);
+}
+
+}  // namespace
+
+RobotModel robot_from_json(const nlohmann::json& d, const std::string& source) {
+  try {
+    return parse_robot_json(d, source);
+  } catch (const nlohmann::json::exception& e) {
+    // A field of the wrong type ("name": {}) that no explicit check above caught.
+    throw Error(source + ": a field has the wrong type (" + std::string(e.what()) + "); see docs/robot-format.md");
+  }
 }
 
 RobotModel load_robot_json(const std::string& path) {
