@@ -1,10 +1,27 @@
 // gipdyn: learn robot inverse dynamics with Gaussian processes and the GIP kernel.
 #include <iostream>
 #include <map>
+#include <string>
 
 #include "commands.hpp"
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
+
+namespace {
+
+// What uses the memory differs by command, so does the fix.
+std::string out_of_memory_advice(const std::string& command) {
+  if (command == "train") return "train on fewer rows (--subsample) or fewer joints at once (--threads 1)";
+  if (command == "simulate") return "simulate fewer samples (--samples) and concatenate the files";
+  if (command == "experiment")
+    return "use fewer training rows (--max-train, --sizes, --train-samples) or one estimator at a time (--estimators)";
+  if (command == "predict" || command == "evaluate" || command == "physics")
+    return "split --data into smaller files and run them one after another";
+  if (command == "preprocess") return "split --in into smaller logs, or resample it with a longer period (--dt)";
+  return "give it smaller inputs";
+}
+
+}  // namespace
 
 int main(int argc, char** argv) {
   CLI::App app{
@@ -34,14 +51,18 @@ int main(int argc, char** argv) {
   } catch (const CLI::ParseError& e) {
     return app.exit(e);
   }
+  std::string command;
   try {
     for (auto& [sub, run] : commands)
-      if (sub->parsed()) return run();
+      if (sub->parsed()) {
+        command = sub->get_name();
+        return run();
+      }
   } catch (const gipdyn::Error& e) {
     std::cerr << "gipdyn: error: " << gipdyn::rename_fields(e.what(), gipdyn::cli::cli_field_names()) << "\n";
     return 1;
   } catch (const std::bad_alloc&) {
-    std::cerr << "gipdyn: error: out of memory; use fewer training rows (--subsample)\n";
+    std::cerr << "gipdyn: error: out of memory; " << out_of_memory_advice(command) << "\n";
     return 1;
   } catch (const std::exception& e) {
     std::cerr << "gipdyn: error: " << e.what() << "\n";

@@ -6,8 +6,9 @@
 
 namespace gipdyn {
 
-// Bytes the system can still give (MemAvailable of /proc/meminfo; physical
-// memory where that is unknown).
+// Bytes this process can still allocate: the smallest of the machine's
+// MemAvailable (physical memory where that is unknown), what its cgroup v2
+// memory.max leaves, and what its address-space limit (ulimit -v) leaves.
 std::size_t available_memory_bytes();
 
 // "1.5 GiB", "300 MiB", ...

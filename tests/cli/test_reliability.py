@@ -122,6 +122,24 @@ def test_sizes_beyond_the_machine_are_refused_before_allocating(folder, gipdyn_b
     assert snapshot(folder) == before
 
 
+def test_memory_estimate_respects_the_address_space_limit(tmp_path, gipdyn_bin):
+    # A batch scheduler's `ulimit -v` allows far less than the machine has: the
+    # estimate must be checked against the limit, not against MemAvailable.
+    import resource
+    import subprocess
+    write_dataset(tmp_path / "big.csv", 17000, seed=2)
+    limit = 3 * 1024**3
+
+    def cap():
+        resource.setrlimit(resource.RLIMIT_AS, (limit, limit))
+
+    r = subprocess.run([gipdyn_bin, "train", "--data", str(tmp_path / "big.csv"), "--joints", "RR", "--quiet",
+                        "--out", str(tmp_path / "m.gipdyn")], capture_output=True, text=True, preexec_fn=cap,
+                       timeout=120)
+    fails_with(r, "training on 17000 rows needs about", "available", "fewer rows")
+    assert not (tmp_path / "m.gipdyn").exists()
+
+
 def test_constant_columns_and_test_rows_from_training_are_warned_about(folder, gipdyn_bin, tmp_path):
     lines = (folder / "d.csv").read_text().splitlines()
     header = lines[0].split(",")
