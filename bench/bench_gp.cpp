@@ -150,7 +150,7 @@ void BM_Train(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   int evaluations = 0;
   for (auto _ : state) {
-    TrainOptions o;  // the defaults: gip, L-BFGS, 200 evaluations, joints in parallel
+    TrainOptions o;  // the defaults: gip, L-BFGS to convergence, joints in parallel
     o.keep_factor = false;
     const TrainResult r = train_model(p.X, p.Y, p.joints, o);
     if (!r.report.ok()) state.SkipWithError(r.report.message.c_str());

@@ -72,6 +72,22 @@ TEST(Lbfgs, ConvergesOnRosenbrockAndReportsTheGradientThere) {
   EXPECT_LT(r.evaluations, o.max_iterations);
 }
 
+// NLopt has no gradient test; ours stops L-BFGS at the first point whose
+// projected gradient meets the tolerance, and the result says so.
+TEST(Lbfgs, StopsAtTheGradientToleranceAndSaysSo) {
+  OptimizerOptions o;
+  o.f_relative_tolerance = 0.0;
+  o.gradient_tolerance = 1e-2;
+  const OptimizerResult loose = minimize(rosenbrock, Eigen::Vector2d(-1.2, 1.0), o);
+  EXPECT_EQ(loose.status, OptimizerResult::Status::Converged) << loose.message;
+  EXPECT_NE(loose.message.find("gradient"), std::string::npos) << loose.message;
+  EXPECT_LE(loose.grad_norm, 1e-2);
+  o.gradient_tolerance = 1e-9;
+  const OptimizerResult tight = minimize(rosenbrock, Eigen::Vector2d(-1.2, 1.0), o);
+  EXPECT_GT(tight.evaluations, loose.evaluations);
+  EXPECT_LT(tight.grad_norm, loose.grad_norm);
+}
+
 TEST(Lbfgs, StaysInsideTheBoxAndProjectsTheGradientThere) {
   OptimizerOptions o;
   o.lower_bounds = Eigen::Vector2d(-10.0, -10.0);

@@ -14,7 +14,16 @@ std::string estimator_list() {
 
 void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
   app.add_option("--optimizer", optimizer, "GP hyperparameter optimiser: lbfgs or adam")->capture_default_str();
-  app.add_option("--max-iter", max_iter, "GP: maximum NLL evaluations (L-BFGS) or steps (Adam) per joint and start")
+  app.add_option("--max-iter", max_iter,
+                 "GP: safety cap on NLL evaluations (L-BFGS) or steps (Adam) per joint, start and stage")
+      ->capture_default_str();
+  app.add_option("--gradient-tolerance", gradient_tolerance,
+                 "GP: converged when the projected NLL gradient (max over log-hyperparameters) per training row "
+                 "is at most this")
+      ->capture_default_str();
+  app.add_option("--warm-start-rows", warm_start_rows,
+                 "GP: optimise first (every start and restart) on a constant-step subsample of this many rows, "
+                 "then on all rows; 0: off")
       ->capture_default_str();
   app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str();
   app.add_option("--restarts", restarts, "GP: extra optimiser runs from perturbed starts; the best NLL is kept")
@@ -62,6 +71,8 @@ EstimatorOptions EstimatorArgs::build(const std::string& name) const {
   o.gp.optimizer.max_iterations = max_iter;
   o.gp.optimizer.adam_learning_rate = learning_rate;
   o.gp.restarts = restarts;
+  o.gp.warm_start_rows = warm_start_rows;
+  o.gp.gradient_tolerance_per_row = gradient_tolerance;
   o.gp.seed = seed;
   o.gp.scaling = parse_output_scaling(scaling);
   o.gp.mean = parse_mean_kind(mean);

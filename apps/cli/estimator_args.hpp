@@ -12,7 +12,10 @@ namespace gipdyn::cli {
 struct EstimatorArgs {
   std::string optimizer = "lbfgs", scaling = "standardize", mean = "zero", robot, nn_hidden, prior = "none";
   double prior_width = 2.0;
-  int max_iter = 200, restarts = 0, threads = 0;
+  // Library defaults, so that --help shows what the library does.
+  int max_iter = OptimizerOptions{}.max_iterations, restarts = TrainOptions{}.restarts, threads = 0;
+  int warm_start_rows = TrainOptions{}.warm_start_rows;
+  double gradient_tolerance = TrainOptions{}.gradient_tolerance_per_row;
   std::uint64_t seed = 0;
   double min_noise = 1e-8, learning_rate = 0.01;
   bool robot_friction = false;

@@ -10,6 +10,8 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::restarts", "--restarts"},
       {"TrainOptions::min_noise_fraction", "--min-noise"},
       {"TrainOptions::threads", "--threads"},
+      {"TrainOptions::warm_start_rows", "--warm-start-rows"},
+      {"TrainOptions::gradient_tolerance_per_row", "--gradient-tolerance"},
       {"TrainOptions::scaling", "--scaling"},
       {"TrainOptions::mean", "--mean"},
       {"HyperparameterPrior::width", "--prior-width"},

@@ -106,6 +106,8 @@ nlohmann::json base_options_json(const EstimatorOptions& b) {
   nlohmann::json j = {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
           {"max_iter", b.gp.optimizer.max_iterations},
           {"restarts", b.gp.restarts},
+          {"warm_start_rows", b.gp.warm_start_rows},
+          {"gradient_tolerance", b.gp.gradient_tolerance_per_row},
           {"scaling", to_string(b.gp.scaling)},
           {"min_noise", b.gp.min_noise_fraction},
           {"prior", b.gp.prior.enabled ? "lognormal" : "none"},
@@ -162,7 +164,7 @@ void record_fit_report(const std::string& out, const std::vector<std::pair<std::
                        const std::string& estimator, const FitAndPredict& fit) {
   std::vector<std::string> columns;
   for (const auto& [name, value] : key) columns.push_back(name);
-  for (const char* c : {"estimator", "joint", "status", "evaluations", "nll", "grad_norm", "noise_variance", "jitter"})
+  for (const char* c : {"estimator", "joint", "status", "evaluations", "warm_start_evaluations", "nll", "grad_norm", "noise_variance", "jitter"})
     columns.push_back(c);
   ResultTable table((fs::path(out) / "fit_reports.csv").string(), columns);
   auto row_start = [&] {
@@ -175,7 +177,8 @@ void record_fit_report(const std::string& out, const std::vector<std::pair<std::
   for (const JointReport& j : fit.report.joints) {
     std::vector<std::string> row = row_start();
     for (const std::string& v :
-         {std::to_string(j.joint + 1), to_string(j.status), std::to_string(j.evaluations), format_number(j.nll),
+         {std::to_string(j.joint + 1), to_string(j.status), std::to_string(j.evaluations),
+          std::to_string(j.warm_start_evaluations), format_number(j.nll),
           format_number(j.grad_norm), format_number(j.noise_variance), format_number(j.jitter)})
       row.push_back(v);
     rows.push_back(row);
@@ -184,7 +187,7 @@ void record_fit_report(const std::string& out, const std::vector<std::pair<std::
     std::vector<std::string> row = row_start();
     const std::string status = fit.ok ? to_string(fit.report.status) : "failed";
     for (const std::string& v : {std::string("all"), status, std::string("nan"), std::string("nan"), std::string("nan"),
-                                 std::string("nan"), std::string("nan")})
+                                 std::string("nan"), std::string("nan"), std::string("nan")})
       row.push_back(v);
     rows.push_back(row);
   }

@@ -12,7 +12,7 @@
 
 int main(int argc, char** argv) {
   const int samples = argc > 1 ? std::atoi(argv[1]) : 2000;
-  const int max_iter = argc > 2 ? std::atoi(argv[2]) : 200;
+  const int max_iter = argc > 2 ? std::atoi(argv[2]) : gipdyn::OptimizerOptions{}.max_iterations;
 
   const gipdyn::RobotModel scara = gipdyn::scara_robot();
   gipdyn::SimulationOptions sim;

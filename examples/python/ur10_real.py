@@ -22,7 +22,7 @@ parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.R
 parser.add_argument("--data", default=default_data)
 parser.add_argument("--train-rows", type=int, default=2000, help="training rows kept (constant step)")
 parser.add_argument("--kernel", default="gip")
-parser.add_argument("--max-iter", type=int, default=200)
+parser.add_argument("--max-iter", type=int, default=None, help="safety cap on NLL evaluations per joint (default: the library's)")
 parser.add_argument("--out", default="ur10_real.png")
 args = parser.parse_args()
 

@@ -14,6 +14,7 @@ struct ProgressEvent {
   std::string estimator;  // "gip", "nn", ... (empty where unknown)
   int joint = -1;         // 0-based; -1 for work that is not per joint
   int restart = 0;        // 0: the data-driven start
+  long rows = 0;          // training rows the objective is computed on (0: not stated)
   int iteration = 0;      // optimiser evaluation or step, or training epoch
   double objective = std::numeric_limits<double>::quiet_NaN();  // NLL or training loss
   double grad_norm = std::numeric_limits<double>::quiet_NaN();  // projected, infinity norm
@@ -25,7 +26,7 @@ struct ProgressEvent {
 // May be called from worker threads: the callback must be thread-safe.
 using ProgressCallback = std::function<void(const ProgressEvent&)>;
 
-// One line describing the event, e.g. "gip joint 2 restart 0 iteration 40: NLL -1234.5 |grad| 0.012 (3.1 s)".
+// One line describing the event, e.g. "gip joint 2 on 500 rows restart 1 iteration 40: NLL -1234.5 |grad| 0.012 (3.1 s)".
 std::string describe(const ProgressEvent& event);
 
 }  // namespace gipdyn

@@ -88,6 +88,9 @@ def neg_nmse_scorer(estimator, X, Y):
     return -float(np.mean(estimator.nmse(X, Y)))
 
 
+_DEFAULTS = TrainOptions()
+
+
 class InverseDynamicsGP(*_ESTIMATOR_BASES):
     """One exact GP per joint, hyperparameters by maximum marginal likelihood.
 
@@ -99,16 +102,20 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     "ur10", a URDF or JSON file, or a Robot), robot_friction (friction columns in
     the regressor), mean (prior mean of each joint's GP: "zero", "constant", or
     "linear" in (q, qd, qdd)), prior ("none" for maximum likelihood, "lognormal"
-    for MAP) and prior_width. They fill in the library's TrainOptions
+    for MAP), prior_width, warm_start_rows (optimise first on a subsample of this
+    many rows, 0: off) and gradient_tolerance (convergence: projected NLL
+    gradient per training row). They fill in the library's TrainOptions
     (train_options()). The non-GP estimators fe and nn are available from the CLI.
 
     score() follows scikit-learn (higher is better): the mean over joints of
     1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
     """
 
-    def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=200, restarts=0, seed=0,
-                 scaling="standardize", min_noise=1e-8, threads=0, learning_rate=0.01, verbose=False, robot=None,
-                 robot_friction=False, mean="zero", prior="none", prior_width=2.0):
+    def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
+                 restarts=_DEFAULTS.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
+                 learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
+                 prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
+                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -125,6 +132,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.mean = mean
         self.prior = prior
         self.prior_width = prior_width
+        self.warm_start_rows = warm_start_rows
+        self.gradient_tolerance = gradient_tolerance
 
     def train_options(self):
         """The library's TrainOptions for these parameters (checked when fitting)."""
@@ -139,6 +148,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.mean = str(self.mean)
         o.min_noise_fraction = float(self.min_noise)
         o.threads = int(self.threads)
+        o.warm_start_rows = int(self.warm_start_rows)
+        o.gradient_tolerance_per_row = float(self.gradient_tolerance)
         o.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
         if self.robot is not None:
             o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))

@@ -39,6 +39,8 @@ const FieldNames& python_field_names() {
       {"TrainOptions::min_noise_fraction", "min_noise"},
       {"TrainOptions::initial_noise_fraction", "initial_noise_fraction"},
       {"TrainOptions::threads", "threads"},
+      {"TrainOptions::warm_start_rows", "warm_start_rows"},
+      {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
       {"TrainOptions::scaling", "scaling"},
       {"TrainOptions::mean", "mean"},
       {"TrainOptions::prior", "prior"},
@@ -192,6 +194,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("initial_noise_fraction", &TrainOptions::initial_noise_fraction)
       .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
       .def_readwrite("threads", &TrainOptions::threads)
+      .def_readwrite("warm_start_rows", &TrainOptions::warm_start_rows)
+      .def_readwrite("gradient_tolerance_per_row", &TrainOptions::gradient_tolerance_per_row)
       .def_readwrite("prior", &TrainOptions::prior)
       .def_readwrite("keep_factor", &TrainOptions::keep_factor)
       .def_property(
@@ -220,6 +224,7 @@ PYBIND11_MODULE(_core, m) {
               d["joint"] = r.joint + 1;
               d["status"] = to_string(r.status);
               d["evaluations"] = r.evaluations;
+              d["warm_start_evaluations"] = r.warm_start_evaluations;
               d["nll"] = r.nll;
               d["grad_norm"] = r.grad_norm;
               d["noise_variance"] = r.noise_variance;

@@ -193,6 +193,8 @@ def test_train_options_are_the_librarys_own():
     ({"min_noise": -1.0}, "min_noise must be > 0"),
     ({"restarts": -1}, "restarts must be between 0 and 1000"),
     ({"max_iter": 0}, "max_iter must be at least 1"),
+    ({"warm_start_rows": -1}, "warm_start_rows must be >= 0"),
+    ({"gradient_tolerance": -1.0}, "gradient_tolerance must be >= 0"),
     ({"prior": "lognormal", "prior_width": 0.0}, "prior_width must be > 0"),
     ({"kernel": "pp"}, "needs the nominal robot (robot)"),
     ({"scaling": "zscore"}, "scaling 'zscore' is unknown"),

@@ -29,6 +29,7 @@ std::string describe(const ProgressEvent& e) {
     add(e.message);
     return line;
   }
+  if (e.rows > 0) add("on " + std::to_string(e.rows) + " rows");
   if (e.restart > 0) add("restart " + std::to_string(e.restart));
   std::snprintf(buf, sizeof buf, "iteration %d: objective %.6g", e.iteration, e.objective);
   add(buf);

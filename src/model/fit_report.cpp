@@ -29,16 +29,17 @@ std::string FitReport::brief_report() const {
   if (!message.empty()) out += ": " + message;
   out += "\n";
   if (joints.empty()) return out;
-  out += " joint  status     NLL            evals  |grad|     noise var  jitter   seconds\n";
+  out += " joint  status     NLL            evals  (warm)  |grad|     noise var  jitter   seconds\n";
   for (const auto& j : joints) {
-    std::snprintf(buf, sizeof buf, " %5d  %-9s  %-13.6g  %5d  %-9.2e  %-9.2e  %-7.1e  %7.1f\n", j.joint + 1,
-                  to_string(j.status).c_str(), j.nll, j.evaluations, j.grad_norm, j.noise_variance, j.jitter,
-                  j.seconds);
+    std::snprintf(buf, sizeof buf, " %5d  %-9s  %-13.6g  %5d  %6d  %-9.2e  %-9.2e  %-7.1e  %7.1f\n", j.joint + 1,
+                  to_string(j.status).c_str(), j.nll, j.evaluations, j.warm_start_evaluations, j.grad_norm,
+                  j.noise_variance, j.jitter, j.seconds);
     out += buf;
   }
   for (const auto& j : joints) {
     if (j.restart_nlls.size() < 2) continue;
-    out += " joint " + std::to_string(j.joint + 1) + " NLL over starts:";
+    out += " joint " + std::to_string(j.joint + 1) +
+           (j.warm_start_evaluations > 0 ? " NLL over starts (warm-start subsample):" : " NLL over starts:");
     for (double v : j.restart_nlls) {
       std::snprintf(buf, sizeof buf, " %.6g", v);
       out += buf;

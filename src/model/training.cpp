@@ -24,6 +24,10 @@ void TrainOptions::validate() const {
     throw Error("TrainOptions::min_noise_fraction must be > 0 and not above TrainOptions::initial_noise_fraction (" +
                 std::to_string(initial_noise_fraction) + ")");
   if (threads < 0) throw Error("TrainOptions::threads must be >= 0");
+  if (warm_start_rows < 0) throw Error("TrainOptions::warm_start_rows must be >= 0 (0: no warm start)");
+  if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
+    throw Error("TrainOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+  if (!(gradient_tolerance_per_row >= 0.0)) throw Error("TrainOptions::gradient_tolerance_per_row must be >= 0");
   prior.validate();
   require_known_kernel(kernel);
   if (kernel_needs_robot(kernel) && !robot_prior.robot)
@@ -69,15 +73,21 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
   std::normal_distribution<double> normal(0.0, 1.0);
 
-  Eigen::VectorXd best_x;
-  double best_f = std::numeric_limits<double>::infinity();
-  for (int r = 0; r <= o.restarts; ++r) {
-    Eigen::VectorXd start = x0;
-    if (r > 0)
-      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
+  // One optimisation of the NLL on the rows `rows` (all rows when empty).
+  auto optimise = [&](const std::vector<Eigen::Index>& rows, const Eigen::VectorXd& start, int restart) {
+    Eigen::MatrixXd Xs, Zs;
+    Eigen::VectorXd ys;
+    if (!rows.empty()) {
+      Xs = X(rows, Eigen::all);
+      Zs = Z(rows, Eigen::all);
+      ys = y(rows);
+    }
+    const Eigen::MatrixXd& Xr = rows.empty() ? X : Xs;
+    const Eigen::MatrixXd& Zr = rows.empty() ? Z : Zs;
+    const Eigen::VectorXd& yr = rows.empty() ? y : ys;
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
-      NllEvaluation e = evaluate_profiled_nll(*trial, x(P), mean, X, Z, y, true, ws, nullptr, o.jitter);
+      NllEvaluation e = evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
       if (!e.ok()) return false;
       f = e.nll;
       g = e.gradient;
@@ -90,23 +100,48 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
         ProgressEvent e = optimizer_event;
         e.estimator = o.kernel;
         e.joint = j;
-        e.restart = r;
+        e.restart = restart;
+        e.rows = static_cast<long>(yr.size());
         e.seconds = seconds();
         progress(e);
       };
-    OptimizerResult res = minimize(objective, start, opt, cb);
-    out.report.evaluations += res.evaluations;
+    OptimizerOptions stage = opt;
+    stage.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(yr.size());
+    return minimize(objective, start, stage, cb);
+  };
+
+  // Every start on the subsample when the data are large: the subsample's
+  // optimum is a start close to the full data's, and there restarts are cheap.
+  const Eigen::Index N = X.rows();
+  const bool warm = o.warm_start_rows > 0 && N >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
+  const std::vector<Eigen::Index> subsample = warm ? constant_step_indices(N, o.warm_start_rows) : std::vector<Eigen::Index>{};
+  Eigen::VectorXd best_x;
+  double best_f = std::numeric_limits<double>::infinity();
+  OptimizerResult kept;
+  for (int r = 0; r <= o.restarts; ++r) {
+    Eigen::VectorXd start = x0;
+    if (r > 0)
+      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
+    OptimizerResult res = optimise(subsample, start, r);
+    (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
     out.report.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
     if (res.usable() && res.f < best_f) {
       best_f = res.f;
       best_x = res.x;
-      out.report.status = res.status;
-      out.report.message = res.message;
-      out.report.grad_norm = res.grad_norm;
+      kept = res;
     } else if (best_x.size() == 0) {
-      out.report.message = res.message;
+      kept.message = res.message;
     }
   }
+  if (warm && best_x.size() > 0) {
+    OptimizerResult res = optimise({}, best_x, 0);
+    out.report.evaluations += res.evaluations;
+    kept = res;
+    best_x = res.usable() ? res.x : Eigen::VectorXd();
+  }
+  out.report.status = kept.status;
+  out.report.message = kept.message;
+  out.report.grad_norm = kept.grad_norm;
   // The joint's last event, whatever the outcome.
   auto finish = [&] {
     out.report.seconds = seconds();

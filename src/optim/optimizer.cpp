@@ -69,6 +69,7 @@ struct Tracker {
   int evaluations = 0;
   int failures = 0;
   bool at_cap = false;  // L-BFGS asked for an evaluation beyond OptimizerOptions::max_iterations
+  bool gradient_small = false;  // an evaluated point met OptimizerOptions::gradient_tolerance
 
   bool eval(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
     ++evaluations;
@@ -82,6 +83,7 @@ struct Tracker {
       best_f = f;
       best_x = x;
       best_grad_norm = grad_norm;
+      gradient_small = grad_norm <= options.gradient_tolerance;
     }
     if (progress) {
       ProgressEvent e;
@@ -115,6 +117,8 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
         Eigen::VectorXd xv = Eigen::Map<const Eigen::VectorXd>(x, dim), g(dim);
         double f = 0.0;
         if (!tr->eval(xv, f, g)) throw nlopt::forced_stop();
+        // NLopt has no gradient test: a first-order optimum is ours to recognise.
+        if (tr->gradient_small) throw nlopt::forced_stop();
         if (grad) Eigen::Map<Eigen::VectorXd>(grad, dim) = g;
         return f;
       },
@@ -128,20 +132,23 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   opt.set_vector_storage(10);
   std::vector<double> x(x0.data(), x0.data() + n);
   double f = 0.0;
+  nlopt::result result = nlopt::FAILURE;
   try {
-    return opt.optimize(x, f);
+    result = opt.optimize(x, f);
   } catch (const nlopt::forced_stop&) {
-    if (t.at_cap) return nlopt::MAXEVAL_REACHED;
-    error = "the kernel matrix could not be factorised at a trial point";
-    return nlopt::FORCED_STOP;
+    result = t.at_cap ? nlopt::MAXEVAL_REACHED : nlopt::FORCED_STOP;
+    if (!t.at_cap) error = "the kernel matrix could not be factorised at a trial point";
   } catch (const nlopt::roundoff_limited&) {
-    return nlopt::ROUNDOFF_LIMITED;
+    result = nlopt::ROUNDOFF_LIMITED;
   } catch (const std::exception& e) {
     // NLopt's generic failure: usually the line search broke down at a bound or
     // at rounding precision.
     error = e.what();
-    return nlopt::FAILURE;
+    result = nlopt::FAILURE;
   }
+  // Our gradient test stops NLopt from inside the objective, and NLopt's
+  // L-BFGS reports that stop as a failure rather than as forced.
+  return t.gradient_small ? nlopt::SUCCESS : result;
 }
 
 OptimizerResult run_lbfgs(Tracker& t, const Eigen::VectorXd& x0, const OptimizerOptions& o) {
@@ -166,7 +173,9 @@ OptimizerResult run_lbfgs(Tracker& t, const Eigen::VectorXd& x0, const Optimizer
     }
     if (res > 0 || res == nlopt::ROUNDOFF_LIMITED) {
       r.status = OptimizerResult::Status::Converged;
-      r.message = res == nlopt::ROUNDOFF_LIMITED ? "converged to rounding precision" : "converged";
+      r.message = t.gradient_small ? "converged (gradient below tolerance)"
+                  : res == nlopt::ROUNDOFF_LIMITED ? "converged to rounding precision"
+                                                   : "converged (relative NLL change below tolerance)";
       return r;
     }
     const bool improved = t.best_x.size() > 0 &&
@@ -225,7 +234,8 @@ OptimizerResult run_adam(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
 OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, const OptimizerOptions& options,
                          const ProgressCallback& progress) {
   options.validate();
-  Tracker tracker{objective, progress, options, std::numeric_limits<double>::infinity(), Eigen::VectorXd(), 0, 0};
+  Tracker tracker{objective, progress, options, std::numeric_limits<double>::infinity(), Eigen::VectorXd(),
+                  std::numeric_limits<double>::quiet_NaN(), 0, 0, false, false};
   OptimizerResult r = options.kind == OptimizerKind::Lbfgs ? run_lbfgs(tracker, x0, options) : run_adam(tracker, x0, options);
   r.evaluations = tracker.evaluations;
   if (tracker.best_x.size() == 0) {

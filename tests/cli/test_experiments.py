@@ -50,7 +50,8 @@ def test_accuracy_writes_documented_files_and_resumes(tmp_path, gipdyn_bin):
     assert is_png(out / "nmse_boxplot.png")
     # How every fit went: per joint for the GP estimators, one row for the others.
     fits = rows(out / "fit_reports.csv")
-    assert header(out / "fit_reports.csv") == ["run", "estimator", "joint", "status", "evaluations", "nll",
+    assert header(out / "fit_reports.csv") == ["run", "estimator", "joint", "status", "evaluations",
+                                               "warm_start_evaluations", "nll",
                                                "grad_norm", "noise_variance", "jitter"]
     gp_rows = [x for x in fits if x["estimator"] in ("pp", "gip")]
     assert len(gp_rows) == 2 * 2 * 4 and len(fits) == len(gp_rows) + 2 * 2

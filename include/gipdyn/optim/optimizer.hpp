@@ -16,9 +16,10 @@ std::string to_string(OptimizerKind kind);
 
 struct OptimizerOptions {
   OptimizerKind kind = OptimizerKind::Lbfgs;
-  int max_iterations = 200;          // L-BFGS: objective evaluations; Adam: steps
-  double f_relative_tolerance = 1e-9;  // stop when |delta f| <= tol * |f|
-  double gradient_tolerance = 1e-5;    // stop when max |grad| falls below it (Adam)
+  // A safety cap: the stopping rules below should end a run long before it.
+  int max_iterations = 1000;           // L-BFGS: objective evaluations; Adam: steps
+  double f_relative_tolerance = 1e-9;  // stop when an iteration changes f by <= tol * |f|
+  double gradient_tolerance = 1e-5;    // stop when the best point's projected max |grad| is <= it
   double adam_learning_rate = 0.01;
   double adam_beta1 = 0.9;
   double adam_beta2 = 0.999;

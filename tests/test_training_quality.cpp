@@ -1,0 +1,151 @@
+// Hyperparameter learning that can be trusted: default fits converge (not stop
+// at a cap), more data along the same trajectory does not make the model worse,
+// restarts with different seeds agree, and the warm start finds the optimum a
+// cold start finds.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gipdyn/metrics.hpp"
+#include "gipdyn/model/training.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+using test::two_link_torques;
+
+// A smooth exciting trajectory of the 2R arm: each joint a sum of three
+// sinusoids, sampled every dt; phases from the seed. Rows: q, qd, qdd.
+Eigen::MatrixXd two_link_trajectory(int rows, double dt, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
+  const double w[3] = {0.31, 0.73, 1.37}, a[3] = {1.2, 0.5, 0.25};
+  double p[2][3];
+  for (auto& joint : p)
+    for (double& v : joint) v = phase(rng);
+  Eigen::MatrixXd X(rows, 6);
+  for (int r = 0; r < rows; ++r) {
+    const double t = r * dt;
+    for (int i = 0; i < 2; ++i) {
+      double q = 0, qd = 0, qdd = 0;
+      for (int k = 0; k < 3; ++k) {
+        const double s = std::sin(w[k] * t + p[i][k]), c = std::cos(w[k] * t + p[i][k]);
+        q += a[k] * s;
+        qd += a[k] * w[k] * c;
+        qdd -= a[k] * w[k] * w[k] * s;
+      }
+      X(r, i) = q;
+      X(r, 2 + i) = qd;
+      X(r, 4 + i) = qdd;
+    }
+  }
+  return X;
+}
+
+Eigen::MatrixXd noisy(const Eigen::MatrixXd& tau, double sd, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, sd);
+  Eigen::MatrixXd out = tau;
+  for (Eigen::Index k = 0; k < out.size(); ++k) out.data()[k] += n(rng);
+  return out;
+}
+
+struct Fit {
+  TrainResult result;
+  Accuracy accuracy;
+};
+
+Fit fit_and_test(const Eigen::MatrixXd& X, const TrainOptions& o, const Eigen::MatrixXd& Xtest) {
+  const JointTypes joints = JointTypes::parse("RR");
+  Fit f{train_model(X, noisy(two_link_torques(X), 0.01, 7), joints, o), {}};
+  EXPECT_TRUE(f.result.report.ok()) << f.result.report.message;
+  if (f.result.report.ok()) f.accuracy = compute_accuracy(two_link_torques(Xtest), f.result.model.predict(Xtest));
+  return f;
+}
+
+// Test states inside the training trajectory's range: a second trajectory of
+// the same family, long enough to be covered by the training trajectory.
+Eigen::MatrixXd test_states() { return two_link_trajectory(400, 0.25, 99); }
+
+TEST(TrainingQuality, DefaultFitsConvergeByTheirStoppingRuleNotTheCap) {
+  TrainOptions o;
+  o.threads = 1;
+  const Fit f = fit_and_test(two_link_trajectory(400, 0.1, 1), o, test_states());
+  for (const JointReport& j : f.result.report.joints) {
+    EXPECT_EQ(j.status, OptimizerResult::Status::Converged) << "joint " << j.joint + 1 << ": " << j.message;
+    EXPECT_LT(j.evaluations, o.optimizer.max_iterations);
+    EXPECT_LE(j.grad_norm, o.gradient_tolerance_per_row * 400);
+  }
+  EXPECT_EQ(f.result.report.status, FitStatus::Converged);
+}
+
+// E2 once got 6x worse from 500 to 1000 samples. Doubling the training rows
+// along the same trajectory may cost a little (another optimum), not a factor.
+TEST(TrainingQuality, DoublingTheDataAlongTheTrajectoryDoesNotHurt) {
+  TrainOptions o;
+  o.threads = 1;
+  const Eigen::MatrixXd trajectory = two_link_trajectory(800, 0.15, 2);
+  const Eigen::MatrixXd Xtest = test_states();
+  double previous = 0.0;
+  for (int rows : {200, 400, 800}) {
+    const Fit f = fit_and_test(trajectory.topRows(rows), o, Xtest);
+    const double gmse = f.accuracy.nmse.mean();
+    if (rows > 200) {
+      EXPECT_LT(gmse, 1.5 * previous + 1e-6) << rows << " rows: mean nMSE " << gmse << " after " << previous;
+    }
+    previous = gmse;
+  }
+  EXPECT_LT(previous, 1e-3);
+}
+
+TEST(TrainingQuality, RestartsWithDifferentSeedsReachTheSameNll) {
+  TrainOptions o;
+  o.threads = 1;
+  o.restarts = 2;
+  o.warm_start_rows = 0;
+  const Eigen::MatrixXd X = two_link_trajectory(300, 0.1, 3);
+  o.seed = 1;
+  const Fit a = fit_and_test(X, o, test_states());
+  o.seed = 2;
+  const Fit b = fit_and_test(X, o, test_states());
+  for (int j = 0; j < 2; ++j) {
+    const double na = a.result.report.joints[static_cast<size_t>(j)].nll;
+    const double nb = b.result.report.joints[static_cast<size_t>(j)].nll;
+    EXPECT_NEAR(na, nb, 1e-3 * std::abs(na) + 0.5) << "joint " << j + 1;
+  }
+}
+
+TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {
+  TrainOptions o;
+  o.threads = 1;
+  const Eigen::MatrixXd X = two_link_trajectory(800, 0.15, 4);
+  o.warm_start_rows = 0;
+  const Fit cold = fit_and_test(X, o, test_states());
+  o.warm_start_rows = 200;
+  const Fit warm = fit_and_test(X, o, test_states());
+  for (int j = 0; j < 2; ++j) {
+    const JointReport& c = cold.result.report.joints[static_cast<size_t>(j)];
+    const JointReport& w = warm.result.report.joints[static_cast<size_t>(j)];
+    EXPECT_EQ(c.warm_start_evaluations, 0);
+    EXPECT_GT(w.warm_start_evaluations, 0);
+    EXPECT_EQ(w.status, OptimizerResult::Status::Converged) << w.message;
+    EXPECT_NEAR(w.nll, c.nll, 1e-3 * std::abs(c.nll) + 0.5) << "joint " << j + 1;
+  }
+  EXPECT_LT(warm.accuracy.nmse.maxCoeff(), 2.0 * cold.accuracy.nmse.maxCoeff() + 1e-6);
+}
+
+TEST(TrainingQuality, BadConvergenceOptionsAreNamed) {
+  TrainOptions o;
+  o.warm_start_rows = -1;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::warm_start_rows"), std::string::npos);
+  o = TrainOptions();
+  o.gradient_tolerance_per_row = -1e-3;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::gradient_tolerance_per_row"), std::string::npos);
+  o = TrainOptions();
+  o.optimizer.f_relative_tolerance = -1.0;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("OptimizerOptions::f_relative_tolerance"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace gipdyn
