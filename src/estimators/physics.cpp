@@ -1,6 +1,7 @@
 #include "gipdyn/estimators/physics.hpp"
 
 #include <algorithm>
+#include <cmath>
 
 #include "gipdyn/error.hpp"
 
@@ -92,6 +93,65 @@ VelocityTerms velocity_terms(const Estimator& estimator, const Eigen::Ref<const 
   t.coriolis = 0.5 * (forward + backward) - g;
   t.friction = 0.5 * (forward - backward);
   return t;
+}
+
+Eigen::MatrixXd forward_dynamics(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& QD, const Eigen::Ref<const Eigen::MatrixXd>& TAU) {
+  require_physics(estimator);
+  require_positions(estimator, Q, "positions");
+  require_positions(estimator, QD, "velocities");
+  require_positions(estimator, TAU, "torques");
+  if (QD.rows() != Q.rows() || TAU.rows() != Q.rows())
+    throw Error("positions, velocities and torques have " + std::to_string(Q.rows()) + ", " +
+                std::to_string(QD.rows()) + " and " + std::to_string(TAU.rows()) + " rows; give one of each per state");
+  const Eigen::MatrixXd bias = estimator.predict(states(Q, QD, Eigen::MatrixXd::Zero(Q.rows(), Q.cols())));
+  const std::vector<Eigen::MatrixXd> Ms = inertia(estimator, Q);
+  Eigen::MatrixXd QDD(Q.rows(), Q.cols());
+  for (Eigen::Index r = 0; r < Q.rows(); ++r) {
+    const Eigen::FullPivLU<Eigen::MatrixXd> lu(Ms[static_cast<size_t>(r)]);
+    if (!lu.isInvertible())
+      throw Error("the learned inertia matrix at row " + std::to_string(r + 1) +
+                  " is singular: the model cannot give accelerations there (diagnose it with inertia())");
+    QDD.row(r) = lu.solve((TAU.row(r) - bias.row(r)).transpose()).transpose();
+  }
+  return QDD;
+}
+
+Eigen::MatrixXd integrate_forward_dynamics(const Estimator& estimator, const Eigen::VectorXd& q0,
+                                           const Eigen::VectorXd& qd0, const Eigen::Ref<const Eigen::MatrixXd>& TAU,
+                                           double dt, Integrator integrator) {
+  const int n = estimator.joints().size();
+  if (q0.size() != n || qd0.size() != n)
+    throw Error("q0 and qd0 need " + std::to_string(n) + " entries for this " + estimator.joints().str() + " model");
+  if (!(dt > 0.0) || !std::isfinite(dt)) throw Error("dt must be a positive, finite step in seconds");
+  const Eigen::Index steps = TAU.rows();
+  auto accel = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& tau) {
+    return forward_dynamics(estimator, q.transpose(), qd.transpose(), tau.transpose()).row(0).transpose().eval();
+  };
+  Eigen::MatrixXd out(steps, 3 * n);
+  Eigen::VectorXd q = q0, qd = qd0;
+  for (Eigen::Index k = 0; k < steps; ++k) {
+    const Eigen::VectorXd tau = TAU.row(k).transpose();
+    const Eigen::VectorXd qdd = accel(q, qd, tau);
+    out.row(k) << q.transpose(), qd.transpose(), qdd.transpose();
+    if (!qdd.allFinite())
+      throw Error("the learned robot's accelerations are not finite at step " + std::to_string(k + 1));
+    if (k + 1 == steps) break;
+    if (integrator == Integrator::SemiImplicitEuler) {
+      qd += dt * qdd;
+      q += dt * qd;
+      continue;
+    }
+    // RK4 on (q, qd) with the torque interpolated linearly between this row and the next.
+    const Eigen::VectorXd tau_next = TAU.row(k + 1).transpose(), tau_mid = 0.5 * (tau + tau_next);
+    const Eigen::VectorXd k1q = qd, k1v = qdd;
+    const Eigen::VectorXd k2q = qd + 0.5 * dt * k1v, k2v = accel(q + 0.5 * dt * k1q, k2q, tau_mid);
+    const Eigen::VectorXd k3q = qd + 0.5 * dt * k2v, k3v = accel(q + 0.5 * dt * k2q, k3q, tau_mid);
+    const Eigen::VectorXd k4q = qd + dt * k3v, k4v = accel(q + dt * k3q, k4q, tau_next);
+    q += dt / 6.0 * (k1q + 2.0 * k2q + 2.0 * k3q + k4q);
+    qd += dt / 6.0 * (k1v + 2.0 * k2v + 2.0 * k3v + k4v);
+  }
+  return out;
 }
 
 InertiaDiagnostics diagnose_inertia(const Eigen::MatrixXd& M) {

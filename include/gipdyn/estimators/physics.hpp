@@ -40,6 +40,22 @@ struct VelocityTerms {
 VelocityTerms velocity_terms(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
                              const Eigen::Ref<const Eigen::MatrixXd>& QD);
 
+// Forward dynamics of the learned model: for every row, the accelerations that
+// the torques produce, qdd = M(q)^-1 (tau - f(q, qd, 0)) (f(q, qd, 0) holds
+// Coriolis, gravity and friction). Throws gipdyn::Error naming the first row
+// whose learned M cannot be inverted.
+Eigen::MatrixXd forward_dynamics(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& QD, const Eigen::Ref<const Eigen::MatrixXd>& TAU);
+
+// A learned robot driven by torques: from (q0, qd0), one step of dt per row of
+// TAU (held constant over the step by semi-implicit Euler, interpolated
+// linearly to the next row by RK4). Returns rows x 3n states (q, qd, qdd),
+// the first row the start, like a dataset's X.
+enum class Integrator { SemiImplicitEuler, Rk4 };
+Eigen::MatrixXd integrate_forward_dynamics(const Estimator& estimator, const Eigen::VectorXd& q0,
+                                           const Eigen::VectorXd& qd0, const Eigen::Ref<const Eigen::MatrixXd>& TAU,
+                                           double dt, Integrator integrator = Integrator::Rk4);
+
 // How physical a learned inertia matrix is: max |M - M^T| / max |M|, and the
 // smallest eigenvalue of (M + M^T) / 2 (positive for a physical M).
 struct InertiaDiagnostics {
