@@ -10,10 +10,13 @@
 #include <lapacke.h>
 
 #include <cstdio>
+#include <filesystem>
 #include <map>
 #include <string>
 
 #include "gipdyn/features.hpp"
+#include "gipdyn/gipdyn.h"
+#include "gipdyn/model/model_file.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/training.hpp"
@@ -146,6 +149,32 @@ void BM_PredictOneMeanVariance(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean + variance");
 }
 
+// The same query through the C API (load from a file, C workspace): its
+// overhead over the C++ path is the argument checks and the input copy.
+void BM_PredictOneMeanCApi(benchmark::State& state) {
+  use_single_threaded_blas();
+  const InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const std::string path = (std::filesystem::temp_directory_path() / "gipdyn_bench_c_api.gipdyn").string();
+  save_model(m, path);
+  gipdyn_model* model = nullptr;
+  gipdyn_workspace* ws = nullptr;
+  if (gipdyn_model_load(path.c_str(), &model) != GIPDYN_OK || gipdyn_workspace_create(model, &ws) != GIPDYN_OK) {
+    state.SkipWithError(gipdyn_last_error());
+    return;
+  }
+  std::filesystem::remove(path);
+  const int n = m.num_joints();
+  const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
+  Eigen::VectorXd x = p.X.row(17).transpose(), tau(n);
+  for (auto _ : state) {
+    gipdyn_predict(ws, x.data(), x.data() + n, x.data() + 2 * n, n, tau.data());
+    benchmark::DoNotOptimize(tau.data());
+  }
+  gipdyn_workspace_free(ws);
+  gipdyn_model_free(model);
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean, C API");
+}
+
 void BM_Train(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   int evaluations = 0;
@@ -171,6 +200,7 @@ BENCHMARK(BM_NllGradient)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PredictOneMeanCApi)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Train)->Apply(sizes)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 // Collects per-case times to print the NLL-gradient / potrf+potri ratio.

@@ -7,6 +7,12 @@
 #include <cstdlib>
 #include <new>
 
+#include <unistd.h>
+
+#include <filesystem>
+
+#include "gipdyn/gipdyn.h"
+#include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "test_util.hpp"
 
@@ -95,6 +101,51 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
     g_armed = false;
     EXPECT_EQ(g_allocations.load(), 0) << kernel;
   }
+}
+
+// The C API's promise for a control loop: torque, gravity, inertia and
+// forward dynamics (and their error paths) allocate nothing once the workspace exists.
+TEST(NoAllocation, CApiQueriesDoNotAllocate) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 80, 63);
+  TrainOptions o;
+  o.optimizer.max_iterations = 5;
+  TrainResult r = train_model(X, Eigen::MatrixXd::Random(80, 4), joints, o);
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("gipdyn_c_api_" + std::to_string(::getpid()) + ".gipdyn")).string();
+  save_model(r.model, path);
+  gipdyn_model* model = nullptr;
+  ASSERT_EQ(gipdyn_model_load(path.c_str(), &model), GIPDYN_OK) << gipdyn_last_error();
+  std::filesystem::remove(path);
+  gipdyn_workspace* ws = nullptr;
+  ASSERT_EQ(gipdyn_workspace_create(model, &ws), GIPDYN_OK);
+  double q[4] = {0.1, -0.2, 0.1, 0.3}, qd[4] = {0.5, 0.1, 0.0, -0.2}, qdd[4] = {1, 2, 0.1, -1}, tau[4], M[16];
+  double nan_q[4] = {0.1, std::nan(""), 0.1, 0.3};
+  ASSERT_EQ(gipdyn_inertia(ws, q, 4, M), GIPDYN_OK);  // warm-up (first use of the thread's message buffer)
+  gipdyn_status statuses[10][6];
+  g_allocations = 0;
+  g_armed = true;
+  for (auto& s : statuses) {
+    s[0] = gipdyn_predict(ws, q, qd, qdd, 4, tau);
+    s[1] = gipdyn_gravity(ws, q, 4, tau);
+    s[2] = gipdyn_inertia(ws, q, 4, M);
+    s[3] = gipdyn_predict(ws, nan_q, qd, qdd, 4, tau);
+    s[4] = gipdyn_predict(ws, q, qd, qdd, 3, tau);
+    s[5] = gipdyn_forward_dynamics(ws, q, qd, tau, 4, M);
+  }
+  g_armed = false;
+  EXPECT_EQ(g_allocations.load(), 0);
+  for (const auto& s : statuses) {
+    EXPECT_EQ(s[0], GIPDYN_OK);
+    EXPECT_EQ(s[1], GIPDYN_OK);
+    EXPECT_EQ(s[2], GIPDYN_OK);
+    EXPECT_EQ(s[3], GIPDYN_ERROR_NOT_FINITE);
+    EXPECT_EQ(s[4], GIPDYN_ERROR_SIZE);
+    EXPECT_TRUE(s[5] == GIPDYN_OK || s[5] == GIPDYN_ERROR_SINGULAR) << gipdyn_status_string(s[5]);
+  }
+  gipdyn_workspace_free(ws);
+  gipdyn_model_free(model);
 }
 
 }  // namespace

@@ -1,0 +1,78 @@
+/*
+ * gipdyn's C API (C99): a learned inverse dynamics model inside a control loop.
+ *
+ * Load a GP model file written by `gipdyn train` or the C++/Python APIs, make
+ * one workspace per thread, then query torques (and, for models with the
+ * rigid-body structure, gravity and inertia) for one state at a time. After
+ * gipdyn_workspace_create, the query functions allocate no memory, take no
+ * lock and throw nothing: every function returns a gipdyn_status, and
+ * gipdyn_last_error() gives a one-line message for the last failure of the
+ * calling thread.
+ *
+ *   gipdyn_model* model;
+ *   if (gipdyn_model_load("arm.gipdyn", &model) != GIPDYN_OK) puts(gipdyn_last_error());
+ *   gipdyn_workspace* ws;
+ *   gipdyn_workspace_create(model, &ws);
+ *   gipdyn_predict(ws, q, qd, qdd, n, tau);        // in the 1 kHz loop
+ *   gipdyn_workspace_free(ws);
+ *   gipdyn_model_free(model);
+ *
+ * A model is read-only and may be shared by threads; a workspace may not.
+ * Free every workspace of a model before the model.
+ */
+#ifndef GIPDYN_C_API_H
+#define GIPDYN_C_API_H
+
+#ifdef __cplusplus
+extern "C" {
+#endif
+
+typedef enum gipdyn_status {
+  GIPDYN_OK = 0,
+  GIPDYN_ERROR_NULL_ARGUMENT = 1, /* a required pointer was NULL */
+  GIPDYN_ERROR_FILE = 2,          /* the model file is missing, unreadable, corrupt or of another format */
+  GIPDYN_ERROR_SIZE = 3,          /* the joint count passed does not match the model's */
+  GIPDYN_ERROR_UNSUPPORTED = 4,   /* the model cannot do this (e.g. inertia from an RBF model) */
+  GIPDYN_ERROR_NOT_FINITE = 5,    /* an input is NaN or infinite, or the result would be */
+  GIPDYN_ERROR_OUT_OF_MEMORY = 6,
+  GIPDYN_ERROR_INTERNAL = 7,
+  GIPDYN_ERROR_SINGULAR = 8       /* the learned inertia matrix cannot be inverted at this state */
+} gipdyn_status;
+
+typedef struct gipdyn_model gipdyn_model;
+typedef struct gipdyn_workspace gipdyn_workspace;
+
+/* The message of the calling thread's last failure ("" if none). Valid until
+ * that thread's next gipdyn call. */
+const char* gipdyn_last_error(void);
+/* "ok", "null argument", ... */
+const char* gipdyn_status_string(gipdyn_status status);
+
+/* Loads a GP model file (gip, gip-friction, rbf, the hybrids, pp, sp). fe and
+ * nn model files are refused with GIPDYN_ERROR_UNSUPPORTED. */
+gipdyn_status gipdyn_model_load(const char* path, gipdyn_model** model);
+void gipdyn_model_free(gipdyn_model* model); /* NULL is allowed */
+/* Joint count, or -1 for a NULL model. */
+int gipdyn_model_num_joints(const gipdyn_model* model);
+/* 1 if gravity and inertia are defined (gip, gip-friction, pp), else 0. */
+int gipdyn_model_has_physics(const gipdyn_model* model);
+
+gipdyn_status gipdyn_workspace_create(const gipdyn_model* model, gipdyn_workspace** workspace);
+void gipdyn_workspace_free(gipdyn_workspace* workspace); /* NULL is allowed */
+
+/* tau[n] = f(q[n], qd[n], qdd[n]); n must equal the model's joint count. */
+gipdyn_status gipdyn_predict(gipdyn_workspace* workspace, const double* q, const double* qd, const double* qdd,
+                             int n, double* tau);
+/* g[n] = f(q, 0, 0). */
+gipdyn_status gipdyn_gravity(gipdyn_workspace* workspace, const double* q, int n, double* g);
+/* M[n * n], row-major: column j is f(q, 0, e_j) - g(q). */
+gipdyn_status gipdyn_inertia(gipdyn_workspace* workspace, const double* q, int n, double* M);
+/* Forward dynamics of the learned robot: qdd[n] = M(q)^-1 (tau - f(q, qd, 0)). */
+gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* workspace, const double* q, const double* qd,
+                                      const double* tau, int n, double* qdd);
+
+#ifdef __cplusplus
+}
+#endif
+
+#endif /* GIPDYN_C_API_H */

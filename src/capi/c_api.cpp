@@ -1,0 +1,245 @@
+// The C API over the C++ library: exceptions stop here and become status codes
+// with a thread-local message; the query paths reuse the workspace's buffers.
+#include "gipdyn/gipdyn.h"
+
+#include <algorithm>
+#include <cmath>
+#include <memory>
+#include <new>
+#include <string>
+#include <vector>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/model/inverse_dynamics_model.hpp"
+
+struct gipdyn_model {
+  std::unique_ptr<gipdyn::Estimator> estimator;
+  const gipdyn::InverseDynamicsModel* gp = nullptr;
+  int joints = 0;
+  bool physics = false;
+};
+
+struct gipdyn_workspace {
+  const gipdyn_model* model = nullptr;
+  gipdyn::PredictionWorkspace prediction;
+  // Sized once, reused by every query: x 3n, tau, gravity and rhs n, inertia n x n.
+  std::vector<double> x, tau, gravity, rhs, inertia;
+  explicit gipdyn_workspace(const gipdyn_model* m)
+      : model(m), prediction(*m->gp), x(3 * static_cast<size_t>(m->joints)), tau(static_cast<size_t>(m->joints)),
+        gravity(tau.size()), rhs(tau.size()), inertia(tau.size() * tau.size()) {}
+};
+
+namespace {
+
+// The message buffer is reserved once per thread so that failures in the
+// control loop do not allocate either (messages longer than this are cut).
+constexpr size_t kMessageCapacity = 512;
+thread_local std::string t_last_error = [] {
+  std::string s;
+  s.reserve(kMessageCapacity);
+  return s;
+}();
+
+gipdyn_status fail(gipdyn_status status, const char* message) {
+  t_last_error.assign(message, std::min(std::char_traits<char>::length(message), kMessageCapacity - 1));
+  return status;
+}
+
+gipdyn_status ok() {
+  t_last_error.clear();
+  return GIPDYN_OK;
+}
+
+bool all_finite(const double* v, int n) {
+  for (int i = 0; i < n; ++i)
+    if (!std::isfinite(v[i])) return false;
+  return true;
+}
+
+gipdyn_status check_query(const gipdyn_workspace* ws, int n, const void* out) {
+  if (!ws || !out) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "a workspace or output pointer is NULL");
+  if (n != ws->model->joints)
+    return fail(GIPDYN_ERROR_SIZE, "n does not match the model's joint count (gipdyn_model_num_joints)");
+  return GIPDYN_OK;
+}
+
+gipdyn_status check_physics(const gipdyn_workspace* ws) {
+  if (!ws->model->physics)
+    return fail(GIPDYN_ERROR_UNSUPPORTED,
+                "this model's kernel has no rigid-body structure: gravity and inertia need gip, gip-friction or pp");
+  return GIPDYN_OK;
+}
+
+// tau = f(x) from the workspace's x; checks that the result is finite.
+gipdyn_status predict_into(gipdyn_workspace* ws, double* tau) {
+  ws->prediction.predict(ws->x.data(), tau);
+  if (!all_finite(tau, ws->model->joints))
+    return fail(GIPDYN_ERROR_NOT_FINITE, "the prediction is not finite: the state is far outside the training data");
+  return GIPDYN_OK;
+}
+
+// Fills the workspace's x with (q, 0, 0) and its gravity buffer with f(q, 0, 0).
+gipdyn_status gravity_into_workspace(gipdyn_workspace* ws, const double* q) {
+  const int n = ws->model->joints;
+  if (!all_finite(q, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "q holds NaN or Inf");
+  for (int i = 0; i < n; ++i) {
+    ws->x[static_cast<size_t>(i)] = q[i];
+    ws->x[static_cast<size_t>(n + i)] = 0.0;
+    ws->x[static_cast<size_t>(2 * n + i)] = 0.0;
+  }
+  return predict_into(ws, ws->gravity.data());
+}
+
+}  // namespace
+
+extern "C" {
+
+const char* gipdyn_last_error(void) { return t_last_error.c_str(); }
+
+const char* gipdyn_status_string(gipdyn_status status) {
+  switch (status) {
+    case GIPDYN_OK: return "ok";
+    case GIPDYN_ERROR_NULL_ARGUMENT: return "null argument";
+    case GIPDYN_ERROR_FILE: return "model file error";
+    case GIPDYN_ERROR_SIZE: return "wrong size";
+    case GIPDYN_ERROR_UNSUPPORTED: return "not supported by this model";
+    case GIPDYN_ERROR_NOT_FINITE: return "not finite";
+    case GIPDYN_ERROR_OUT_OF_MEMORY: return "out of memory";
+    case GIPDYN_ERROR_INTERNAL: return "internal error";
+    case GIPDYN_ERROR_SINGULAR: return "singular inertia matrix";
+  }
+  return "unknown status";
+}
+
+gipdyn_status gipdyn_model_load(const char* path, gipdyn_model** model) {
+  if (!model) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "model (the output pointer) is NULL");
+  *model = nullptr;
+  if (!path) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "path is NULL");
+  try {
+    auto m = std::make_unique<gipdyn_model>();
+    m->estimator = gipdyn::load_estimator(path);
+    m->gp = m->estimator->gp_model();
+    if (!m->gp)
+      return fail(GIPDYN_ERROR_UNSUPPORTED,
+                  ("'" + std::string(path) + "' holds a " + m->estimator->name() +
+                   " model; the C API predicts from GP models (gip, gip-friction, rbf, hybrids, pp, sp)")
+                      .c_str());
+    m->joints = m->gp->num_joints();
+    m->physics = gipdyn::estimator_gives_physics(m->estimator->name());
+    *model = m.release();
+    return ok();
+  } catch (const gipdyn::Error& e) {
+    return fail(GIPDYN_ERROR_FILE, e.what());
+  } catch (const std::bad_alloc&) {
+    return fail(GIPDYN_ERROR_OUT_OF_MEMORY, "out of memory while loading the model");
+  } catch (const std::exception& e) {
+    return fail(GIPDYN_ERROR_INTERNAL, e.what());
+  }
+}
+
+void gipdyn_model_free(gipdyn_model* model) { delete model; }
+
+int gipdyn_model_num_joints(const gipdyn_model* model) { return model ? model->joints : -1; }
+
+int gipdyn_model_has_physics(const gipdyn_model* model) { return model && model->physics ? 1 : 0; }
+
+gipdyn_status gipdyn_workspace_create(const gipdyn_model* model, gipdyn_workspace** workspace) {
+  if (!workspace) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "workspace (the output pointer) is NULL");
+  *workspace = nullptr;
+  if (!model) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "model is NULL");
+  try {
+    *workspace = new gipdyn_workspace(model);
+    return ok();
+  } catch (const std::bad_alloc&) {
+    return fail(GIPDYN_ERROR_OUT_OF_MEMORY, "out of memory while creating the workspace");
+  } catch (const std::exception& e) {
+    return fail(GIPDYN_ERROR_INTERNAL, e.what());
+  }
+}
+
+void gipdyn_workspace_free(gipdyn_workspace* workspace) { delete workspace; }
+
+gipdyn_status gipdyn_predict(gipdyn_workspace* ws, const double* q, const double* qd, const double* qdd, int n,
+                             double* tau) {
+  if (const gipdyn_status s = check_query(ws, n, tau); s != GIPDYN_OK) return s;
+  if (!q || !qd || !qdd) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q, qd or qdd is NULL");
+  if (!all_finite(q, n) || !all_finite(qd, n) || !all_finite(qdd, n))
+    return fail(GIPDYN_ERROR_NOT_FINITE, "q, qd or qdd holds NaN or Inf");
+  for (int i = 0; i < n; ++i) {
+    ws->x[static_cast<size_t>(i)] = q[i];
+    ws->x[static_cast<size_t>(n + i)] = qd[i];
+    ws->x[static_cast<size_t>(2 * n + i)] = qdd[i];
+  }
+  if (const gipdyn_status s = predict_into(ws, tau); s != GIPDYN_OK) return s;
+  return ok();
+}
+
+gipdyn_status gipdyn_gravity(gipdyn_workspace* ws, const double* q, int n, double* g) {
+  if (const gipdyn_status s = check_query(ws, n, g); s != GIPDYN_OK) return s;
+  if (!q) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q is NULL");
+  if (const gipdyn_status s = check_physics(ws); s != GIPDYN_OK) return s;
+  if (const gipdyn_status s = gravity_into_workspace(ws, q); s != GIPDYN_OK) return s;
+  for (int i = 0; i < n; ++i) g[i] = ws->gravity[static_cast<size_t>(i)];
+  return ok();
+}
+
+gipdyn_status gipdyn_inertia(gipdyn_workspace* ws, const double* q, int n, double* M) {
+  if (const gipdyn_status s = check_query(ws, n, M); s != GIPDYN_OK) return s;
+  if (!q) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q is NULL");
+  if (const gipdyn_status s = check_physics(ws); s != GIPDYN_OK) return s;
+  if (const gipdyn_status s = gravity_into_workspace(ws, q); s != GIPDYN_OK) return s;
+  for (int j = 0; j < n; ++j) {
+    double* qdd = ws->x.data() + 2 * n;
+    qdd[j] = 1.0;
+    const gipdyn_status s = predict_into(ws, ws->tau.data());
+    qdd[j] = 0.0;
+    if (s != GIPDYN_OK) return s;
+    for (int i = 0; i < n; ++i)
+      M[i * n + j] = ws->tau[static_cast<size_t>(i)] - ws->gravity[static_cast<size_t>(i)];
+  }
+  return ok();
+}
+
+gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* ws, const double* q, const double* qd, const double* tau,
+                                      int n, double* qdd) {
+  if (const gipdyn_status s = check_query(ws, n, qdd); s != GIPDYN_OK) return s;
+  if (!q || !qd || !tau) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q, qd or tau is NULL");
+  if (!all_finite(qd, n) || !all_finite(tau, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "qd or tau holds NaN or Inf");
+  double* M = ws->inertia.data();
+  if (const gipdyn_status s = gipdyn_inertia(ws, q, n, M); s != GIPDYN_OK) return s;
+  // The bias f(q, qd, 0): Coriolis, gravity and friction.
+  for (int i = 0; i < n; ++i) ws->x[static_cast<size_t>(n + i)] = qd[i];
+  if (const gipdyn_status s = predict_into(ws, ws->tau.data()); s != GIPDYN_OK) return s;
+  double* b = ws->rhs.data();
+  for (int i = 0; i < n; ++i) b[i] = tau[i] - ws->tau[static_cast<size_t>(i)];
+  // Gaussian elimination with partial pivoting, in place (n is a handful of joints).
+  double scale = 0.0;
+  for (int k = 0; k < n * n; ++k) scale = std::max(scale, std::abs(M[k]));
+  for (int c = 0; c < n; ++c) {
+    int pivot = c;
+    for (int r = c + 1; r < n; ++r)
+      if (std::abs(M[r * n + c]) > std::abs(M[pivot * n + c])) pivot = r;
+    if (!(std::abs(M[pivot * n + c]) > 1e-12 * scale))
+      return fail(GIPDYN_ERROR_SINGULAR, "the learned inertia matrix is singular at this q: no accelerations");
+    if (pivot != c) {
+      for (int k = 0; k < n; ++k) std::swap(M[c * n + k], M[pivot * n + k]);
+      std::swap(b[c], b[pivot]);
+    }
+    for (int r = c + 1; r < n; ++r) {
+      const double factor = M[r * n + c] / M[c * n + c];
+      for (int k = c; k < n; ++k) M[r * n + k] -= factor * M[c * n + k];
+      b[r] -= factor * b[c];
+    }
+  }
+  for (int r = n - 1; r >= 0; --r) {
+    double sum = b[r];
+    for (int k = r + 1; k < n; ++k) sum -= M[r * n + k] * qdd[k];
+    qdd[r] = sum / M[r * n + r];
+  }
+  if (!all_finite(qdd, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "the accelerations are not finite at this state");
+  return ok();
+}
+
+}  // extern "C"
