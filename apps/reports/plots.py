@@ -127,6 +127,33 @@ def residuals(predictions_csv, out):
     fig.savefig(out, dpi=110)
 
 
+def motion(motion_csv, out):
+    """Columns q1..qn (the true robot) and q1_model..qn_model (the learned robot
+    driven by the same torques): positions and their difference over time."""
+    rows = read_rows(motion_csv)
+    cols = list(rows[0].keys())
+    joints = [c for c in cols if c.startswith("q") and c[1:].isdigit() and c + "_model" in cols]
+    t = list(range(len(rows)))
+    fig, axes = plt.subplots(len(joints), 2, figsize=(11, 2.0 * len(joints)), sharex=True, squeeze=False)
+    for (left, right), q in zip(axes, joints):
+        true = [number(r[q]) for r in rows]
+        model = [number(r[q + "_model"]) for r in rows]
+        left.plot(t, true, color="black", lw=1.3, label="true robot")
+        left.plot(t, model, color="tab:orange", lw=0.9, label="learned model")
+        left.set_ylabel(q)
+        right.plot(t, [m - x for m, x in zip(model, true)], color="tab:red", lw=0.9)
+        right.set_ylabel(q + " error")
+        for ax in (left, right):
+            ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, loc="upper right")
+    axes[0, 0].set_title("positions under the same torques")
+    axes[0, 1].set_title("learned - true")
+    axes[-1, 0].set_xlabel("sample")
+    axes[-1, 1].set_xlabel("sample")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 def noise_ratio(json_path, out):
     import json
 
@@ -143,7 +170,7 @@ def noise_ratio(json_path, out):
 
 
 KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
-         "residuals": residuals, "noise-ratio": noise_ratio}
+         "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion}
 
 if __name__ == "__main__":
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:
