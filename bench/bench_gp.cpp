@@ -175,6 +175,24 @@ void BM_PredictOneMeanCApi(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean, C API");
 }
 
+// Online learning: a stream of samples into a model whose factors exist, as
+// a sliding window (one in, the oldest out), reusing the factors
+// (std::move(model).updated).
+void BM_UpdateOneSample(benchmark::State& state) {
+  use_single_threaded_blas();
+  InverseDynamicsModel m =
+      quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))).with_variance();
+  const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
+  const Eigen::Index window = m.num_training_samples();
+  Eigen::Index row = 0;
+  for (auto _ : state) {
+    m = std::move(m).updated(p.X.row(row), p.Y.row(row), window);
+    row = (row + 1) % p.X.rows();
+    benchmark::DoNotOptimize(m.joint_gp(0).alpha().data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, one sample in, the oldest out");
+}
+
 void BM_Train(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   int evaluations = 0;
@@ -201,6 +219,7 @@ BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanCApi)->Apply(sizes)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_UpdateOneSample)->Apply(sizes)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_Train)->Apply(sizes)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 // Collects per-case times to print the NLL-gradient / potrf+potri ratio.

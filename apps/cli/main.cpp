@@ -15,6 +15,7 @@ std::string out_of_memory_advice(const std::string& command) {
   if (command == "simulate") return "simulate fewer samples (--samples) and concatenate the files";
   if (command == "experiment")
     return "use fewer training rows (--max-train, --sizes, --train-samples) or one estimator at a time (--estimators)";
+  if (command == "update") return "keep fewer rows (--window)";
   if (command == "predict" || command == "evaluate" || command == "physics")
     return "split --data into smaller files and run them one after another";
   if (command == "preprocess") return "split --in into smaller logs, or resample it with a longer period (--dt)";
@@ -42,6 +43,8 @@ int main(int argc, char** argv) {
   add("predict", "Predict torques and their standard deviations for a CSV of q, qd, qdd", gipdyn::cli::add_predict);
   add("evaluate", "Per-joint MSE, nMSE and the GMSE of a model on a CSV with measured torques",
       gipdyn::cli::add_evaluate);
+  add("update", "Add new samples to a GP model, hyperparameters fixed (online learning, optional sliding window)",
+      gipdyn::cli::add_update);
   add("physics", "Gravity, inertia matrix, Coriolis and friction torques of a learned model (gip, pp, fe) at given states",
       gipdyn::cli::add_physics);
   add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",

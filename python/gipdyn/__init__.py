@@ -177,6 +177,20 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                           stacklevel=2)
         return self
 
+    def partial_fit(self, X, Y, window=0):
+        """Online learning: add the rows of (X, Y) to the fitted model with its
+        hyperparameters fixed (O(N^2) per row; the first call, on an unfitted
+        estimator, is fit(X, Y)). window > 0 keeps only the newest window rows.
+        Refit with fit() when the robot has changed more than new data can say."""
+        if not hasattr(self, "model_"):
+            return self.fit(X, Y)
+        n = self.n_joints
+        X = _as_matrix("X", X, 3 * n)
+        Y = _as_matrix("Y", Y, n)
+        self.model_ = self.model_.updated(np.asfortranarray(X), np.asfortranarray(Y), int(window))
+        self._set_fitted_attributes()
+        return self
+
     def fit_trajectory(self, q, qd, qdd, tau):
         n = self.n_joints
         q, qd, qdd = (_as_matrix(name, a, n) for name, a in (("q", q), ("qd", qd), ("qdd", qdd)))

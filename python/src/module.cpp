@@ -250,6 +250,14 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("X"))
       .def(
+          "updated",
+          [](const Model& s, ConstRef X, ConstRef Y, Eigen::Index window) {
+            py::gil_scoped_release release;
+            return std::make_shared<Model>(s.model->updated(X, Y, window));
+          },
+          py::arg("X"), py::arg("Y"), py::arg("window") = 0,
+          "A copy with the rows of (X, Y) added, hyperparameters fixed; window > 0 keeps the newest rows")
+      .def(
           "predict_with_std",
           [](const Model& s, ConstRef X) {
             py::gil_scoped_release release;

@@ -300,3 +300,21 @@ def test_mean_function_and_map_prior(scara):
         gipdyn.InverseDynamicsGP(joints="RRPR", mean="quadratic").fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="lognormal"):
         gipdyn.InverseDynamicsGP(joints="RRPR", prior="gauss").fit(train["X"], train["tau"])
+
+
+def test_partial_fit_adds_samples_with_fixed_hyperparameters(scara):
+    train, test = scara
+    first = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"][:120], train["tau"][:120])
+    hyper = [dict(h) for h in first.hyperparameters_]
+    err_before = first.nmse(test["X"], test["tau_true"]).mean()
+    first.partial_fit(train["X"][120:], train["tau"][120:])
+    assert first.model_.num_training_samples == 200
+    assert first.hyperparameters_ == hyper  # fixed: only the data changed
+    assert first.nmse(test["X"], test["tau_true"]).mean() < err_before
+    first.partial_fit(train["X"][190:], train["tau"][190:], window=150)
+    assert first.model_.num_training_samples == 150
+    # An unfitted estimator's first partial_fit is fit.
+    fresh = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=5).partial_fit(train["X"][:50], train["tau"][:50])
+    assert fresh.model_.num_training_samples == 50
+    with pytest.raises(ValueError, match="window"):
+        first.partial_fit(train["X"][:5], train["tau"][:5], window=2)

@@ -121,6 +121,7 @@ GpRegressor::GpRegressor(const GpRegressor& other)
     : kernel_(other.kernel_ ? other.kernel_->clone() : nullptr),
       log_noise_(other.log_noise_),
       alpha_(other.alpha_),
+      y_(other.y_),
       L_(other.L_),
       jitter_(other.jitter_),
       nll_(other.nll_) {}
@@ -135,6 +136,7 @@ CholeskyResult GpRegressor::fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd&
   const CholeskyResult chol = factorize_covariance(*kernel_, std::exp(log_noise_), Z, ws, jitter);
   if (!chol.ok()) return chol;
   nll_ = solve_and_nll(ws.K, y, alpha_);
+  y_ = y;
   jitter_ = chol.jitter;
   if (keep_factor) {
     L_ = ws.K.triangularView<Eigen::Lower>();
@@ -146,6 +148,7 @@ CholeskyResult GpRegressor::fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd&
 
 void GpRegressor::set_state(const Eigen::VectorXd& alpha, double jitter, double nll) {
   alpha_ = alpha;
+  y_.resize(0);
   jitter_ = jitter;
   nll_ = nll;
   L_.resize(0, 0);
@@ -156,6 +159,88 @@ CholeskyResult GpRegressor::compute_factor(const Eigen::MatrixXd& Z, GpWorkspace
   const CholeskyResult chol = factorize_covariance(*kernel_, std::exp(log_noise_) + jitter_, Z, ws, JitterPolicy{});
   if (chol.ok()) L_ = ws.K.triangularView<Eigen::Lower>();
   return chol;
+}
+
+Eigen::VectorXd GpRegressor::fitted_targets() const {
+  if (y_.size() == alpha_.size()) return y_;
+  if (!has_factor()) throw Error("the fitted targets need the Cholesky factor; call compute_factor first");
+  const auto L = L_.triangularView<Eigen::Lower>();
+  Eigen::VectorXd t = L.transpose() * alpha_;
+  return L * t;
+}
+
+CholeskyResult GpRegressor::update(Eigen::Index drop, const Eigen::MatrixXd& Z, Eigen::Index added,
+                                   const Eigen::VectorXd& y) {
+  if (!has_factor()) throw Error("an online update needs the Cholesky factor; call compute_factor first");
+  const Eigen::Index old_rows = L_.rows(), kept = old_rows - drop, rows = kept + added;
+  if (drop < 0 || added < 0 || kept < 0 || Z.rows() != rows || y.size() != rows)
+    throw Error("GpRegressor::update: " + std::to_string(Z.rows()) + " rows given for " + std::to_string(kept) +
+                " kept and " + std::to_string(added) + " added");
+  auto failed = [this](CholeskyResult::Status status, const char* message) {
+    L_.resize(0, 0);  // the factor is no longer that of any training set
+    CholeskyResult r;
+    r.status = status;
+    r.message = message;
+    return r;
+  };
+  // Everything happens inside L_'s buffer: a sliding window (drop == added)
+  // never allocates an N x N matrix, whose page faults would cost more than
+  // the arithmetic. Dropping the oldest rows: K22 = L21 L21^T + L22 L22^T, so
+  // the kept block's factor is L22 updated by each column of L21.
+  if (drop > 0) {
+    auto L22 = L_.bottomRightCorner(kept, kept);
+    Eigen::VectorXd x(kept);
+    for (Eigen::Index c = 0; c < drop; ++c) {
+      x = L_.block(drop, c, kept, 1);
+      for (Eigen::Index k = 0; k < kept; ++k) {
+        const double r = std::hypot(L22(k, k), x(k)), cos = r / L22(k, k), sin = x(k) / L22(k, k);
+        L22(k, k) = r;
+        const Eigen::Index rest = kept - k - 1;
+        if (rest == 0) break;
+        L22.col(k).tail(rest) = (L22.col(k).tail(rest) + sin * x.tail(rest)) / cos;
+        x.tail(rest) = cos * x.tail(rest) - sin * L22.col(k).tail(rest);
+      }
+    }
+    // Move the kept block to the top left: each destination precedes its
+    // source in column-major order, so a forward pass never overwrites a source.
+    for (Eigen::Index j = 0; j < kept; ++j)
+      for (Eigen::Index i = j; i < kept; ++i) L_(i, j) = L_(i + drop, j + drop);
+  }
+  if (rows > old_rows) {
+    L_.conservativeResize(rows, rows);
+  } else if (rows < old_rows) {
+    Eigen::MatrixXd smaller = L_.topLeftCorner(rows, rows);
+    L_ = std::move(smaller);
+  }
+  L_.topRightCorner(rows, rows - kept).setZero();
+  for (Eigen::Index j = 0; j < kept; ++j) L_.col(j).head(j).setZero();
+  // Appending: [[L, 0], [W^T, chol(C - W^T W)]] with W = L^-1 B.
+  if (added > 0) {
+    Eigen::MatrixXd B, C;
+    kernel_->cross(Z.topRows(kept), Z.bottomRows(added), B);
+    kernel_->cross(Z.bottomRows(added), Z.bottomRows(added), C);
+    C.diagonal().array() += std::exp(log_noise_) + jitter_;
+    if (kept > 0) L_.topLeftCorner(kept, kept).triangularView<Eigen::Lower>().solveInPlace(B);
+    C.noalias() -= B.transpose() * B;
+    Eigen::LLT<Eigen::MatrixXd> llt(C);
+    if (!C.allFinite()) return failed(CholeskyResult::Status::NonFinite, "the kernel matrix with the new rows is not finite");
+    if (llt.info() != Eigen::Success)
+      return failed(CholeskyResult::Status::NotPositiveDefinite,
+                    "the kernel matrix with the new rows is not positive definite at these hyperparameters "
+                    "(duplicate rows with a tiny noise variance?); refit the hyperparameters on all rows");
+    L_.bottomLeftCorner(added, kept) = B.transpose();
+    L_.bottomRightCorner(added, added) = llt.matrixL();
+  }
+  Eigen::VectorXd alpha;
+  const double nll = solve_and_nll(L_, y, alpha);
+  if (!std::isfinite(nll) || !alpha.allFinite())
+    return failed(CholeskyResult::Status::NonFinite, "the updated GP's weights are not finite");
+  alpha_ = std::move(alpha);
+  y_ = y;
+  nll_ = nll;
+  CholeskyResult r;
+  r.jitter = jitter_;
+  return r;
 }
 
 void GpRegressor::predict_mean(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& mean) const {

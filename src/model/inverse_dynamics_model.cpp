@@ -1,9 +1,11 @@
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
+#include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
 
@@ -121,6 +123,88 @@ InverseDynamicsModel InverseDynamicsModel::with_variance() const {
     if (!r.ok()) throw Error("joint " + std::to_string(j + 1) + ": cannot compute predictive variance: " + r.message);
   }
   return copy;
+}
+
+Eigen::MatrixXd InverseDynamicsModel::training_targets() const {
+  if (!has_variance()) throw Error("training_targets needs the Cholesky factors; use the with_variance() copy");
+  Eigen::MatrixXd H;
+  if (mean_kind() != MeanKind::Zero) means_.front().basis(X_, H);
+  Eigen::MatrixXd Y(X_.rows(), num_joints());
+  for (int j = 0; j < num_joints(); ++j) {
+    Eigen::VectorXd r = gps_[static_cast<size_t>(j)].fitted_targets();
+    if (H.cols() > 0) r.noalias() += H * means_[static_cast<size_t>(j)].params();
+    Y.col(j) = (y_offset_(j) + y_scale_(j) * r.array()).matrix();
+  }
+  return Y;
+}
+
+namespace {
+
+// Checked before any work (a copy or the factors can cost O(N^3)).
+void check_new_samples(const InverseDynamicsModel& m, const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
+                       const Eigen::Ref<const Eigen::MatrixXd>& Ynew, Eigen::Index window) {
+  const int n = m.num_joints();
+  if (Xnew.cols() != 3 * n || Ynew.cols() != n)
+    throw Error("new samples need " + std::to_string(3 * n) + " input and " + std::to_string(n) +
+                " torque columns for this " + m.joints().str() + " model; got " + std::to_string(Xnew.cols()) + " and " +
+                std::to_string(Ynew.cols()));
+  if (Xnew.rows() != Ynew.rows())
+    throw Error("new samples: " + std::to_string(Xnew.rows()) + " input rows but " + std::to_string(Ynew.rows()) +
+                " torque rows");
+  if (!Xnew.allFinite() || !Ynew.allFinite()) throw Error("new samples contain NaN or Inf");
+  if (window < 0) throw Error("window must be >= 0 (0: keep every row)");
+  if (window > 0 && window < kMinTrainingRows)
+    throw Error("window must be 0 or at least " + std::to_string(kMinTrainingRows) + " rows");
+}
+
+}  // namespace
+
+InverseDynamicsModel InverseDynamicsModel::updated(const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
+                                                   const Eigen::Ref<const Eigen::MatrixXd>& Ynew,
+                                                   Eigen::Index window) const& {
+  check_new_samples(*this, Xnew, Ynew, window);
+  InverseDynamicsModel copy = has_variance() ? *this : with_variance();
+  copy.update_in_place(Xnew, Ynew, window);
+  return copy;
+}
+
+InverseDynamicsModel InverseDynamicsModel::updated(const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
+                                                   const Eigen::Ref<const Eigen::MatrixXd>& Ynew,
+                                                   Eigen::Index window) && {
+  check_new_samples(*this, Xnew, Ynew, window);
+  if (!has_variance()) *this = with_variance();
+  update_in_place(Xnew, Ynew, window);
+  return std::move(*this);
+}
+
+void InverseDynamicsModel::update_in_place(const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
+                                           const Eigen::Ref<const Eigen::MatrixXd>& Ynew, Eigen::Index window) {
+  const int n = num_joints();
+  // A window smaller than the new batch keeps only the newest of the new rows.
+  const Eigen::Index skip = window > 0 ? std::max<Eigen::Index>(0, Xnew.rows() - window) : 0;
+  const Eigen::Index added = Xnew.rows() - skip;
+  const Eigen::Index total = X_.rows() + added;
+  const Eigen::Index drop = window > 0 ? std::min<Eigen::Index>(X_.rows(), std::max<Eigen::Index>(0, total - window)) : 0;
+
+  use_single_threaded_blas();
+  const Eigen::Index kept = X_.rows() - drop;
+  Eigen::MatrixXd X(kept + added, 3 * n);
+  X << X_.bottomRows(kept), Xnew.bottomRows(added);
+  const Eigen::MatrixXd Z = features_.compute(X);
+  Eigen::MatrixXd Hnew;
+  if (mean_kind() != MeanKind::Zero) means_.front().basis(Xnew.bottomRows(added), Hnew);
+  for (int j = 0; j < n; ++j) {
+    GpRegressor& gp = gps_[static_cast<size_t>(j)];
+    Eigen::VectorXd y(kept + added);
+    y.head(kept) = gp.fitted_targets().tail(kept);
+    Eigen::VectorXd fresh = ((Ynew.col(j).tail(added).array() - y_offset_(j)) / y_scale_(j)).matrix();
+    if (Hnew.cols() > 0) fresh.noalias() -= Hnew * means_[static_cast<size_t>(j)].params();
+    y.tail(added) = fresh;
+    const CholeskyResult r = gp.update(drop, Z, added, y);
+    if (!r.ok()) throw Error("joint " + std::to_string(j + 1) + ": " + r.message);
+  }
+  X_ = std::move(X);
+  Z_ = Z;
 }
 
 PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)

@@ -76,6 +76,16 @@ class GpRegressor {
   void set_state(const Eigen::VectorXd& alpha, double jitter, double nll);
   // Recomputes the Cholesky factor from Z for predictive variances.
   CholeskyResult compute_factor(const Eigen::MatrixXd& Z, GpWorkspace& ws);
+  // The targets the GP was fitted to (N-vector): kept since fit() or update(),
+  // else K alpha from the factor.
+  Eigen::VectorXd fitted_targets() const;
+  // Online learning with the hyperparameters fixed (needs has_factor()): drops
+  // the `drop` oldest rows of the factor (one rank-1 update each, O(N^2)),
+  // appends the last `added` rows of Z (a bordered factor, O(N^2 added)) and
+  // solves alpha for y. Z and y are the new training set: the kept rows in
+  // order, then the added ones. Works in the factor's own buffer; on a status
+  // other than Ok the factor is dropped and the GP must not be used.
+  CholeskyResult update(Eigen::Index drop, const Eigen::MatrixXd& Z, Eigen::Index added, const Eigen::VectorXd& y);
 
   void predict_mean(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& mean) const;
   // Latent (noise-free) predictive variance; requires has_factor().
@@ -100,6 +110,10 @@ class GpRegressor {
   std::unique_ptr<Kernel> kernel_;
   double log_noise_ = 0.0;
   Eigen::VectorXd alpha_;
+  // The targets alpha was solved for: kept from fit() and update(), so that a
+  // stream of updates does not lose precision recovering them as K alpha
+  // (empty after set_state: a loaded GP recovers them once from the factor).
+  Eigen::VectorXd y_;
   Eigen::MatrixXd L_;  // lower Cholesky factor of K (empty until needed)
   double jitter_ = 0.0;
   double nll_ = 0.0;

@@ -69,11 +69,33 @@ class InverseDynamicsModel {
   bool has_variance() const;
   InverseDynamicsModel with_variance() const;
 
+  // Online learning with the hyperparameters, prior means and output scaling
+  // fixed: a copy whose training set is the current rows plus the rows of
+  // (Xnew, Ynew) (torques, N_new x n), keeping the newest `window` rows (0: all).
+  // O(N^2) per added or dropped row once every joint has its Cholesky factor
+  // (computed first where missing, O(N^3) once); the copy keeps its factors,
+  // so further updates stay O(N^2). Throws gipdyn::Error for bad input and for
+  // a kernel matrix that is not positive definite with the new rows (naming
+  // the joint). Refit the hyperparameters (train_model on training_targets())
+  // when the robot has changed more than new data can express.
+  // The && overload (std::move(model).updated(...)) reuses the model's factors
+  // instead of copying them: use it in a loop of updates.
+  InverseDynamicsModel updated(const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
+                               const Eigen::Ref<const Eigen::MatrixXd>& Ynew, Eigen::Index window = 0) const&;
+  InverseDynamicsModel updated(const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
+                               const Eigen::Ref<const Eigen::MatrixXd>& Ynew, Eigen::Index window = 0) &&;
+  // The torques (N x n) the model was fitted to, recovered from its factors
+  // (needs has_variance()): with training_inputs(), the data to refit on.
+  Eigen::MatrixXd training_targets() const;
+
   // For GIP-family kernels (gip, gip-friction): the joints' kernels as GipKernel,
   // for the fused all-joints single-query path; empty for other kernels.
   const std::vector<GipKernel>& gip_kernels() const { return gip_kernels_; }
 
  private:
+  void update_in_place(const Eigen::Ref<const Eigen::MatrixXd>& Xnew, const Eigen::Ref<const Eigen::MatrixXd>& Ynew,
+                       Eigen::Index window);
+
   JointTypes joints_ = JointTypes::parse("R");
   FeatureMap features_{joints_};
   std::string kernel_name_;

@@ -1,0 +1,55 @@
+// `gipdyn update`: add new samples to a trained GP model with its hyperparameters
+// fixed (O(N^2) per sample), optionally as a sliding window over the newest rows.
+#include <cstdio>
+#include <memory>
+
+#include "commands.hpp"
+#include "output_guard.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/io/dataset.hpp"
+#include "gipdyn/memory.hpp"
+
+namespace gipdyn::cli {
+
+Command add_update(CLI::App& app) {
+  struct Args {
+    std::string model, data, out;
+    long window = 0;
+    bool quiet = false;
+  };
+  auto a = std::make_shared<Args>();
+  app.add_option("--model", a->model, "GP model file from `gipdyn train` (or an earlier update)")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--data", a->data, "CSV of new samples: q1..qn, qd1..qdn, qdd1..qddn, tau1..taun")
+      ->required()->check(CLI::ExistingFile);
+  app.add_option("--window", a->window,
+                 "Keep only the newest this many rows (a sliding window; 0: keep every row)")
+      ->capture_default_str();
+  app.add_option("--out", a->out, "Updated model file")->required();
+  app.add_flag("--quiet", a->quiet, "Print nothing but errors");
+  return [a]() -> int {
+    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
+    if (a->window < 0) throw Error("--window must be >= 0 (0: keep every row)");
+    std::unique_ptr<Estimator> estimator = load_estimator(a->model);
+    const InverseDynamicsModel* model = estimator->gp_model();
+    if (!model)
+      throw Error("--model holds a " + estimator->name() +
+                  " model; only GP models can be updated (retrain fe and nn with `gipdyn train`)");
+    const Dataset data = read_dataset(a->data, model->joints(), true);
+    const double rows = static_cast<double>(model->num_training_samples() + data.rows());
+    // Every joint keeps its N x N Cholesky factor while it is updated.
+    require_memory(8.0 * rows * rows * (model->num_joints() + 1), "updating a model of " +
+                   std::to_string(static_cast<long>(rows)) + " rows", "use --window to keep fewer rows");
+    const InverseDynamicsModel updated = model->updated(data.X, data.tau, a->window);
+    save_estimator(GpEstimator(updated), a->out);
+    if (!a->quiet)
+      std::printf("updated %s with %ld rows of %s (hyperparameters fixed): %d training rows%s -> %s\n",
+                  a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
+                  a->window > 0 ? (", window " + std::to_string(a->window)).c_str() : "", a->out.c_str());
+    return 0;
+  };
+}
+
+}  // namespace gipdyn::cli

@@ -1,0 +1,132 @@
+// Online learning: a model updated with new samples (hyperparameters fixed)
+// must equal the exact GP refitted from scratch on the same rows with the same
+// hyperparameters: appending, dropping the oldest rows (sliding window), one
+// sample at a time or in batches, with a prior mean.
+#include <gtest/gtest.h>
+
+#include "gipdyn/model/training.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+using test::error_of;
+using test::random_inputs;
+using test::two_link_torques;
+
+const JointTypes kJoints = JointTypes::parse("RR");
+
+Eigen::MatrixXd noisy_torques(const Eigen::MatrixXd& X, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, 0.01);
+  Eigen::MatrixXd Y = two_link_torques(X);
+  for (Eigen::Index k = 0; k < Y.size(); ++k) Y.data()[k] += n(rng);
+  return Y;
+}
+
+InverseDynamicsModel trained(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, MeanKind mean = MeanKind::Zero) {
+  TrainOptions o;
+  o.optimizer.max_iterations = 60;
+  o.threads = 1;
+  o.mean = mean;
+  TrainResult r = train_model(X, Y, kJoints, o);
+  EXPECT_TRUE(r.report.ok()) << r.report.message;
+  return std::move(r.model);
+}
+
+// The exact GP on (X, Y) with `model`'s hyperparameters, means and scaling.
+InverseDynamicsModel refit_from_scratch(const InverseDynamicsModel& model, const Eigen::MatrixXd& X,
+                                        const Eigen::MatrixXd& Y) {
+  const Eigen::MatrixXd Z = model.features().compute(X);
+  std::vector<GpRegressor> gps;
+  std::vector<MeanFunction> means;
+  GpWorkspace ws;
+  for (int j = 0; j < 2; ++j) {
+    const MeanFunction& mean = model.joint_mean(j);
+    Eigen::VectorXd y = ((Y.col(j).array() - model.output_offset()(j)) / model.output_scale()(j)).matrix();
+    y -= mean.evaluate(X);
+    GpRegressor gp = model.joint_gp(j);
+    EXPECT_TRUE(gp.fit(Z, y, true, ws).ok());
+    gps.push_back(std::move(gp));
+    means.push_back(mean);
+  }
+  return InverseDynamicsModel(kJoints, model.kernel_name(), X, std::move(gps), model.output_scaling(),
+                              model.output_offset(), model.output_scale(), model.robot_prior(), std::move(means));
+}
+
+void expect_same_predictions(const InverseDynamicsModel& a, const InverseDynamicsModel& b) {
+  ASSERT_EQ(a.num_training_samples(), b.num_training_samples());
+  const Eigen::MatrixXd Xq = random_inputs(kJoints, 50, 99);
+  Eigen::MatrixXd ma, sa, mb, sb;
+  a.predict(Xq, ma, &sa);
+  b.predict(Xq, mb, &sb);
+  // The noise variance is small, so K is ill-conditioned and the order of the
+  // arithmetic (one factorisation vs a chain of updates) shows in the last
+  // digits; a wrong update would be off by the size of the torques.
+  const double scale = 1.0 + mb.cwiseAbs().maxCoeff();
+  EXPECT_LT((ma - mb).cwiseAbs().maxCoeff(), 1e-5 * scale);
+  const Eigen::MatrixXd va = sa.cwiseAbs2(), vb = sb.cwiseAbs2();
+  EXPECT_LT((va - vb).cwiseAbs().maxCoeff(), 1e-6 * scale * scale);
+  for (int j = 0; j < 2; ++j) EXPECT_NEAR(a.joint_gp(j).nll(), b.joint_gp(j).nll(), 1e-4 * (1.0 + std::abs(b.joint_gp(j).nll())));
+}
+
+struct Stream {
+  Eigen::MatrixXd X, Y;
+};
+Stream stream(int rows, unsigned seed) {
+  const Eigen::MatrixXd X = random_inputs(kJoints, rows, seed);
+  return {X, noisy_torques(X, seed + 1)};
+}
+
+TEST(OnlineUpdate, AppendingEqualsTheExactGpOnAllRows) {
+  const Stream s = stream(140, 1);
+  const InverseDynamicsModel base = trained(s.X.topRows(100), s.Y.topRows(100));
+  const InverseDynamicsModel updated = base.updated(s.X.bottomRows(40), s.Y.bottomRows(40));
+  EXPECT_EQ(updated.num_training_samples(), 140);
+  expect_same_predictions(updated, refit_from_scratch(base, s.X, s.Y));
+  // The hyperparameters did not move.
+  for (int j = 0; j < 2; ++j) EXPECT_EQ(updated.joint_gp(j).kernel().log_params(), base.joint_gp(j).kernel().log_params());
+}
+
+TEST(OnlineUpdate, SlidingWindowKeepsTheNewestRows) {
+  const Stream s = stream(130, 2);
+  const InverseDynamicsModel base = trained(s.X.topRows(100), s.Y.topRows(100));
+  const InverseDynamicsModel updated = base.updated(s.X.bottomRows(30), s.Y.bottomRows(30), 100);
+  EXPECT_EQ(updated.num_training_samples(), 100);
+  EXPECT_EQ(updated.training_inputs(), s.X.bottomRows(100));
+  expect_same_predictions(updated, refit_from_scratch(base, s.X.bottomRows(100), s.Y.bottomRows(100)));
+  // A window smaller than the batch keeps the newest rows of the batch.
+  const InverseDynamicsModel tiny = base.updated(s.X.bottomRows(30), s.Y.bottomRows(30), 10);
+  EXPECT_EQ(tiny.training_inputs(), s.X.bottomRows(10));
+}
+
+TEST(OnlineUpdate, OneSampleAtATimeEqualsOneBatchAndKeepsTheMean) {
+  const Stream s = stream(110, 3);
+  const InverseDynamicsModel base = trained(s.X.topRows(100), s.Y.topRows(100), MeanKind::Linear);
+  InverseDynamicsModel m = base;
+  for (int r = 100; r < 110; ++r) m = std::move(m).updated(s.X.row(r), s.Y.row(r), 105);
+  EXPECT_EQ(m.num_training_samples(), 105);
+  expect_same_predictions(m, refit_from_scratch(base, s.X.bottomRows(105), s.Y.bottomRows(105)));
+}
+
+TEST(OnlineUpdate, TrainingTargetsAreRecoveredFromTheFactors) {
+  const Stream s = stream(80, 4);
+  const InverseDynamicsModel m = trained(s.X, s.Y, MeanKind::Constant);
+  EXPECT_LT((m.training_targets() - s.Y).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + s.Y.cwiseAbs().maxCoeff()));
+}
+
+TEST(OnlineUpdate, BadNewSamplesAreNamed) {
+  const Stream s = stream(60, 5);
+  const InverseDynamicsModel m = trained(s.X.topRows(50), s.Y.topRows(50));
+  EXPECT_NE(error_of([&] { m.updated(s.X.bottomRows(10).leftCols(5), s.Y.bottomRows(10)); }).find("6 input and 2 torque"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { m.updated(s.X.bottomRows(10), s.Y.bottomRows(9)); }).find("10 input rows but 9"),
+            std::string::npos);
+  Eigen::MatrixXd bad = s.X.bottomRows(10);
+  bad(3, 2) = std::nan("");
+  EXPECT_NE(error_of([&] { m.updated(bad, s.Y.bottomRows(10)); }).find("NaN"), std::string::npos);
+  EXPECT_NE(error_of([&] { m.updated(s.X.bottomRows(10), s.Y.bottomRows(10), 2); }).find("window"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace gipdyn
