@@ -206,3 +206,28 @@ TEST(ForwardDynamics, RefusesModelsWithoutInertiaAndMismatchedRows) {
                 .find("need 4 entries"),
             std::string::npos);
 }
+
+// A learned robot whose dynamics push it away from rest (tau = qdd - 1000 q:
+// an unstable spring) overflows; the integrator names the step instead of
+// failing later on "NaN in the velocities".
+TEST(ForwardDynamics, ADivergingLearnedRobotIsNamedAsSuch) {
+  struct UnstableSpring : Estimator {
+    JointTypes types = JointTypes::parse("R");
+    std::string name() const override { return "fe"; }
+    const JointTypes& joints() const override { return types; }
+    Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override {
+      return X.col(2) - 1000.0 * X.col(0);
+    }
+    ModelContainer to_container() const override { return {}; }
+    nlohmann::json summary() const override { return {}; }
+  } spring;
+  const Eigen::MatrixXd tau = Eigen::MatrixXd::Zero(2000, 1);
+  const std::string message =
+      error_of([&] { integrate_forward_dynamics(spring, Eigen::VectorXd::Constant(1, 0.1), Eigen::VectorXd::Zero(1), tau, 0.1); });
+  EXPECT_NE(message.find("diverged at step"), std::string::npos) << message;
+  // Stable for a short stretch: the motion is returned.
+  EXPECT_EQ(integrate_forward_dynamics(spring, Eigen::VectorXd::Constant(1, 0.1), Eigen::VectorXd::Zero(1),
+                                       tau.topRows(5), 0.01)
+                .rows(),
+            5);
+}

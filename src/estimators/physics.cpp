@@ -125,12 +125,21 @@ Eigen::MatrixXd integrate_forward_dynamics(const Estimator& estimator, const Eig
     throw Error("q0 and qd0 need " + std::to_string(n) + " entries for this " + estimator.joints().str() + " model");
   if (!(dt > 0.0) || !std::isfinite(dt)) throw Error("dt must be a positive, finite step in seconds");
   const Eigen::Index steps = TAU.rows();
+  Eigen::Index step = 0;
   auto accel = [&](const Eigen::VectorXd& q, const Eigen::VectorXd& qd, const Eigen::VectorXd& tau) {
+    // No robot joint moves at 10^6 rad/s or m/s: beyond that the integration has
+    // diverged, and soon the inertia matrix would be lost to cancellation.
+    if (!q.allFinite() || !qd.allFinite() || qd.cwiseAbs().maxCoeff() > 1e6)
+      throw Error("the learned robot diverged at step " + std::to_string(step + 1) + " (t = " +
+                  std::to_string(static_cast<double>(step) * dt) +
+                  " s): its accelerations grew without bound, so its inertia matrix is not physical along this "
+                  "motion (check M with the physics functions, or train on more varied motion)");
     return forward_dynamics(estimator, q.transpose(), qd.transpose(), tau.transpose()).row(0).transpose().eval();
   };
   Eigen::MatrixXd out(steps, 3 * n);
   Eigen::VectorXd q = q0, qd = qd0;
   for (Eigen::Index k = 0; k < steps; ++k) {
+    step = k;
     const Eigen::VectorXd tau = TAU.row(k).transpose();
     const Eigen::VectorXd qdd = accel(q, qd, tau);
     out.row(k) << q.transpose(), qd.transpose(), qdd.transpose();
