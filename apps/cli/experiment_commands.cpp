@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "cli_parsing.hpp"
+#include "output_guard.hpp"
 #include "commands.hpp"
 #include "estimator_args.hpp"
 #include "gipdyn/error.hpp"
@@ -123,7 +124,37 @@ Command add_experiment(CLI::App& app) {
   r->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   real->est.add_to(*r, true);
 
+  struct ControlArgs {
+    ControlConfig config;
+    std::string models;
+  };
+  auto ctl = std::make_shared<ControlArgs>();
+  CLI::App* k = app.add_subcommand(
+      "control", "Closed-loop tracking: the simulated robot follows a held-out trajectory under PD feedback plus each "
+                 "model's feed-forward torque, beside PD alone and the true dynamics; RMS error and effort per joint");
+  k->add_option("--robot", ctl->config.robot, "The true robot: scara, ur10, a URDF or a JSON DH file")
+      ->capture_default_str();
+  k->add_option("--models", ctl->models, "Comma-separated model files (any estimator) for the feed-forward torque");
+  k->add_option("--seconds", ctl->config.seconds, "Length of the reference trajectory (s)")->capture_default_str();
+  k->add_option("--dt", ctl->config.dt, "Control period (s)")->capture_default_str();
+  k->add_option("--bandwidth", ctl->config.bandwidth,
+                "PD gains: critically damped at this many rad/s on each joint's inertia")
+      ->capture_default_str();
+  k->add_flag("--friction", ctl->config.friction, "The true robot has viscous and Coulomb friction");
+  k->add_option("--seed", ctl->config.seed, "Seed of the reference trajectory (use one the models were not trained on)")
+      ->capture_default_str();
+  k->add_option("--out", ctl->config.out, "Output folder: tracking.csv, errors.csv, summary.md, tracking.png")
+      ->required();
+  k->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
+
   return [=]() -> int {
+    if (k->parsed()) {
+      if (!ctl->models.empty()) ctl->config.models = split_list(ctl->models);
+      std::vector<std::pair<std::string, std::string>> inputs;
+      for (const auto& m : ctl->config.models) inputs.emplace_back("--models", m);
+      refuse_overwriting_inputs(inputs, {{"--out", ctl->config.out}});
+      return report(run_control_experiment(ctl->config, printer(*quiet)), *quiet);
+    }
     if (a->parsed()) {
       acc->config.estimators = split_list(acc->estimators);
       acc->config.base = base_options(acc->est);

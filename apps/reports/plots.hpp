@@ -14,7 +14,8 @@ struct PlotResult {
 // kind: boxplot (nmse.csv), gmse (gmse.csv), bars (nmse.csv of one split),
 // timeseries (predictions CSV), residuals (predictions CSV with *_hat),
 // noise-ratio (diagnostics JSON), motion (true and learned positions from
-// `simulate --model`). Writes `png` atomically.
+// `simulate --model`), tracking (errors.csv of the control experiment).
+// Writes `png` atomically.
 PlotResult render_plot(const std::string& kind, const std::string& input, const std::string& png);
 
 // The embedded script, for users who want to restyle the plots.

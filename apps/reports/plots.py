@@ -154,6 +154,27 @@ def motion(motion_csv, out):
     fig.savefig(out, dpi=110)
 
 
+def tracking(errors_csv, out):
+    """Columns t, then CONTROLLER_e1..CONTROLLER_en per controller: the position
+    error of each controller over time, one panel per joint (symlog scale)."""
+    rows = read_rows(errors_csv)
+    cols = [c for c in rows[0].keys() if c != "t"]
+    controllers = ordered(c.rsplit("_e", 1)[0] for c in cols)
+    n = len(cols) // len(controllers)
+    t = [number(r["t"]) for r in rows]
+    fig, axes = plt.subplots(n, 1, figsize=(10, 2.0 * n), sharex=True, squeeze=False)
+    for j, ax in enumerate(axes[:, 0]):
+        for c in controllers:
+            ax.plot(t, [number(r[f"{c}_e{j + 1}"]) for r in rows], lw=0.9, label=c)
+        ax.set_yscale("symlog", linthresh=1e-5)
+        ax.set_ylabel(f"joint {j + 1} error")
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, ncol=min(len(controllers), 4), loc="upper right")
+    axes[-1, 0].set_xlabel("time (s)")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 def noise_ratio(json_path, out):
     import json
 
@@ -170,7 +191,8 @@ def noise_ratio(json_path, out):
 
 
 KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
-         "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion}
+         "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion,
+         "tracking": tracking}
 
 if __name__ == "__main__":
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:

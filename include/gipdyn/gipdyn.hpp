@@ -43,6 +43,7 @@
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/robot/robot_model.hpp"
+#include "gipdyn/sim/closed_loop.hpp"
 #include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/sim/trajectory.hpp"
 #include "gipdyn/training_data.hpp"

@@ -1,0 +1,32 @@
+#pragma once
+// Closed-loop tracking (docs/experiments.md): the true simulated robot follows
+// a held-out trajectory at the control rate under PD feedback plus each
+// model's feed-forward torque, beside PD alone and the robot's own dynamics.
+#include <cstdint>
+#include <nlohmann/json.hpp>
+#include <string>
+#include <vector>
+
+#include "experiments/experiment_runner.hpp"
+#include "gipdyn/progress.hpp"
+
+namespace gipdyn {
+
+struct ControlConfig {
+  std::string robot = "scara";
+  std::vector<std::string> models;  // model files (any estimator); may be empty
+  double seconds = 5.0;             // length of the reference trajectory
+  double dt = 0.001;                // control period (s)
+  double bandwidth = 10.0;          // PD: critically damped at this many rad/s per joint
+  bool friction = false;            // the true robot has friction
+  std::uint64_t seed = 0;           // of the reference trajectory
+  std::string out;
+  void validate() const;
+  nlohmann::json to_json() const;
+};
+// Writes tracking.csv (controller, joint, rms_error, max_error, rms_torque),
+// errors.csv (the position error of every controller over time), summary.md
+// and tracking.png.
+ExperimentOutcome run_control_experiment(const ControlConfig& config, const ProgressCallback& progress = {});
+
+}  // namespace gipdyn

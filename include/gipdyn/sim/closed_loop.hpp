@@ -1,0 +1,39 @@
+#pragma once
+// Closed-loop tracking, the figure of merit of a model in a controller: the
+// true robot (KDL dynamics, optionally with friction) follows a reference
+// trajectory at the control rate under
+//   tau = tau_ff(q_ref, qd_ref, qdd_ref) + Kp (q_ref - q) + Kd (qd_ref - qd),
+// where tau_ff is a model's feed-forward torque (zero for PD alone, the
+// robot's own inverse dynamics for the ideal case).
+#include <Eigen/Dense>
+
+#include "gipdyn/robot/robot_model.hpp"
+
+namespace gipdyn {
+
+struct TrackingOptions {
+  double dt = 0.001;  // control period (s): the reference's sampling period
+  // PD gains per joint; empty: critically damped at `bandwidth` rad/s on each
+  // joint's own inertia at the start, Kp = w^2 M_jj, Kd = 2 w M_jj.
+  Eigen::VectorXd kp, kd;
+  double bandwidth = 10.0;
+  bool friction = false;  // the true robot has its viscous and Coulomb friction
+  void validate(int joints) const;  // throws gipdyn::Error naming the field
+};
+
+struct TrackingResult {
+  Eigen::MatrixXd q;      // steps x n: the robot's positions
+  Eigen::MatrixXd tau;    // steps x n: the applied torques
+  Eigen::VectorXd kp, kd;  // the gains used
+  Eigen::VectorXd rms_error, max_error;  // per joint, |q_ref - q|
+  Eigen::VectorXd rms_torque;            // per joint: the effort
+};
+
+// reference: steps x 3n (q, qd, qdd) at options.dt; feedforward: steps x n.
+// The robot starts on the reference (q, qd of its first row) and is
+// integrated by semi-implicit Euler at dt. Throws gipdyn::Error for bad shapes
+// and when the motion diverges (naming the step).
+TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& reference,
+                               const Eigen::MatrixXd& feedforward, const TrackingOptions& options);
+
+}  // namespace gipdyn

@@ -1,0 +1,40 @@
+"""`experiment control`: closed-loop tracking with each model's feed-forward."""
+import csv
+
+from test_cli import run
+from test_experiments import is_png
+
+
+def test_control_experiment_ranks_controllers_and_writes_its_files(tmp_path, gipdyn_bin):
+    train, fe = tmp_path / "train.csv", tmp_path / "fe.gipdyn"
+    assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "300", "--dt", "0.1", "--seed", "11",
+               "--quiet", "--out", str(train)).returncode == 0
+    assert run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--kernel", "fe", "--robot", "scara",
+               "--quiet", "--out", str(fe)).returncode == 0
+    out = tmp_path / "ctl"
+    r = run(gipdyn_bin, "experiment", "control", "--robot", "scara", "--models", str(fe), "--seconds", "1",
+            "--seed", "12", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader(open(out / "tracking.csv")))
+    assert {x["controller"] for x in rows} == {"pd-only", "true-model", "fe"}
+    rms = {(x["controller"], x["joint"]): float(x["rms_error"]) for x in rows}
+    for j in "1234":
+        assert rms[("true-model", j)] < 0.1 * rms[("pd-only", j)]
+        assert rms[("fe", j)] < 0.2 * rms[("pd-only", j)]  # the exact regressor, fitted to noisy torques
+    assert "| true-model |" in (out / "summary.md").read_text()
+    assert is_png(out / "tracking.png")
+    header = open(out / "errors.csv").readline().strip().split(",")
+    assert header[0] == "t" and "fe_e4" in header
+
+
+def test_control_experiment_refuses_a_model_of_another_robot(tmp_path, gipdyn_bin):
+    train, model = tmp_path / "train.csv", tmp_path / "m.gipdyn"
+    assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "60", "--seed", "1", "--quiet",
+               "--out", str(train)).returncode == 0
+    assert run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--max-iter", "3", "--quiet",
+               "--out", str(model)).returncode == 0
+    r = run(gipdyn_bin, "experiment", "control", "--robot", "ur10", "--models", str(model), "--out", str(tmp_path / "o"))
+    assert r.returncode != 0
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "is for joints RRPR" in lines[0], r.stderr
+    assert not (tmp_path / "o").exists()

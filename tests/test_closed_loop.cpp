@@ -1,0 +1,80 @@
+// Closed-loop tracking: a model's feed-forward torque in a PD loop on the true
+// robot. The exact model tracks as well as the robot's own dynamics, far
+// better than PD alone; a learned GIP model sits in between.
+#include <gtest/gtest.h>
+
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/robot/dynamics.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/sim/closed_loop.hpp"
+#include "gipdyn/sim/simulate.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+SimulationResult trajectory(int samples, double dt, unsigned seed, double noise) {
+  SimulationOptions o;
+  o.samples = samples;
+  o.dt = dt;
+  o.seed = seed;
+  o.noise_std = noise;
+  return simulate(scara_robot(), o);
+}
+
+std::unique_ptr<Estimator> fitted(const std::string& name, const SimulationResult& d) {
+  EstimatorOptions o;
+  o.name = name;
+  o.gp.optimizer.max_iterations = 100;
+  if (estimator_needs_robot(name)) o.robot_prior = {std::make_shared<const RobotModel>(scara_robot()), false};
+  FitResult r = fit_estimator(o, d.X, d.tau, scara_robot().joint_types());
+  EXPECT_TRUE(r.report.ok()) << r.report.message;
+  return std::move(r.estimator);
+}
+
+TEST(ClosedLoop, FeedForwardFromTheRightModelTracksAndPdAloneLags) {
+  const RobotModel robot = scara_robot();
+  const SimulationResult reference = trajectory(1000, 0.001, 12, 0.0);  // 1 s at 1 kHz
+  TrackingOptions o;
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(1000, 4);
+  const TrackingResult pd = track_reference(robot, reference.X, zero, o);
+  const TrackingResult ideal = track_reference(robot, reference.X, inverse_dynamics(robot, reference.X), o);
+  const SimulationResult train = trajectory(300, 0.1, 11, 0.01);
+  const auto fe = fitted("fe", train), gip = fitted("gip", train);
+  const TrackingResult with_fe = track_reference(robot, reference.X, fe->predict(reference.X), o);
+  const TrackingResult with_gip = track_reference(robot, reference.X, gip->predict(reference.X), o);
+  std::cout << "RMS tracking error per joint\n  PD alone  " << pd.rms_error.transpose() << "\n  ideal     "
+            << ideal.rms_error.transpose() << "\n  fe        " << with_fe.rms_error.transpose() << "\n  gip       "
+            << with_gip.rms_error.transpose() << "\n";
+  for (int j = 0; j < 4; ++j) {
+    EXPECT_LT(ideal.rms_error(j), 0.1 * pd.rms_error(j)) << "joint " << j + 1;
+    // fe fitted to noisy torques: within a few times the ideal loop.
+    EXPECT_LT(with_fe.rms_error(j), 5.0 * ideal.rms_error(j) + 1e-6) << "joint " << j + 1;
+    EXPECT_LT(with_gip.rms_error(j), pd.rms_error(j)) << "joint " << j + 1;
+  }
+  EXPECT_EQ(pd.q.rows(), 1000);
+  EXPECT_TRUE(pd.kp.allFinite() && (pd.kp.array() > 0).all());
+}
+
+TEST(ClosedLoop, BadInputIsNamed) {
+  const RobotModel robot = scara_robot();
+  const SimulationResult reference = trajectory(50, 0.001, 1, 0.0);
+  TrackingOptions o;
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(49, 4), o); })
+                .find("one row of 4 per reference row"),
+            std::string::npos);
+  o.kp = Eigen::VectorXd::Ones(3);
+  o.kd = Eigen::VectorXd::Ones(3);
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("TrackingOptions::kp and kd need one gain per joint"),
+            std::string::npos);
+  o = TrackingOptions();
+  o.kp = Eigen::VectorXd::Constant(4, 1e9);  // far too stiff for 1 ms steps
+  o.kd = Eigen::VectorXd::Constant(4, 1e7);
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("diverged"),
+            std::string::npos);
+}
+
+}  // namespace
+}  // namespace gipdyn
