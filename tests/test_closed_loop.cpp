@@ -56,6 +56,30 @@ TEST(ClosedLoop, FeedForwardFromTheRightModelTracksAndPdAloneLags) {
   EXPECT_TRUE(pd.kp.allFinite() && (pd.kp.array() > 0).all());
 }
 
+// Computed torque asks the model at the measured state: with the robot's own
+// dynamics (and with fe, exact up to its fit) the error decays at the chosen
+// bandwidth, well below PD; a model that is wrong about M is hurt by it.
+TEST(ClosedLoop, ComputedTorqueWithTheRightModelTracks) {
+  const RobotModel robot = scara_robot();
+  const SimulationResult reference = trajectory(1000, 0.001, 12, 0.0);
+  TrackingOptions o;
+  const TrackingResult pd = track_reference(robot, reference.X, Eigen::MatrixXd::Zero(1000, 4), o);
+  const TrackingResult ct = track_computed_torque(
+      robot, reference.X, [&](const Eigen::VectorXd& x) { return inverse_dynamics(robot, x.head(4), x.segment(4, 4), x.tail(4)); },
+      o);
+  const auto fe = fitted("fe", trajectory(300, 0.1, 11, 0.01));
+  const TrackingResult fe_ct = track_computed_torque(
+      robot, reference.X, [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return fe->predict(x.transpose()).row(0).transpose(); }, o);
+  std::cout << "computed torque RMS error: true " << ct.rms_error.transpose() << "; fe " << fe_ct.rms_error.transpose()
+            << "\n";
+  for (int j = 0; j < 4; ++j) {
+    EXPECT_LT(ct.rms_error(j), 0.05 * pd.rms_error(j)) << "joint " << j + 1;
+    EXPECT_LT(fe_ct.rms_error(j), 0.2 * pd.rms_error(j)) << "joint " << j + 1;
+  }
+  EXPECT_NE(test::error_of([&] { track_computed_torque(robot, reference.X, {}, o); }).find("needs a model"),
+            std::string::npos);
+}
+
 TEST(ClosedLoop, BadInputIsNamed) {
   const RobotModel robot = scara_robot();
   const SimulationResult reference = trajectory(50, 0.001, 1, 0.0);

@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <filesystem>
+#include <functional>
 #include <memory>
 
 #include "gipdyn/error.hpp"
@@ -63,25 +64,51 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   to.bandwidth = c.bandwidth;
   to.friction = c.friction;
 
+  ExperimentOutcome outcome;
   std::vector<std::pair<std::string, TrackingResult>> results;
-  auto run = [&](const std::string& name, const Eigen::MatrixXd& feedforward) {
+  std::vector<std::pair<std::string, std::string>> diverged;  // controller, why
+  auto record = [&](const std::string& name, const std::function<TrackingResult()>& track) {
     if (progress) {
       ProgressEvent e;
       e.message = "tracking with " + name + " ...";
       progress(e);
     }
-    results.emplace_back(name, track_reference(robot, reference.X, feedforward, to));
+    std::string line;
+    try {
+      results.emplace_back(name, track());
+      line = "  " + per_joint(name + " RMS error", results.back().second.rms_error);
+    } catch (const Error& e) {
+      // A controller that loses the robot is a result, not a reason to stop.
+      diverged.emplace_back(name, e.what());
+      outcome.warnings.push_back(name + ": " + e.what());
+      line = "  " + name + ": " + e.what();
+    }
     if (progress) {
       ProgressEvent e;
-      e.message = "  " + per_joint(name + " RMS error", results.back().second.rms_error);
+      e.message = line;
       progress(e);
     }
   };
-  run("pd-only", Eigen::MatrixXd::Zero(reference.X.rows(), n));
-  run("true-model", inverse_dynamics(robot, reference.X, c.friction));
-  for (const auto& [name, model] : models) run(name, model->predict(reference.X));
+  // Feed-forward: the model's torque along the reference, plus PD.
+  auto feedforward = [&](const std::string& name, const Eigen::MatrixXd& tau) {
+    record(name, [&] { return track_reference(robot, reference.X, tau, to); });
+  };
+  feedforward("pd-only", Eigen::MatrixXd::Zero(reference.X.rows(), n));
+  feedforward("true-model", inverse_dynamics(robot, reference.X, c.friction));
+  for (const auto& [name, model] : models) feedforward(name, model->predict(reference.X));
+  // Computed torque ("-ct"): the model asked, at the measured state, for the
+  // torque of the commanded acceleration.
+  auto computed_torque = [&](const std::string& name, const InverseDynamicsFunction& f) {
+    record(name + "-ct", [&] { return track_computed_torque(robot, reference.X, f, to); });
+  };
+  computed_torque("true-model", [&](const Eigen::VectorXd& x) {
+    return inverse_dynamics(robot, x.head(n), x.segment(n, n), x.tail(n), c.friction);
+  });
+  for (const auto& [name, model] : models) {
+    const Estimator& e = *model;
+    computed_torque(name, [&e](const Eigen::VectorXd& x) -> Eigen::VectorXd { return e.predict(x.transpose()).row(0).transpose(); });
+  }
 
-  ExperimentOutcome outcome;
   const std::string tracking = (fs::path(c.out) / "tracking.csv").string();
   write_file_atomically(tracking, [&](std::ostream& o) {
     o << "controller,joint,rms_error,max_error,rms_torque\n";
@@ -107,7 +134,10 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
     o << "# Closed-loop tracking: " << robot.name() << " (" << robot.joint_types().str() << ")\n\n"
       << "The simulated robot" << (c.friction ? " (with friction)" : "") << " follows a " << c.seconds
       << " s reference (seed " << c.seed << ") at " << 1.0 / c.dt << " Hz under PD feedback, critically damped at "
-      << c.bandwidth << " rad/s on each joint's inertia, plus each controller's feed-forward torque.\n\n"
+      << c.bandwidth << " rad/s on each joint's inertia, plus each controller's feed-forward torque along the "
+      << "reference. Rows ending in -ct use computed-torque control instead: the model is asked, at the measured "
+      << "state, for the torque of the reference acceleration plus a critically damped correction at the same "
+      << "bandwidth.\n\n"
       << "RMS position error per joint (rad or m):\n\n| controller |";
     for (int j = 0; j < n; ++j) o << " joint " << j + 1 << " |";
     o << "\n|---|";
@@ -118,6 +148,12 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
       for (int j = 0; j < n; ++j) o << " " << sci(r.rms_error(j)) << " |";
       o << "\n";
     }
+    for (const auto& [name, why] : diverged) {
+      o << "| " << name << " |";
+      for (int j = 0; j < n; ++j) o << " diverged |";
+      o << "\n";
+    }
+    for (const auto& [name, why] : diverged) o << "\n- " << name << ": " << why << "\n";
     o << "\nRMS torque per joint:\n\n| controller |";
     for (int j = 0; j < n; ++j) o << " joint " << j + 1 << " |";
     o << "\n|---|";
@@ -135,6 +171,7 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   if (p.ok) outcome.files.push_back(png);
   else outcome.warnings.push_back(p.message);
   outcome.units_done = static_cast<int>(results.size());
+  outcome.units_failed = static_cast<int>(diverged.size());
   return outcome;
 }
 

@@ -1,7 +1,8 @@
 #pragma once
 // Closed-loop tracking (docs/experiments.md): the true simulated robot follows
 // a held-out trajectory at the control rate under PD feedback plus each
-// model's feed-forward torque, beside PD alone and the robot's own dynamics.
+// model's feed-forward torque, beside PD alone and the robot's own dynamics,
+// and under computed-torque control with each model (rows named NAME-ct).
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>

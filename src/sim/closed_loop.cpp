@@ -37,34 +37,28 @@ void true_dynamics(const RobotModel& robot, const Eigen::VectorXd& q, const Eige
 
 }  // namespace
 
-TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& reference,
-                               const Eigen::MatrixXd& feedforward, const TrackingOptions& options) {
-  const int n = robot.num_joints();
-  options.validate(n);
+namespace {
+
+void check_reference(int n, const Eigen::MatrixXd& reference) {
   if (reference.cols() != 3 * n || reference.rows() < 2)
     throw Error("the reference needs at least 2 rows of " + std::to_string(3 * n) + " columns (q, qd, qdd)");
-  if (feedforward.rows() != reference.rows() || feedforward.cols() != n)
-    throw Error("the feed-forward torques need one row of " + std::to_string(n) + " per reference row");
-  if (!reference.allFinite() || !feedforward.allFinite())
-    throw Error("the reference or the feed-forward torques contain NaN or Inf");
+  if (!reference.allFinite()) throw Error("the reference contains NaN or Inf");
+}
+
+// Integrates the true robot under tau = law(k, q, qd) from the reference's first state.
+TrackingResult run_loop(const RobotModel& robot, const Eigen::MatrixXd& reference, const TrackingOptions& options,
+                        const std::function<Eigen::VectorXd(Eigen::Index, const Eigen::VectorXd&, const Eigen::VectorXd&)>& law,
+                        TrackingResult r) {
+  const int n = robot.num_joints();
   const Eigen::Index steps = reference.rows();
   Eigen::VectorXd q = reference.row(0).head(n).transpose(), qd = reference.row(0).segment(n, n).transpose();
   Eigen::MatrixXd M;
   Eigen::VectorXd h;
-  TrackingResult r;
-  r.kp = options.kp;
-  r.kd = options.kd;
-  if (r.kp.size() == 0) {
-    true_dynamics(robot, q, qd, false, M, h);
-    const double w = options.bandwidth;
-    r.kp = w * w * M.diagonal();
-    r.kd = 2.0 * w * M.diagonal();
-  }
   r.q.resize(steps, n);
   r.tau.resize(steps, n);
   for (Eigen::Index k = 0; k < steps; ++k) {
-    const Eigen::VectorXd q_ref = reference.row(k).head(n).transpose(), qd_ref = reference.row(k).segment(n, n).transpose();
-    const Eigen::VectorXd tau = feedforward.row(k).transpose() + r.kp.cwiseProduct(q_ref - q) + r.kd.cwiseProduct(qd_ref - qd);
+    const Eigen::VectorXd tau = law(k, q, qd);
+    if (!tau.allFinite()) throw Error("the controller's torque is not finite at step " + std::to_string(k + 1));
     r.q.row(k) = q.transpose();
     r.tau.row(k) = tau.transpose();
     true_dynamics(robot, q, qd, options.friction, M, h);
@@ -73,13 +67,67 @@ TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& r
     q += options.dt * qd;
     if (!q.allFinite() || !qd.allFinite() || qd.cwiseAbs().maxCoeff() > 1e6)
       throw Error("the closed loop diverged at step " + std::to_string(k + 1) +
-                  ": lower the gains (TrackingOptions::kp, kd) or the control period (TrackingOptions::dt)");
+                  ": lower the gains (TrackingOptions::kp, kd, bandwidth) or the control period (TrackingOptions::dt)");
   }
   const Eigen::MatrixXd error = (reference.leftCols(n) - r.q).cwiseAbs();
   r.rms_error = (error.array().square().colwise().mean()).sqrt().transpose();
   r.max_error = error.colwise().maxCoeff().transpose();
   r.rms_torque = (r.tau.array().square().colwise().mean()).sqrt().transpose();
   return r;
+}
+
+}  // namespace
+
+TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& reference,
+                               const Eigen::MatrixXd& feedforward, const TrackingOptions& options) {
+  const int n = robot.num_joints();
+  options.validate(n);
+  check_reference(n, reference);
+  if (feedforward.rows() != reference.rows() || feedforward.cols() != n)
+    throw Error("the feed-forward torques need one row of " + std::to_string(n) + " per reference row");
+  if (!feedforward.allFinite()) throw Error("the feed-forward torques contain NaN or Inf");
+  TrackingResult r;
+  r.kp = options.kp;
+  r.kd = options.kd;
+  if (r.kp.size() == 0) {
+    Eigen::MatrixXd M;
+    Eigen::VectorXd h;
+    true_dynamics(robot, reference.row(0).head(n).transpose(), reference.row(0).segment(n, n).transpose(), false, M, h);
+    const double w = options.bandwidth;
+    r.kp = w * w * M.diagonal();
+    r.kd = 2.0 * w * M.diagonal();
+  }
+  const Eigen::VectorXd kp = r.kp, kd = r.kd;
+  return run_loop(robot, reference, options,
+                  [&](Eigen::Index k, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) -> Eigen::VectorXd {
+                    return feedforward.row(k).transpose() +
+                           kp.cwiseProduct(reference.row(k).head(n).transpose() - q) +
+                           kd.cwiseProduct(reference.row(k).segment(n, n).transpose() - qd);
+                  },
+                  r);
+}
+
+TrackingResult track_computed_torque(const RobotModel& robot, const Eigen::MatrixXd& reference,
+                                     const InverseDynamicsFunction& model, const TrackingOptions& options) {
+  const int n = robot.num_joints();
+  options.validate(n);
+  check_reference(n, reference);
+  if (!model) throw Error("track_computed_torque needs a model");
+  const double w = options.bandwidth;
+  TrackingResult r;
+  r.kp = Eigen::VectorXd::Constant(n, w * w);  // in acceleration units
+  r.kd = Eigen::VectorXd::Constant(n, 2.0 * w);
+  Eigen::VectorXd x(3 * n);
+  return run_loop(robot, reference, options,
+                  [&](Eigen::Index k, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) -> Eigen::VectorXd {
+                    const Eigen::VectorXd e = reference.row(k).head(n).transpose() - q;
+                    const Eigen::VectorXd ed = reference.row(k).segment(n, n).transpose() - qd;
+                    x << q, qd, reference.row(k).tail(n).transpose() + w * w * e + 2.0 * w * ed;
+                    const Eigen::VectorXd tau = model(x);
+                    if (tau.size() != n) throw Error("the model gave " + std::to_string(tau.size()) + " torques for " + std::to_string(n) + " joints");
+                    return tau;
+                  },
+                  r);
 }
 
 }  // namespace gipdyn

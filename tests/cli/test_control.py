@@ -16,11 +16,14 @@ def test_control_experiment_ranks_controllers_and_writes_its_files(tmp_path, gip
             "--seed", "12", "--out", str(out))
     assert r.returncode == 0, r.stderr
     rows = list(csv.DictReader(open(out / "tracking.csv")))
-    assert {x["controller"] for x in rows} == {"pd-only", "true-model", "fe"}
+    assert {x["controller"] for x in rows} == {"pd-only", "true-model", "fe", "true-model-ct", "fe-ct"}
     rms = {(x["controller"], x["joint"]): float(x["rms_error"]) for x in rows}
     for j in "1234":
         assert rms[("true-model", j)] < 0.1 * rms[("pd-only", j)]
-        assert rms[("fe", j)] < 0.2 * rms[("pd-only", j)]  # the exact regressor, fitted to noisy torques
+        assert rms[("true-model-ct", j)] < 0.1 * rms[("pd-only", j)]
+        # the exact regressor, fitted to noisy torques, as feed-forward and in computed torque
+        assert rms[("fe", j)] < 0.2 * rms[("pd-only", j)]
+        assert rms[("fe-ct", j)] < 0.2 * rms[("pd-only", j)]
     assert "| true-model |" in (out / "summary.md").read_text()
     assert is_png(out / "tracking.png")
     header = open(out / "errors.csv").readline().strip().split(",")

@@ -6,6 +6,7 @@
 // where tau_ff is a model's feed-forward torque (zero for PD alone, the
 // robot's own inverse dynamics for the ideal case).
 #include <Eigen/Dense>
+#include <functional>
 
 #include "gipdyn/robot/robot_model.hpp"
 
@@ -35,5 +36,15 @@ struct TrackingResult {
 // and when the motion diverges (naming the step).
 TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& reference,
                                const Eigen::MatrixXd& feedforward, const TrackingOptions& options);
+
+// Computed-torque control with an inverse dynamics model f (x = (q, qd, qdd)
+// -> tau): at the measured state the model is asked for the torque that gives
+// the commanded acceleration,
+//   tau = f(q, qd, qdd_ref + w^2 (q_ref - q) + 2 w (qd_ref - qd)),  w = bandwidth,
+// so every joint's error obeys e'' + 2 w e' + w^2 e = 0 where f is exact. Any
+// estimator can serve (it needs no explicit M); options.kp and kd are unused.
+using InverseDynamicsFunction = std::function<Eigen::VectorXd(const Eigen::VectorXd& x)>;
+TrackingResult track_computed_torque(const RobotModel& robot, const Eigen::MatrixXd& reference,
+                                     const InverseDynamicsFunction& model, const TrackingOptions& options);
 
 }  // namespace gipdyn
