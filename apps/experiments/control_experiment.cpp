@@ -4,6 +4,7 @@
 #include <filesystem>
 #include <functional>
 #include <memory>
+#include <ostream>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
@@ -36,6 +37,28 @@ namespace {
 
 // "models/gip.gipdyn" -> "gip"
 std::string controller_name(const std::string& path) { return fs::path(path).stem().string(); }
+
+// A Markdown table: one row per controller, one column per joint, the given
+// per-joint figure; controllers that diverged get "diverged" in every column.
+void joint_table(std::ostream& o, int n, const std::vector<std::pair<std::string, TrackingResult>>& results,
+                 const std::vector<std::pair<std::string, std::string>>& diverged,
+                 Eigen::VectorXd TrackingResult::*figure) {
+  o << "| controller |";
+  for (int j = 0; j < n; ++j) o << " joint " << j + 1 << " |";
+  o << "\n|---|";
+  for (int j = 0; j < n; ++j) o << "---|";
+  o << "\n";
+  for (const auto& [name, r] : results) {
+    o << "| " << name << " |";
+    for (int j = 0; j < n; ++j) o << " " << sci((r.*figure)(j)) << " |";
+    o << "\n";
+  }
+  for (const auto& [name, why] : diverged) {
+    o << "| " << name << " |";
+    for (int j = 0; j < n; ++j) o << " diverged |";
+    o << "\n";
+  }
+}
 
 }  // namespace
 
@@ -138,32 +161,11 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
       << "reference. Rows ending in -ct use computed-torque control instead: the model is asked, at the measured "
       << "state, for the torque of the reference acceleration plus a critically damped correction at the same "
       << "bandwidth.\n\n"
-      << "RMS position error per joint (rad or m):\n\n| controller |";
-    for (int j = 0; j < n; ++j) o << " joint " << j + 1 << " |";
-    o << "\n|---|";
-    for (int j = 0; j < n; ++j) o << "---|";
-    o << "\n";
-    for (const auto& [name, r] : results) {
-      o << "| " << name << " |";
-      for (int j = 0; j < n; ++j) o << " " << sci(r.rms_error(j)) << " |";
-      o << "\n";
-    }
-    for (const auto& [name, why] : diverged) {
-      o << "| " << name << " |";
-      for (int j = 0; j < n; ++j) o << " diverged |";
-      o << "\n";
-    }
+      << "RMS position error per joint (rad or m):\n\n";
+    joint_table(o, n, results, diverged, &TrackingResult::rms_error);
     for (const auto& [name, why] : diverged) o << "\n- " << name << ": " << why << "\n";
-    o << "\nRMS torque per joint:\n\n| controller |";
-    for (int j = 0; j < n; ++j) o << " joint " << j + 1 << " |";
-    o << "\n|---|";
-    for (int j = 0; j < n; ++j) o << "---|";
-    o << "\n";
-    for (const auto& [name, r] : results) {
-      o << "| " << name << " |";
-      for (int j = 0; j < n; ++j) o << " " << sci(r.rms_torque(j)) << " |";
-      o << "\n";
-    }
+    o << "\nRMS torque per joint:\n\n";
+    joint_table(o, n, results, {}, &TrackingResult::rms_torque);
   });
   outcome.files.push_back(summary);
   const std::string png = (fs::path(c.out) / "tracking.png").string();

@@ -190,7 +190,9 @@ void InverseDynamicsModel::update_in_place(const Eigen::Ref<const Eigen::MatrixX
   const Eigen::Index kept = X_.rows() - drop;
   Eigen::MatrixXd X(kept + added, 3 * n);
   X << X_.bottomRows(kept), Xnew.bottomRows(added);
-  const Eigen::MatrixXd Z = features_.compute(X);
+  // Only the new rows need their features computed.
+  Eigen::MatrixXd Z(kept + added, Z_.cols());
+  Z << Z_.bottomRows(kept), features_.compute(Xnew.bottomRows(added));
   Eigen::MatrixXd Hnew;
   if (mean_kind() != MeanKind::Zero) means_.front().basis(Xnew.bottomRows(added), Hnew);
   for (int j = 0; j < n; ++j) {
@@ -204,7 +206,7 @@ void InverseDynamicsModel::update_in_place(const Eigen::Ref<const Eigen::MatrixX
     if (!r.ok()) throw Error("joint " + std::to_string(j + 1) + ": " + r.message);
   }
   X_ = std::move(X);
-  Z_ = Z;
+  Z_ = std::move(Z);
 }
 
 PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)

@@ -73,18 +73,9 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
   std::normal_distribution<double> normal(0.0, 1.0);
 
-  // One optimisation of the NLL on the rows `rows` (all rows when empty).
-  auto optimise = [&](const std::vector<Eigen::Index>& rows, const Eigen::VectorXd& start, int restart) {
-    Eigen::MatrixXd Xs, Zs;
-    Eigen::VectorXd ys;
-    if (!rows.empty()) {
-      Xs = X(rows, Eigen::all);
-      Zs = Z(rows, Eigen::all);
-      ys = y(rows);
-    }
-    const Eigen::MatrixXd& Xr = rows.empty() ? X : Xs;
-    const Eigen::MatrixXd& Zr = rows.empty() ? Z : Zs;
-    const Eigen::VectorXd& yr = rows.empty() ? y : ys;
+  // One optimisation of the NLL on the rows (Xr, Zr, yr).
+  auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr,
+                      const Eigen::VectorXd& start, int restart) {
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
       NllEvaluation e = evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
@@ -114,7 +105,14 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   // optimum is a start close to the full data's, and there restarts are cheap.
   const Eigen::Index N = X.rows();
   const bool warm = o.warm_start_rows > 0 && N >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
-  const std::vector<Eigen::Index> subsample = warm ? constant_step_indices(N, o.warm_start_rows) : std::vector<Eigen::Index>{};
+  Eigen::MatrixXd Xw, Zw;  // the warm-start subsample, taken once for every start
+  Eigen::VectorXd yw;
+  if (warm) {
+    const std::vector<Eigen::Index> rows = constant_step_indices(N, o.warm_start_rows);
+    Xw = X(rows, Eigen::all);
+    Zw = Z(rows, Eigen::all);
+    yw = y(rows);
+  }
   Eigen::VectorXd best_x;
   double best_f = std::numeric_limits<double>::infinity();
   OptimizerResult kept;
@@ -122,7 +120,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     Eigen::VectorXd start = x0;
     if (r > 0)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    OptimizerResult res = optimise(subsample, start, r);
+    OptimizerResult res = warm ? optimise(Xw, Zw, yw, start, r) : optimise(X, Z, y, start, r);
     (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
     out.report.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
     if (res.usable() && res.f < best_f) {
@@ -134,7 +132,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     }
   }
   if (warm && best_x.size() > 0) {
-    OptimizerResult res = optimise({}, best_x, 0);
+    OptimizerResult res = optimise(X, Z, y, best_x, 0);
     out.report.evaluations += res.evaluations;
     kept = res;
     best_x = res.usable() ? res.x : Eigen::VectorXd();
