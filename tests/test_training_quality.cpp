@@ -119,6 +119,10 @@ TEST(TrainingQuality, RestartsWithDifferentSeedsReachTheSameNll) {
 TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {
   TrainOptions o;
   o.threads = 1;
+  // At the default 1e-5 this noise-free-like 2R problem ends in a line-search
+  // stall at rounding level (reported as such); 1e-4 is the rule this test was
+  // written for, and warm and cold must meet it alike.
+  o.gradient_tolerance_per_row = 1e-4;
   const Eigen::MatrixXd X = two_link_trajectory(800, 0.15, 4);
   o.warm_start_rows = 0;
   const Fit cold = fit_and_test(X, o, test_states());
