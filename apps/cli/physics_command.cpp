@@ -7,6 +7,7 @@
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/io/csv.hpp"
 
@@ -28,16 +29,17 @@ Command add_physics(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   app.description(
-      "Rigid-body terms of a learned model (gip, gip-friction, pp, fe): gravity g(q), the inertia matrix M(q)\n"
+      "Rigid-body terms of a learned model (gip, gip-friction, lip, pp, fe): gravity g(q), the inertia matrix M(q)\n"
       "and, when the states have velocities, the Coriolis/centrifugal torque C(q, qd) qd and the friction\n"
       "torque, all from the model's torque predictions; plus per row how physical M is (asymmetry, smallest\n"
-      "eigenvalue of its symmetric part).");
+      "eigenvalue of its symmetric part). A lip model also gives its potential energy (up to a constant)\n"
+      "and, with velocities, its kinetic energy.");
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
   app.add_option("--data", a->data, "CSV of states: q1..qn, and qd1..qdn for the velocity terms (others ignored)")
       ->required()->check(CLI::ExistingFile);
   app.add_option("--out", a->out,
                  "Output CSV: g1..gn, M1_1..Mn_n (row i, column j), [coriolis1..n, friction1..n], "
-                 "M_asymmetry, M_min_eigenvalue")
+                 "M_asymmetry, M_min_eigenvalue; lip: potential_energy [, kinetic_energy]")
       ->required();
   return [a]() -> int {
     refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
@@ -60,6 +62,18 @@ Command add_physics(CLI::App& app) {
     }
     header.push_back("M_asymmetry");
     header.push_back("M_min_eigenvalue");
+    const auto* lip = dynamic_cast<const LagrangianEstimator*>(model.get());
+    Eigen::VectorXd potential, kinetic;
+    if (lip) {
+      potential = lip->potential_energy(Q);
+      header.push_back("potential_energy");
+      if (with_velocity) {
+        Eigen::MatrixXd states(Q.rows(), 2 * n);
+        states << Q, read_csv_columns(a->data, names("qd", n));
+        kinetic = lip->kinetic_energy(states);
+        header.push_back("kinetic_energy");
+      }
+    }
     Eigen::MatrixXd table(Q.rows(), static_cast<Eigen::Index>(header.size()));
     double worst_asymmetry = 0.0, smallest_eigenvalue = std::numeric_limits<double>::infinity();
     int not_positive = 0;
@@ -76,13 +90,16 @@ Command add_physics(CLI::App& app) {
       const InertiaDiagnostics d = diagnose_inertia(M[static_cast<size_t>(r)]);
       table(r, c) = d.asymmetry;
       table(r, c + 1) = d.min_eigenvalue;
+      if (potential.size() > 0) table(r, c + 2) = potential(r);
+      if (kinetic.size() > 0) table(r, c + 3) = kinetic(r);
       worst_asymmetry = std::max(worst_asymmetry, d.asymmetry);
       smallest_eigenvalue = std::min(smallest_eigenvalue, d.min_eigenvalue);
       not_positive += d.min_eigenvalue <= 0.0;
     }
     write_csv(a->out, header, table);
-    std::printf("%ld states -> %s: gravity, inertia%s\n", static_cast<long>(Q.rows()), a->out.c_str(),
-                with_velocity ? ", Coriolis and friction" : " (no qd columns: no velocity terms)");
+    std::printf("%ld states -> %s: gravity, inertia%s%s\n", static_cast<long>(Q.rows()), a->out.c_str(),
+                with_velocity ? ", Coriolis and friction" : " (no qd columns: no velocity terms)",
+                lip ? (with_velocity ? ", potential and kinetic energy" : ", potential energy") : "");
     std::printf(" inertia: largest relative asymmetry %.3g, smallest eigenvalue %.3g, %d of %ld not positive definite\n",
                 worst_asymmetry, smallest_eigenvalue, not_positive, static_cast<long>(Q.rows()));
     return 0;

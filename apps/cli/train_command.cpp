@@ -32,7 +32,8 @@ Command add_train(CLI::App& app) {
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
       ->required();
   app.add_option("--kernel", a->kernel,
-                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, pp, sp) or fe, nn; "
+                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, pp, sp), lip (one GP "
+                 "over all joints with priors on the energies; train it on a few hundred rows), fe or nn; "
                  "fe, pp, sp need --robot")
       ->capture_default_str();
   app.add_option("--subsample", a->subsample, "Keep this many training rows, taken with a constant step (0: all)")
@@ -58,7 +59,7 @@ Command add_train(CLI::App& app) {
     if (!a->quiet) {
       std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
                   static_cast<long>(total), a->data.c_str(), joints.str().c_str(), o.name.c_str());
-      if (is_gp_estimator(o.name))
+      if (is_kernel_estimator(o.name))
         std::printf(", optimizer %s (max %d), %d restart(s)", a->estimator.optimizer.c_str(),
                     o.gp.optimizer.max_iterations, o.gp.restarts);
       if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());

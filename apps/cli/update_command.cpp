@@ -36,7 +36,7 @@ Command add_update(CLI::App& app) {
     const InverseDynamicsModel* model = estimator->gp_model();
     if (!model)
       throw Error("--model holds a " + estimator->name() +
-                  " model; only GP models can be updated (retrain fe and nn with `gipdyn train`)");
+                  " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
     const Dataset data = read_dataset(a->data, model->joints(), true);
     const double rows = static_cast<double>(model->num_training_samples() + data.rows());
     // Every joint keeps its N x N Cholesky factor while it is updated.

@@ -135,7 +135,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
   for (const auto& e : c.estimators) {
     if (table.contains({{"estimator", e}})) continue;
     // GP estimators scale as N^3 and get the subsample; fe uses every training row, nn its own subsample.
-    const Dataset& d = is_gp_estimator(e) ? train_gp : e == "nn" ? train_nn : train;
+    const Dataset& d = is_kernel_estimator(e) ? train_gp : e == "nn" ? train_nn : train;
     note(progress, e + ": fitting " + std::to_string(d.rows()) + " rows (elapsed " +
                duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
     const FitAndPredict f = fit_and_predict(options_for(c.base, e, prior, c.base.gp.seed), d.X, d.tau, joints, test.X);

@@ -15,7 +15,7 @@ import numpy as np
 from . import _core
 from ._core import GipdynError, HyperparameterPrior, OptimizerOptions, Robot, SimulationOptions, TrainOptions
 
-__all__ = ["InverseDynamicsGP", "ConvergenceWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "nmse", "neg_nmse_scorer", "GipdynError"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -135,21 +135,26 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.warm_start_rows = warm_start_rows
         self.gradient_tolerance = gradient_tolerance
 
-    def train_options(self):
-        """The library's TrainOptions for these parameters (checked when fitting)."""
+    def _optimizer_options(self):
+        """TrainOptions with the keywords every GP estimator shares."""
         o = TrainOptions()
-        o.kernel = str(self.kernel)
         o.optimizer.kind = str(self.optimizer)
         o.optimizer.max_iterations = int(self.max_iter)
         o.optimizer.adam_learning_rate = float(self.learning_rate)
         o.restarts = int(self.restarts)
         o.seed = int(self.seed)
+        o.min_noise_fraction = float(self.min_noise)
+        o.gradient_tolerance_per_row = float(self.gradient_tolerance)
+        return o
+
+    def train_options(self):
+        """The library's TrainOptions for these parameters (checked when fitting)."""
+        o = self._optimizer_options()
+        o.kernel = str(self.kernel)
         o.scaling = str(self.scaling)
         o.mean = str(self.mean)
-        o.min_noise_fraction = float(self.min_noise)
         o.threads = int(self.threads)
         o.warm_start_rows = int(self.warm_start_rows)
-        o.gradient_tolerance_per_row = float(self.gradient_tolerance)
         o.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
         if self.robot is not None:
             o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))
@@ -298,6 +303,97 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             parent(state)
         else:
             self.__dict__.update(state)
+
+
+class LagrangianGP(InverseDynamicsGP):
+    """LIP: one GP over the torques of all joints, with the priors on the
+    kinetic and potential energy and the torques from the Lagrange equations
+    (docs/method.md section 11). Besides torques, gravity, inertia and Coriolis
+    it estimates the energies: kinetic_energy(X) and potential_energy(q) (the
+    latter up to a constant). The system is (N n) x (N n): train it on a few
+    hundred rows (fit on 300 SCARA rows takes about 30 s).
+
+    Parameters: joints, optimizer, max_iter, restarts, seed, min_noise,
+    learning_rate, verbose, gradient_tolerance, as InverseDynamicsGP's.
+    """
+
+    def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
+                 restarts=_DEFAULTS.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
+                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row):
+        self.joints = joints
+        self.optimizer = optimizer
+        self.max_iter = max_iter
+        self.restarts = restarts
+        self.seed = seed
+        self.min_noise = min_noise
+        self.learning_rate = learning_rate
+        self.verbose = verbose
+        self.gradient_tolerance = gradient_tolerance
+
+    def train_options(self):
+        """The library's TrainOptions for these parameters (checked when fitting)."""
+        return self._optimizer_options()
+
+    def fit(self, X, Y):
+        n = self.n_joints
+        X = _as_matrix("X", X, 3 * n)
+        Y = _as_matrix("Y", Y, n)
+        if X.shape[0] != Y.shape[0]:
+            raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
+        self.model_ = _core.train_lagrangian(np.asfortranarray(X), np.asfortranarray(Y), str(self.joints),
+                                             self.train_options(), bool(self.verbose))
+        self._set_fitted_attributes()
+        if self.training_report_ and self.training_report_[0]["status"] != "converged":
+            warnings.warn("the optimiser stopped before it converged (see training_report_); raise max_iter",
+                          ConvergenceWarning, stacklevel=2)
+        return self
+
+    def partial_fit(self, X, Y, window=0):
+        raise NotImplementedError("LagrangianGP has no online updates; fit() on the new data")
+
+    def _set_fitted_attributes(self):
+        m = self.model_
+        self.n_features_in_ = 3 * len(m.joints)
+        self.hyperparameters_ = dict(m.hyperparameters)
+        self.noise_variances_ = np.asarray(m.noise_variances)
+        self.training_report_ = list(m.training_report)
+
+    def _check_fitted(self):
+        if not hasattr(self, "model_"):
+            raise ValueError("this LagrangianGP is not fitted yet; call fit(X, Y) first")
+
+    def predict(self, X, return_std=False):
+        """Torques (N, n)."""
+        if return_std:
+            raise ValueError("LagrangianGP gives no predictive variance yet; use return_std=False")
+        self._check_fitted()
+        return self.model_.predict(np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints)))
+
+    def predict_one(self, x):
+        return self.predict(np.atleast_2d(x))[0]
+
+    def kinetic_energy(self, X):
+        """Kinetic energy (N,) at states X of shape (N, 2n) (q, qd) or (N, 3n)."""
+        self._check_fitted()
+        X = _as_matrix("X", X)
+        return self.model_.kinetic_energy(np.asfortranarray(X))
+
+    def potential_energy(self, q):
+        """Potential energy (N,) at positions q of shape (N, n), up to an additive constant."""
+        self._check_fitted()
+        return self.model_.potential_energy(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
+
+    @classmethod
+    def load(cls, path):
+        """Load a lip model written by `save` or by `gipdyn train --kernel lip`."""
+        model = _core.LagrangianModel.load(str(path))
+        est = cls(joints=model.joints)
+        est.model_ = model
+        est._set_fitted_attributes()
+        return est
+
+    def __getstate__(self):
+        raise TypeError("a LagrangianGP cannot be pickled; use save(path) and LagrangianGP.load(path)")
 
 
 def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False):

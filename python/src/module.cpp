@@ -13,7 +13,9 @@
 #include <nlohmann/json.hpp>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
@@ -96,6 +98,52 @@ std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, 
   if (!r.report.ok()) throw Error("training failed: " + r.report.message);
   if (verbose) std::fprintf(stderr, "%s", r.report.brief_report().c_str());
   return std::make_shared<Model>(std::move(r.model));
+}
+
+py::list report_to_list(const std::vector<JointReport>& reports) {
+  py::list out;
+  for (const JointReport& r : reports) {
+    py::dict d;
+    d["joint"] = r.joint + 1;
+    d["status"] = to_string(r.status);
+    d["evaluations"] = r.evaluations;
+    d["warm_start_evaluations"] = r.warm_start_evaluations;
+    d["nll"] = r.nll;
+    d["grad_norm"] = r.grad_norm;
+    d["noise_variance"] = r.noise_variance;
+    d["jitter"] = r.jitter;
+    d["restart_nlls"] = r.restart_nlls;
+    out.append(d);
+  }
+  return out;
+}
+
+// A trained LIP model (read-only) and how it was trained.
+struct LagrangianModel {
+  std::shared_ptr<const LagrangianEstimator> estimator;
+  std::vector<JointReport> report;
+};
+
+std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const std::string& joints,
+                                                  const TrainOptions& options, bool verbose) {
+  const JointTypes jt = JointTypes::parse(joints);
+  ProgressCallback cb;
+  if (verbose)
+    cb = [](const ProgressEvent& e) {
+      if (!e.finished && e.iteration % 10 != 0) return;
+      std::fprintf(stderr, "  %s\n", describe(e).c_str());
+    };
+  LagrangianEstimator::FitOutcome r;
+  {
+    py::gil_scoped_release release;
+    r = LagrangianEstimator::fit(X, Y, jt, options, cb);
+  }
+  if (!r.report.ok()) throw Error("training failed: " + r.report.message);
+  if (verbose) std::fprintf(stderr, "%s", r.report.brief_report().c_str());
+  auto m = std::make_shared<LagrangianModel>();
+  m->estimator = std::move(r.estimator);
+  m->report = r.report.joints;
+  return m;
 }
 
 py::dict simulation_to_dict(const SimulationResult& r, int n) {
@@ -216,24 +264,7 @@ PYBIND11_MODULE(_core, m) {
       .def("hyperparameters", [](const Model& s, int j) { return s.model->hyperparameters(j); })
       .def("nll", [](const Model& s, int j) { return s.model->joint_gp(j).nll(); })
       .def_property_readonly(
-          "training_report",
-          [](const Model& s) {
-            py::list out;
-            for (const JointReport& r : s.model->training_report()) {
-              py::dict d;
-              d["joint"] = r.joint + 1;
-              d["status"] = to_string(r.status);
-              d["evaluations"] = r.evaluations;
-              d["warm_start_evaluations"] = r.warm_start_evaluations;
-              d["nll"] = r.nll;
-              d["grad_norm"] = r.grad_norm;
-              d["noise_variance"] = r.noise_variance;
-              d["jitter"] = r.jitter;
-              d["restart_nlls"] = r.restart_nlls;
-              out.append(d);
-            }
-            return out;
-          },
+          "training_report", [](const Model& s) { return report_to_list(s.model->training_report()); },
           "How each joint's hyperparameters were found (empty for models saved before it was recorded)")
       .def(
           "with_variance",
@@ -311,6 +342,77 @@ PYBIND11_MODULE(_core, m) {
         return std::make_shared<Model>(deserialize_model(std::string(b), "pickled model"));
       });
 
+  py::class_<LagrangianModel, std::shared_ptr<LagrangianModel>>(m, "LagrangianModel")
+      .def_property_readonly("joints", [](const LagrangianModel& s) { return s.estimator->joints().str(); })
+      .def_property_readonly("num_training_samples",
+                             [](const LagrangianModel& s) { return s.estimator->training_inputs().rows(); })
+      .def_property_readonly("noise_variances", [](const LagrangianModel& s) { return s.estimator->noise_variances(); })
+      .def_property_readonly("hyperparameters",
+                             [](const LagrangianModel& s) {
+                               py::dict d;
+                               for (const auto& [name, value] : s.estimator->summary()["hyperparameters"].items())
+                                 d[py::str(name)] = value.get<double>();
+                               return d;
+                             })
+      .def_property_readonly("training_report", [](const LagrangianModel& s) { return report_to_list(s.report); })
+      .def(
+          "predict",
+          [](const LagrangianModel& s, ConstRef X) {
+            py::gil_scoped_release release;
+            return s.estimator->predict(X);
+          },
+          py::arg("X"))
+      .def(
+          "kinetic_energy",
+          [](const LagrangianModel& s, ConstRef X) {
+            py::gil_scoped_release release;
+            return s.estimator->kinetic_energy(X);
+          },
+          py::arg("X"))
+      .def(
+          "potential_energy",
+          [](const LagrangianModel& s, ConstRef Q) {
+            py::gil_scoped_release release;
+            return s.estimator->potential_energy(Q);
+          },
+          py::arg("Q"))
+      .def(
+          "gravity",
+          [](const LagrangianModel& s, ConstRef Q) {
+            py::gil_scoped_release release;
+            return gravity(*s.estimator, Q);
+          },
+          py::arg("Q"))
+      .def(
+          "inertia",
+          [](const LagrangianModel& s, ConstRef Q) {
+            std::vector<Eigen::MatrixXd> Ms;
+            {
+              py::gil_scoped_release release;
+              Ms = inertia(*s.estimator, Q);
+            }
+            return stack_matrices(Ms, s.estimator->joints().size());
+          },
+          py::arg("Q"))
+      .def(
+          "velocity_terms",
+          [](const LagrangianModel& s, ConstRef Q, ConstRef QD) {
+            py::gil_scoped_release release;
+            VelocityTerms t = velocity_terms(*s.estimator, Q, QD);
+            return std::make_pair(t.coriolis, t.friction);
+          },
+          py::arg("Q"), py::arg("QD"))
+      .def("save", [](const LagrangianModel& s, const std::string& path) { save_estimator(*s.estimator, path); })
+      .def_static("load", [](const std::string& path) {
+        std::unique_ptr<Estimator> e = load_estimator(path);
+        auto* lip = dynamic_cast<LagrangianEstimator*>(e.get());
+        if (!lip) throw Error("model file '" + path + "' holds a '" + e->name() + "' model, not lip; load it with InverseDynamicsGP.load");
+        auto m = std::make_shared<LagrangianModel>();
+        m->estimator = std::shared_ptr<const LagrangianEstimator>(static_cast<LagrangianEstimator*>(e.release()));
+        return m;
+      });
+  m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
+        py::arg("verbose") = false);
   m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("verbose") = false);
   m.def("kernel_names", &kernel_names);
 

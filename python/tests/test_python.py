@@ -318,3 +318,42 @@ def test_partial_fit_adds_samples_with_fixed_hyperparameters(scara):
     assert fresh.model_.num_training_samples == 50
     with pytest.raises(ValueError, match="window"):
         first.partial_fit(train["X"][:5], train["tau"][:5], window=2)
+
+
+def test_lagrangian_gp_energies_physics_and_files(scara, tmp_path):
+    # LIP on 100 rows: the terms and the kinetic energy close to the robot's, the same through a model file.
+    train, test = scara
+    robot = gipdyn.Robot.load("scara")
+    est = gipdyn.LagrangianGP(joints="RRPR", max_iter=150).fit(train["X"][::2], train["tau"][::2])
+    q, qd = test["q"][:20], test["qd"][:20]
+    zero = np.zeros_like(q)
+
+    def relative_error(a, b):
+        return np.linalg.norm(a - b) / np.linalg.norm(b)
+
+    g_true = robot.inverse_dynamics(q, zero, zero)
+    M_true = np.stack([robot.inverse_dynamics(q, zero, np.tile(np.eye(4)[j], (20, 1))) - g_true for j in range(4)],
+                      axis=2)
+    assert relative_error(est.gravity(q), g_true) < 1e-3
+    assert relative_error(est.inertia(q), M_true) < 2e-2
+    T_true = 0.5 * np.einsum("ri,rij,rj->r", qd, M_true, qd)
+    T = est.kinetic_energy(np.hstack([q, qd]))
+    assert T.shape == (20,)
+    assert relative_error(T, T_true) < 2e-2
+    np.testing.assert_allclose(est.kinetic_energy(np.hstack([q, zero])), 0.0, atol=1e-12)
+    assert est.potential_energy(q).shape == (20,)
+    assert est.training_report_[0]["evaluations"] > 0 and len(est.training_report_) == 4
+    path = tmp_path / "lip.gipdyn"
+    est.save(path)
+    loaded = gipdyn.LagrangianGP.load(path)
+    np.testing.assert_array_equal(loaded.predict(test["X"][:5]), est.predict(test["X"][:5]))
+    with pytest.raises(ValueError, match="not lip"):
+        gipdyn.LagrangianGP.load(_gip_model_file(train, tmp_path))
+    with pytest.raises(ValueError, match="no predictive variance"):
+        est.predict(test["X"][:5], return_std=True)
+
+
+def _gip_model_file(train, tmp_path):
+    path = tmp_path / "gip.gipdyn"
+    gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"][:50], train["tau"][:50]).save(path)
+    return str(path)

@@ -3,6 +3,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/model/model_file.hpp"
 
@@ -13,6 +14,7 @@ std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, con
   try {
     kind = c.header.value("estimator", "gp");  // format 1 files hold GP models only
     if (kind == "gp") return std::make_unique<GpEstimator>(model_from_container(c, what));
+    if (kind == "lip") return std::make_unique<LagrangianEstimator>(LagrangianEstimator::from_container(c, what));
     if (kind == "fe") return std::make_unique<FisherianEstimator>(FisherianEstimator::from_container(c, what));
     if (kind == "nn") return std::make_unique<NeuralNetworkEstimator>(NeuralNetwork::from_container(c, what));
   } catch (const nlohmann::json::exception& e) {

@@ -6,6 +6,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 
 namespace gipdyn {
@@ -30,6 +31,15 @@ FitResult fit_gp(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eige
   FitResult result;
   result.report = std::move(r.report);
   if (result.report.ok()) result.estimator = std::make_unique<GpEstimator>(std::move(r.model));
+  return result;
+}
+
+FitResult fit_lagrangian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                         const JointTypes& joints, const ProgressCallback& progress) {
+  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.train_options(), progress);
+  FitResult result;
+  result.report = std::move(r.report);
+  result.estimator = std::move(r.estimator);
   return result;
 }
 
@@ -58,6 +68,7 @@ FitResult fit_network(const EstimatorOptions& o, const Eigen::MatrixXd& X, const
 Fit fit_function(EstimatorFamily family) {
   switch (family) {
     case EstimatorFamily::Gp: return fit_gp;
+    case EstimatorFamily::Lagrangian: return fit_lagrangian;
     case EstimatorFamily::Fisherian: return fit_fisherian;
     case EstimatorFamily::NeuralNetwork: return fit_network;
   }

@@ -272,6 +272,36 @@ def test_physics_gives_gravity_inertia_and_coriolis(trained, gipdyn_bin, tmp_pat
     assert read_table(tmp_path / "p2.csv")[0][-3:] == ["M2_2", "M_asymmetry", "M_min_eigenvalue"]
 
 
+def test_lip_trains_and_gives_energies(tmp_path, gipdyn_bin):
+    # LIP on 100 rows of the 2R arm: torques, terms and energies from the model file.
+    write_dataset(tmp_path / "t.csv", 100, seed=3)
+    test = write_dataset(tmp_path / "test.csv", 30, seed=4, noise=0.0)
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "lip",
+            "--out", str(tmp_path / "lip.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "estimator lip" in r.stdout and "saved lip model" in r.stdout
+    r = run(gipdyn_bin, "physics", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"),
+            "--out", str(tmp_path / "physics.csv"))
+    assert r.returncode == 0, r.stderr
+    assert "potential and kinetic energy" in r.stdout
+    header, table = read_table(tmp_path / "physics.csv")
+    assert header[-2:] == ["potential_energy", "kinetic_energy"]
+    q, qd = test[:, 0:2], test[:, 2:4]
+    g, M, c = two_link_terms(q, qd)
+    col = {name: k for k, name in enumerate(header)}
+    rel = lambda a, b: np.linalg.norm(a - b) / np.linalg.norm(b)
+    assert rel(table[:, [col["g1"], col["g2"]]], g) < 1e-3
+    assert rel(table[:, col["M1_1"]:col["M2_2"] + 1].reshape(-1, 2, 2), M) < 1e-2
+    T_true = 0.5 * np.einsum("ri,rij,rj->r", qd, M, qd)
+    assert rel(table[:, col["kinetic_energy"]], T_true) < 1e-2
+    # dV/dq = g: V = (m1 lc1 + m2 l1) g sin q1 + m2 lc2 g sin(q1 + q2), known up to a constant.
+    V_true = (1.0 * 0.25 + 0.8 * 0.5) * 9.81 * np.sin(q[:, 0]) + 0.8 * 0.2 * 9.81 * np.sin(q[:, 0] + q[:, 1])
+    V = table[:, col["potential_energy"]]
+    assert rel(V - V.mean(), V_true - V_true.mean()) < 1e-3
+    r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"))
+    assert r.returncode == 0, r.stderr
+
+
 def test_physics_refuses_models_without_the_structure(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "t.csv", 40, seed=3)
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "rbf",

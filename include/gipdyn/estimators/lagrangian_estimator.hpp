@@ -1,0 +1,71 @@
+#pragma once
+// LIP: one GP over the torques of all joints with the Lagrangian kernel
+// (kernels/lagrangian_kernel.hpp, docs/method.md section 11). The joints are
+// coupled through the energies, so the system is (N n) x (N n): memory and
+// time grow with n^2 and n^3 over a per-joint GP's (measured in
+// bench/RESULTS.md); train it on fewer rows.
+//
+// Besides torques it estimates the kinetic energy and the potential energy
+// (the latter up to a constant, which torques cannot identify).
+#include <Eigen/Dense>
+#include <memory>
+
+#include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/kernels/lagrangian_kernel.hpp"
+#include "gipdyn/model/fit_report.hpp"
+#include "gipdyn/model/training.hpp"
+#include "gipdyn/progress.hpp"
+
+namespace gipdyn {
+
+class LagrangianEstimator final : public Estimator {
+ public:
+  // A fitted model: the kernel, the training states X (N x 3n), the weights
+  // alpha = K^-1 y (N n, sample-major) of the scaled torques, the torques' scale.
+  LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorXd noise_variances, double torque_scale,
+                      Eigen::MatrixXd X, Eigen::VectorXd alpha);
+
+  struct FitOutcome {
+    FitReport report;  // one entry per joint, all from the one coupled optimisation
+    std::unique_ptr<LagrangianEstimator> estimator;  // null unless report.ok()
+  };
+  // Maximum marginal likelihood. Uses of TrainOptions: optimizer,
+  // gradient_tolerance_per_row, restarts, restart_spread, seed,
+  // initial_noise_fraction, min_noise_fraction, jitter. The others (kernel,
+  // scaling, mean, prior, warm_start_rows, threads, keep_factor) belong to the
+  // per-joint GPs: kernel and scaling are ignored, and mean, prior and
+  // warm_start_rows must be left at their defaults (gipdyn::Error otherwise). Throws
+  // gipdyn::Error for bad data or a system too large for the memory available.
+  static FitOutcome fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
+                        const TrainOptions& options, const ProgressCallback& progress = {});
+
+  std::string name() const override { return "lip"; }
+  const JointTypes& joints() const override { return kernel_.joints(); }
+  Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
+  ModelContainer to_container() const override;
+  nlohmann::json summary() const override;
+  static LagrangianEstimator from_container(const ModelContainer& c, const std::string& what);
+
+  // Kinetic energy at every row of X (rows x 3n or rows x 2n: q, qd), J.
+  Eigen::VectorXd kinetic_energy(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
+  // Potential energy at every row of Q (rows x n or more: q first), J, up to an
+  // additive constant; the GP's estimate of it is the prior's, near zero.
+  Eigen::VectorXd potential_energy(const Eigen::Ref<const Eigen::MatrixXd>& Q) const;
+
+  const LagrangianKernel& kernel() const { return kernel_; }
+  const Eigen::VectorXd& noise_variances() const { return noise_; }  // per joint, N m^2 (or N^2)
+  const Eigen::MatrixXd& training_inputs() const { return X_; }
+
+ private:
+  Eigen::MatrixXd state_rows(const Eigen::Ref<const Eigen::MatrixXd>& X, int min_cols, const char* what) const;
+  template <class Covariance>
+  Eigen::VectorXd energy(const Eigen::MatrixXd& states, Covariance&& covariance) const;
+
+  LagrangianKernel kernel_;
+  Eigen::VectorXd noise_;  // in the torques' units squared
+  double scale_ = 1.0;
+  Eigen::MatrixXd X_;
+  Eigen::VectorXd alpha_;
+};
+
+}  // namespace gipdyn

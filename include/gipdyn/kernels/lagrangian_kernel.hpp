@@ -1,0 +1,91 @@
+#pragma once
+// The Lagrangian-inspired polynomial (LIP) kernel (docs/method.md section 11).
+//
+// GP priors go on the energies, not on the torques:
+//
+//   kinetic   T(q, qd) = sum_{a<=b} qd_a qd_b h_ab(q),  h_ab ~ GP(0, lambda_ab p_T(q, q'))
+//   potential V(q)     ~ GP(0, p_V(q, q'))
+//
+// p_T is a product over joints of MPK_2 factors, p_V one of MPK_1 factors, on
+// z = (cos q, sin q) for a revolute joint and z = (q) for a prismatic one:
+// the inertia matrix of a rigid arm has degree 2, its potential energy degree 1,
+// in every joint's z. The torques follow from the Lagrange equations,
+//
+//   tau_i = d/dt dL/dqd_i - dL/dq_i,  L = T - V,
+//
+// a linear operator, so the torques of all joints are one GP whose covariance
+// is that operator applied to both arguments of the energy kernels. This class
+// evaluates that (n x n per pair of states) covariance in closed form, its
+// gradient with respect to the log-hyperparameters, and the covariance of
+// each energy with the torques (to estimate T and V from torque data alone).
+//
+// States are rows x = (q, qd, qdd) of length 3n; covariance matrices of many
+// states are sample-major: entry (r n + i, s n + j) is cov(tau_i(x_r), tau_j(x_s)).
+#include <Eigen/Dense>
+#include <string>
+#include <vector>
+
+#include "gipdyn/joint_types.hpp"
+
+namespace gipdyn {
+
+class LagrangianKernel {
+ public:
+  explicit LagrangianKernel(JointTypes joints);
+
+  const JointTypes& joints() const { return joints_; }
+  int num_params() const { return static_cast<int>(log_params_.size()); }
+  // "kinetic.velocity.w1_2", "kinetic.joint2.factor1.l_cos", "potential.joint1.bias", ...
+  std::vector<std::string> param_names() const;
+  const Eigen::VectorXd& log_params() const { return log_params_; }
+  // Throws gipdyn::Error unless the length is num_params() and every entry is finite.
+  void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& log_params);
+
+  // cov(tau(x1), tau(x2)), n x n.
+  void torque_block(const double* x1, const double* x2, Eigen::Ref<Eigen::MatrixXd> block) const;
+  // (rows(X1) n) x (rows(X2) n).
+  Eigen::MatrixXd torque_covariance(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2) const;
+  // Lower triangle of torque_covariance(X, X) (the strict upper one is unspecified).
+  void torque_gram_lower(const Eigen::MatrixXd& X, Eigen::MatrixXd& K) const;
+  // grad(p) += sum_ab W_ab dK_ab / dlog(theta_p), K = torque_covariance(X, X),
+  // for a symmetric W of which only the lower triangle is read.
+  void add_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W_lower, Eigen::Ref<Eigen::VectorXd> grad) const;
+
+  // cov(T(x), tau(X)) and cov(V(q), tau(X)), rows(X) n each; x is a full state
+  // (only q and qd are read).
+  Eigen::RowVectorXd kinetic_torque_covariance(const double* x, const Eigen::MatrixXd& X) const;
+  Eigen::RowVectorXd potential_torque_covariance(const double* x, const Eigen::MatrixXd& X) const;
+
+  // Data-driven start: every position factor is 1 on the diagonal (weights
+  // share it with the bias), then the velocity weights and the potential's
+  // factors are scaled so that each energy's torques have a prior variance of
+  // about target_variance / 2 on the states X.
+  void initialize(const Eigen::MatrixXd& X, double target_variance);
+
+  // Indices into log_params().
+  int num_velocity_weights() const { return n_ * (n_ + 1) / 2; }
+  int kinetic_position_offset() const { return num_velocity_weights(); }
+  int potential_offset() const { return potential_offset_; }
+
+ private:
+  struct PairTerms;
+  // Per-joint jets of the position kernels for one pair of states.
+  void position_jets(const double* q1, const double* q2, PairTerms& t) const;
+  // The kinetic energy's position quantities and velocity products for a pair.
+  void kinetic_pair_terms(const double* x1, const double* x2, PairTerms& t) const;
+  void assemble_block(const double* x1, const double* x2, PairTerms& t, Eigen::Ref<Eigen::MatrixXd> block) const;
+  void add_pair_gradient(const double* x1, const double* x2, const Eigen::Ref<const Eigen::MatrixXd>& W, PairTerms& t,
+                         Eigen::Ref<Eigen::VectorXd> grad) const;
+  int factor_size(int joint) const { return joints_.is_revolute(joint) ? 3 : 2; }
+
+  JointTypes joints_;
+  int n_ = 0;
+  int potential_offset_ = 0;
+  std::vector<int> kinetic_offset_;    // per joint: its first factor's bias; the second factor follows
+  std::vector<int> potential_joint_;   // per joint: its factor's bias
+  Eigen::VectorXd log_params_;
+  Eigen::VectorXd params_;    // exp(log_params_)
+  Eigen::MatrixXd nu_;        // symmetric velocity weights: lambda_aa on the diagonal, lambda_ab / 2 off it
+};
+
+}  // namespace gipdyn

@@ -1,0 +1,324 @@
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
+
+#include <chrono>
+#include <cmath>
+#include <limits>
+#include <random>
+
+#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/gp/cholesky.hpp"
+#include "gipdyn/memory.hpp"
+#include "gipdyn/training_data.hpp"
+
+namespace gipdyn {
+namespace {
+
+constexpr double kLog2Pi = 1.8378770664093453;
+
+void check_options(const TrainOptions& o) {
+  TrainOptions shared = o;
+  shared.kernel = "gip";  // the kernel is LIP's own; the rest is checked as for any GP
+  shared.validate();
+  if (o.mean != MeanKind::Zero) throw Error("lip: TrainOptions::mean must be zero (the energies have zero prior mean)");
+  if (o.prior.enabled) throw Error("lip: TrainOptions::prior is not supported; leave it off");
+  if (o.warm_start_rows > 0) throw Error("lip: TrainOptions::warm_start_rows is not supported; leave it at 0");
+}
+
+// Sample-major stacking: entry r n + i is Y(r, i).
+Eigen::VectorXd stack_rows(const Eigen::MatrixXd& Y) {
+  const Eigen::MatrixXd Yt = Y.transpose();
+  return Eigen::Map<const Eigen::VectorXd>(Yt.data(), Yt.size());
+}
+
+// The negative log marginal likelihood and its gradient with respect to
+// (kernel log-parameters, log noise variance per joint).
+struct Evaluation {
+  bool ok = false;
+  std::string message;
+  double nll = 0.0;
+  double jitter = 0.0;
+  Eigen::VectorXd gradient;
+};
+
+class LikelihoodWorkspace {
+ public:
+  LikelihoodWorkspace(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int n, const JitterPolicy& jitter)
+      : X_(X), y_(y), n_(n), jitter_(jitter) {}
+
+  // K + noise on the diagonal, factorised in K_; alpha_ = K^-1 y.
+  CholeskyResult factorise(const LagrangianKernel& kernel, const Eigen::VectorXd& noise) {
+    auto build = [&](Eigen::MatrixXd& K) {
+      kernel.torque_gram_lower(X_, K);
+      for (Eigen::Index r = 0; r < X_.rows(); ++r)
+        for (int i = 0; i < n_; ++i) K(r * n_ + i, r * n_ + i) += noise(i);
+    };
+    build(K_);
+    const CholeskyResult c = cholesky_with_jitter(K_, build, jitter_);
+    if (!c.ok()) return c;
+    alpha_ = y_;
+    cholesky_solve(K_, alpha_);
+    return c;
+  }
+
+  Evaluation evaluate(const LagrangianKernel& kernel, const Eigen::VectorXd& noise, bool want_gradient) {
+    Evaluation e;
+    const CholeskyResult c = factorise(kernel, noise);
+    if (!c.ok()) {
+      e.message = c.message;
+      return e;
+    }
+    e.jitter = c.jitter;
+    e.nll = 0.5 * y_.dot(alpha_) + K_.diagonal().array().log().sum() + 0.5 * static_cast<double>(y_.size()) * kLog2Pi;
+    if (!std::isfinite(e.nll)) {
+      e.message = "the marginal likelihood is not finite";
+      return e;
+    }
+    e.ok = true;
+    if (!want_gradient) return e;
+    // W = K^-1 - alpha alpha^T (lower triangle): dNLL/dtheta = 1/2 <W, dK/dtheta>.
+    if (!cholesky_inverse_in_place(K_)) {
+      e.ok = false;
+      e.message = "cannot invert the kernel matrix";
+      return e;
+    }
+    K_.triangularView<Eigen::Lower>() -= alpha_ * alpha_.transpose();
+    const int P = kernel.num_params();
+    e.gradient = Eigen::VectorXd::Zero(P + n_);
+    kernel.add_gradient(X_, K_, e.gradient.head(P));
+    e.gradient.head(P) *= 0.5;
+    for (Eigen::Index r = 0; r < X_.rows(); ++r)
+      for (int i = 0; i < n_; ++i) e.gradient(P + i) += 0.5 * noise(i) * K_(r * n_ + i, r * n_ + i);
+    return e;
+  }
+
+  const Eigen::VectorXd& alpha() const { return alpha_; }
+
+ private:
+  const Eigen::MatrixXd& X_;
+  const Eigen::VectorXd& y_;
+  int n_;
+  JitterPolicy jitter_;
+  Eigen::MatrixXd K_;
+  Eigen::VectorXd alpha_;
+};
+
+}  // namespace
+
+LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorXd noise_variances, double torque_scale,
+                                         Eigen::MatrixXd X, Eigen::VectorXd alpha)
+    : kernel_(std::move(kernel)), noise_(std::move(noise_variances)), scale_(torque_scale), X_(std::move(X)),
+      alpha_(std::move(alpha)) {
+  const int n = kernel_.joints().size();
+  if (noise_.size() != n || X_.cols() != 3 * n || alpha_.size() != X_.rows() * n || !(scale_ > 0.0))
+    throw Error("LagrangianEstimator: inconsistent shapes (noise, training states, weights or scale)");
+}
+
+LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                                                         const JointTypes& joints, const TrainOptions& o,
+                                                         const ProgressCallback& progress) {
+  using Clock = std::chrono::steady_clock;
+  const auto t0 = Clock::now();
+  auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
+  check_options(o);
+  validate_training_data(X, Y, joints);
+  const int n = joints.size();
+  const double system = static_cast<double>(X.rows()) * n;
+  // One (N n)^2 matrix: the kernel, its factor and then its inverse in place.
+  require_memory(system * system * 8.0, "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) +
+                                            " joints (one " + std::to_string(static_cast<long>(system)) +
+                                            "-square matrix)",
+                 "train on fewer rows");
+  use_single_threaded_blas();
+
+  // One scale for all joints: the energies couple them, so no per-joint scaling.
+  const double scale = std::sqrt(std::max(Y.squaredNorm() / static_cast<double>(Y.size()), 1e-300));
+  const Eigen::VectorXd y = stack_rows(Y) / scale;
+  Eigen::VectorXd joint_variance(n);
+  for (int i = 0; i < n; ++i)
+    joint_variance(i) = std::max(Y.col(i).squaredNorm() / static_cast<double>(Y.rows()) / (scale * scale), 1e-12);
+
+  LagrangianKernel kernel(joints);
+  kernel.initialize(X, 1.0);
+  const int P = kernel.num_params();
+  Eigen::VectorXd x0(P + n);
+  x0.head(P) = kernel.log_params();
+  x0.tail(n) = (o.initial_noise_fraction * joint_variance).array().log();
+  OptimizerOptions opt = o.optimizer;
+  opt.lower_bounds = Eigen::VectorXd::Constant(P + n, -30.0);
+  opt.upper_bounds = Eigen::VectorXd::Constant(P + n, 30.0);
+  opt.lower_bounds.tail(n) = (o.min_noise_fraction * joint_variance).array().log();
+  opt.upper_bounds.tail(n) = (10.0 * joint_variance).array().log();
+  opt.gradient_tolerance = o.gradient_tolerance_per_row * system;
+
+  LikelihoodWorkspace ws(X, y, n, o.jitter);
+  LagrangianKernel trial = kernel;
+  std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
+  std::normal_distribution<double> normal(0.0, 1.0);
+
+  FitOutcome out;
+  JointReport shared;
+  Eigen::VectorXd best_x;
+  double best_f = std::numeric_limits<double>::infinity();
+  OptimizerResult kept;
+  // The coupled likelihood has optima that explain whole joints as noise
+  // (UR10, 150 rows: NLL -2406 against -4600, test nMSE 100-1000x worse), and
+  // which start reaches the better one depends on the starting noise. So the
+  // data-driven start is tried with the starting noise at 1, 0.1 and 0.01 times
+  // TrainOptions::initial_noise_fraction (never below the floor); the restarts
+  // perturb the first of them. The lowest NLL is kept.
+  const int noise_starts = 3;
+  for (int r = 0; r < noise_starts + o.restarts; ++r) {
+    Eigen::VectorXd start = x0;
+    if (r > 0 && r < noise_starts) start.tail(n).array() += std::log(std::pow(0.1, r));
+    if (r >= noise_starts)
+      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
+    start = start.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
+    Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+      trial.set_log_params(x.head(P));
+      const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
+      if (!e.ok) return false;
+      f = e.nll;
+      g = e.gradient;
+      return true;
+    };
+    ProgressCallback cb;
+    if (progress)
+      cb = [&](const ProgressEvent& optimizer_event) {
+        ProgressEvent e = optimizer_event;
+        e.estimator = "lip";
+        e.restart = r;
+        e.rows = static_cast<long>(X.rows());
+        e.seconds = seconds();
+        progress(e);
+      };
+    OptimizerResult res = minimize(objective, start, opt, cb);
+    shared.evaluations += res.evaluations;
+    shared.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
+    if (res.usable() && res.f < best_f) {
+      best_f = res.f;
+      best_x = res.x;
+      kept = res;
+    } else if (best_x.size() == 0) {
+      kept.message = res.message;
+    }
+  }
+  shared.status = kept.status;
+  shared.message = kept.message;
+  shared.grad_norm = kept.grad_norm;
+  out.report.seconds = seconds();
+  if (best_x.size() == 0) {
+    out.report.message = "lip: " + (kept.message.empty() ? std::string("no start could be evaluated") : kept.message);
+    return out;
+  }
+  kernel.set_log_params(best_x.head(P));
+  const Eigen::VectorXd noise = best_x.tail(n).array().exp();
+  const Evaluation final_fit = ws.evaluate(kernel, noise, false);
+  if (!final_fit.ok) {
+    out.report.message = "lip: final fit failed: " + final_fit.message;
+    return out;
+  }
+  shared.nll = final_fit.nll;
+  shared.jitter = final_fit.jitter;
+  shared.seconds = seconds();
+  for (int i = 0; i < n; ++i) {
+    JointReport j = shared;
+    j.joint = i;
+    j.noise_variance = noise(i) / joint_variance(i);  // a share of the joint's torque variance, as for GP joints
+    out.report.joints.push_back(j);
+  }
+  out.report.status = combine_joint_statuses(out.report.joints);
+  out.estimator = std::make_unique<LagrangianEstimator>(kernel, noise * scale * scale, scale, X, ws.alpha());
+  return out;
+}
+
+Eigen::MatrixXd LagrangianEstimator::state_rows(const Eigen::Ref<const Eigen::MatrixXd>& X, int min_cols,
+                                                const char* what) const {
+  const int n = joints().size();
+  if (X.cols() < min_cols * n)
+    throw Error(std::string(what) + ": " + std::to_string(X.cols()) + " columns given, at least " +
+                std::to_string(min_cols * n) + " expected for " + std::to_string(n) + " joints");
+  if (!X.allFinite()) throw Error(std::string(what) + ": the input has NaN or infinite values");
+  Eigen::MatrixXd full = Eigen::MatrixXd::Zero(X.rows(), 3 * n);
+  full.leftCols(std::min<Eigen::Index>(X.cols(), 3 * n)) = X.leftCols(std::min<Eigen::Index>(X.cols(), 3 * n));
+  return full;
+}
+
+Eigen::MatrixXd LagrangianEstimator::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
+  const int n = joints().size();
+  if (X.cols() != 3 * n)
+    throw Error("lip predict: " + std::to_string(X.cols()) + " columns given, " + std::to_string(3 * n) +
+                " expected (q, qd, qdd of " + std::to_string(n) + " joints)");
+  Eigen::MatrixXd tau(X.rows(), n);
+  constexpr Eigen::Index kRows = 256;  // bounds the (rows n) x (N n) cross-covariance
+  for (Eigen::Index r0 = 0; r0 < X.rows(); r0 += kRows) {
+    const Eigen::Index m = std::min(kRows, X.rows() - r0);
+    const Eigen::VectorXd stacked = kernel_.torque_covariance(X.middleRows(r0, m), X_) * alpha_ * scale_;
+    tau.middleRows(r0, m) = Eigen::Map<const Eigen::MatrixXd>(stacked.data(), n, m).transpose();
+  }
+  return tau;
+}
+
+// The posterior mean of an energy: its covariance with the training torques times alpha.
+template <class Covariance>
+Eigen::VectorXd LagrangianEstimator::energy(const Eigen::MatrixXd& states, Covariance&& covariance) const {
+  Eigen::VectorXd E(states.rows());
+  for (Eigen::Index r = 0; r < states.rows(); ++r) {
+    const Eigen::VectorXd x = states.row(r).transpose();
+    E(r) = covariance(x.data()).dot(alpha_) * scale_;
+  }
+  return E;
+}
+
+Eigen::VectorXd LagrangianEstimator::kinetic_energy(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
+  return energy(state_rows(X, 2, "lip kinetic_energy"),
+                [&](const double* x) { return kernel_.kinetic_torque_covariance(x, X_); });
+}
+
+Eigen::VectorXd LagrangianEstimator::potential_energy(const Eigen::Ref<const Eigen::MatrixXd>& Q) const {
+  return energy(state_rows(Q, 1, "lip potential_energy"),
+                [&](const double* x) { return kernel_.potential_torque_covariance(x, X_); });
+}
+
+ModelContainer LagrangianEstimator::to_container() const {
+  ModelContainer c;
+  c.header["estimator"] = "lip";
+  c.header["joints"] = joints().str();
+  c.header["torque_scale"] = scale_;
+  c.header["param_names"] = kernel_.param_names();
+  c.add("log_params", kernel_.log_params());
+  c.add("noise_variances", noise_);
+  c.add("training_states", X_);
+  c.add("alpha", alpha_);
+  return c;
+}
+
+nlohmann::json LagrangianEstimator::summary() const {
+  nlohmann::json params;
+  const auto names = kernel_.param_names();
+  for (size_t k = 0; k < names.size(); ++k) params[names[k]] = std::exp(kernel_.log_params()(static_cast<Eigen::Index>(k)));
+  return {{"estimator", "lip"},
+          {"training_rows", X_.rows()},
+          {"noise_variances", std::vector<double>(noise_.data(), noise_.data() + noise_.size())},
+          {"torque_scale", scale_},
+          {"hyperparameters", params}};
+}
+
+LagrangianEstimator LagrangianEstimator::from_container(const ModelContainer& c, const std::string& what) {
+  const JointTypes joints = JointTypes::parse(c.header.at("joints").get<std::string>());
+  LagrangianKernel kernel(joints);
+  const Eigen::MatrixXd& p = c.array("log_params", what);
+  const Eigen::MatrixXd& noise = c.array("noise_variances", what);
+  const Eigen::MatrixXd& X = c.array("training_states", what);
+  const Eigen::MatrixXd& alpha = c.array("alpha", what);
+  const double scale = c.header.at("torque_scale").get<double>();
+  const int n = joints.size();
+  if (p.cols() != 1 || p.rows() != kernel.num_params() || noise.cols() != 1 || noise.rows() != n ||
+      X.cols() != 3 * n || alpha.cols() != 1 || alpha.rows() != X.rows() * n || !(scale > 0.0) || !p.allFinite() ||
+      !noise.allFinite() || !X.allFinite() || !alpha.allFinite())
+    throw Error(what + " is corrupted (lip arrays have the wrong shape or non-finite values); re-save the model");
+  kernel.set_log_params(p.col(0));
+  return LagrangianEstimator(kernel, noise.col(0), scale, X, alpha.col(0));
+}
+
+}  // namespace gipdyn

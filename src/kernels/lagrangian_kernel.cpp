@@ -1,0 +1,505 @@
+#include "gipdyn/kernels/lagrangian_kernel.hpp"
+
+#include <algorithm>
+#include <array>
+#include <cmath>
+#include <thread>
+
+#include "gipdyn/error.hpp"
+
+// Notation (docs/method.md section 11). For one pair of states x1 = (q1, qd1,
+// qdd1), x2 = (q2, qd2, qdd2) and a position kernel p(q1, q2) = prod_m p_m:
+//   P = p, g_i = dp/dq1_i, g'_j = dp/dq2_j, H_ij = d2p/dq1_i dq2_j.
+// Each joint contributes a jet (p_m, dp_m/dq1_m, dp_m/dq2_m, d2p_m/dq1_m dq2_m);
+// every position quantity is a product of one jet entry per joint.
+//
+// With nu the symmetric velocity weights (lambda_aa, lambda_ab / 2) and
+//   S(x, y)_ij = 2 delta_ij (nu (x o y))_i + 2 nu_ij y_i x_j,
+// the kinetic energy's torque covariance is
+//   K_ij = S(qdd1, qdd2) P + S(qdd1, qd2) qd2.g' + S(qd1, qdd2) qd1.g + S(qd1, qd2) qd1' H qd2
+//        - 2 qd2_i (nu (qdd1 o qd2))_i g'_j - 2 qd2_i (nu (qd1 o qd2))_i (H' qd1)_j
+//        - 2 qd1_j (nu (qdd2 o qd1))_j g_i  - 2 qd1_j (nu (qd1 o qd2))_j (H qd2)_i
+//        + (qd1 o qd2)' nu (qd1 o qd2) H_ij
+// and the potential energy's is H_ij of its own position kernel.
+
+namespace gipdyn {
+
+using Jet = std::array<double, 4>;
+
+namespace {
+
+Jet jet_product(const Jet& a, const Jet& b) {
+  return {a[0] * b[0], a[1] * b[0] + a[0] * b[1], a[2] * b[0] + a[0] * b[2],
+          a[3] * b[0] + a[1] * b[2] + a[2] * b[1] + a[0] * b[3]};
+}
+
+// One linear factor s0 + sum_k l_k z_k(q1) z_k(q2) and its derivatives.
+// params: (s0, l_cos, l_sin) for a revolute joint, (s0, l) for a prismatic one.
+Jet factor_jet(bool revolute, const double* params, double q1, double q2) {
+  if (!revolute) {
+    const double l = params[1];
+    return {params[0] + l * q1 * q2, l * q2, l * q1, l};
+  }
+  const double c1 = std::cos(q1), s1 = std::sin(q1), c2 = std::cos(q2), s2 = std::sin(q2);
+  const double lc = params[1], ls = params[2];
+  return {params[0] + lc * c1 * c2 + ls * s1 * s2, -lc * s1 * c2 + ls * c1 * s2, -lc * c1 * s2 + ls * s1 * c2,
+          lc * s1 * s2 + ls * c1 * c2};
+}
+
+// d factor_jet / d log(param k).
+Jet factor_jet_derivative(bool revolute, const double* params, int k, double q1, double q2) {
+  if (k == 0) return {params[0], 0.0, 0.0, 0.0};
+  if (!revolute) {
+    const double l = params[1];
+    return {l * q1 * q2, l * q2, l * q1, l};
+  }
+  const double c1 = std::cos(q1), s1 = std::sin(q1), c2 = std::cos(q2), s2 = std::sin(q2);
+  if (k == 1) {
+    const double lc = params[1];
+    return {lc * c1 * c2, -lc * s1 * c2, -lc * c1 * s2, lc * s1 * s2};
+  }
+  const double ls = params[2];
+  return {ls * s1 * s2, ls * c1 * s2, ls * s1 * c2, ls * c1 * c2};
+}
+
+// Coefficients of a linear function of the position quantities:
+// value = cP P + cg.g + cgp.g' + <cH, H>.
+struct PositionCoefficients {
+  double cP = 0.0;
+  Eigen::VectorXd cg, cgp;
+  Eigen::MatrixXd cH;
+  void reset(int n) {
+    cP = 0.0;
+    cg.setZero(n);
+    cgp.setZero(n);
+    cH.setZero(n, n);
+  }
+};
+
+// The linear function of the position quantities of the product of `jets`, in
+// O(n^2): products over all joints but one or two from prefix and suffix products.
+double contract_position(const std::vector<Jet>& jets, const PositionCoefficients& c, std::vector<double>& prefix,
+                         std::vector<double>& suffix) {
+  const int n = static_cast<int>(jets.size());
+  prefix.assign(static_cast<size_t>(n) + 1, 1.0);
+  suffix.assign(static_cast<size_t>(n) + 1, 1.0);
+  for (int m = 0; m < n; ++m) prefix[static_cast<size_t>(m) + 1] = prefix[static_cast<size_t>(m)] * jets[static_cast<size_t>(m)][0];
+  for (int m = n - 1; m >= 0; --m) suffix[static_cast<size_t>(m)] = suffix[static_cast<size_t>(m) + 1] * jets[static_cast<size_t>(m)][0];
+  double value = c.cP * prefix[static_cast<size_t>(n)];
+  for (int i = 0; i < n; ++i) {
+    const Jet& ji = jets[static_cast<size_t>(i)];
+    const double all_but_i = prefix[static_cast<size_t>(i)] * suffix[static_cast<size_t>(i) + 1];
+    value += (c.cg(i) * ji[1] + c.cgp(i) * ji[2] + c.cH(i, i) * ji[3]) * all_but_i;
+    double between = 1.0;  // product of jets strictly between i and j
+    for (int j = i + 1; j < n; ++j) {
+      const Jet& jj = jets[static_cast<size_t>(j)];
+      const double all_but_ij = prefix[static_cast<size_t>(i)] * between * suffix[static_cast<size_t>(j) + 1];
+      value += (c.cH(i, j) * ji[1] * jj[2] + c.cH(j, i) * jj[1] * ji[2]) * all_but_ij;
+      between *= jj[0];
+    }
+  }
+  return value;
+}
+
+// The position quantities themselves (P, g, g', H) of the product of `jets`.
+void position_quantities(const std::vector<Jet>& jets, double& P, Eigen::VectorXd& g, Eigen::VectorXd& gp,
+                         Eigen::MatrixXd& H, std::vector<double>& prefix, std::vector<double>& suffix) {
+  const int n = static_cast<int>(jets.size());
+  prefix.assign(static_cast<size_t>(n) + 1, 1.0);
+  suffix.assign(static_cast<size_t>(n) + 1, 1.0);
+  for (int m = 0; m < n; ++m) prefix[static_cast<size_t>(m) + 1] = prefix[static_cast<size_t>(m)] * jets[static_cast<size_t>(m)][0];
+  for (int m = n - 1; m >= 0; --m) suffix[static_cast<size_t>(m)] = suffix[static_cast<size_t>(m) + 1] * jets[static_cast<size_t>(m)][0];
+  P = prefix[static_cast<size_t>(n)];
+  for (int i = 0; i < n; ++i) {
+    const Jet& ji = jets[static_cast<size_t>(i)];
+    const double all_but_i = prefix[static_cast<size_t>(i)] * suffix[static_cast<size_t>(i) + 1];
+    g(i) = ji[1] * all_but_i;
+    gp(i) = ji[2] * all_but_i;
+    H(i, i) = ji[3] * all_but_i;
+    double between = 1.0;
+    for (int j = i + 1; j < n; ++j) {
+      const Jet& jj = jets[static_cast<size_t>(j)];
+      const double all_but_ij = prefix[static_cast<size_t>(i)] * between * suffix[static_cast<size_t>(j) + 1];
+      H(i, j) = ji[1] * jj[2] * all_but_ij;
+      H(j, i) = jj[1] * ji[2] * all_but_ij;
+      between *= jj[0];
+    }
+  }
+}
+
+// S(x, y) of the notation above.
+void symmetric_term(const Eigen::MatrixXd& nu, const Eigen::VectorXd& x, const Eigen::VectorXd& y,
+                    Eigen::MatrixXd& S) {
+  S.noalias() = 2.0 * nu.cwiseProduct(y * x.transpose());
+  S.diagonal() += 2.0 * nu * x.cwiseProduct(y);
+}
+
+// d <W, S(x, y)> / d nu_ab (entries of nu taken as independent) added to G, times s.
+void add_symmetric_term_gradient(const Eigen::MatrixXd& W, const Eigen::VectorXd& x, const Eigen::VectorXd& y,
+                                 double s, Eigen::MatrixXd& G) {
+  G.noalias() += (2.0 * s) * (W.diagonal() * x.cwiseProduct(y).transpose() + W.cwiseProduct(y * x.transpose()));
+}
+
+// Splits [0, rows) into chunks that depend on the rows only, and runs them on
+// the machine's threads: body(begin, end, chunk). Callers that accumulate keep
+// one sum per chunk and add them in chunk order, so results do not depend on
+// the core count.
+constexpr int kMaxChunks = 8;
+template <class Body>
+void parallel_chunks(Eigen::Index rows, Body&& body) {
+  const int chunks = static_cast<int>(std::clamp<Eigen::Index>(rows / 16, 1, kMaxChunks));
+  // Row r of a lower triangle costs about r: balance the work, not the rows.
+  std::vector<Eigen::Index> bounds(static_cast<size_t>(chunks) + 1, rows);
+  bounds[0] = 0;
+  for (int c = 1; c < chunks; ++c)
+    bounds[static_cast<size_t>(c)] =
+        static_cast<Eigen::Index>(static_cast<double>(rows) * std::sqrt(static_cast<double>(c) / chunks));
+  const int threads = std::min<int>(chunks, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
+  auto worker = [&](int first) {
+    for (int c = first; c < chunks; c += threads)
+      body(bounds[static_cast<size_t>(c)], bounds[static_cast<size_t>(c) + 1], c);
+  };
+  if (threads <= 1) {
+    worker(0);
+    return;
+  }
+  std::vector<std::thread> pool;
+  for (int t = 0; t < threads; ++t) pool.emplace_back(worker, t);
+  for (auto& th : pool) th.join();
+}
+
+}  // namespace
+
+// Scratch for one pair of states.
+struct LagrangianKernel::PairTerms {
+  std::vector<Jet> kinetic, potential;
+  double P = 0.0, PV = 0.0;
+  Eigen::VectorXd g, gp, gV, gpV;
+  // Velocity products of the notation above: e = qd1 o qd2, b = nu e,
+  // a5 = nu (qdd1 o qd2), c7 = nu (qdd2 o qd1), h6 = H' qd1, h8 = H qd2,
+  // P1 = qd1.g, P1p = qd2.g', Q = qd1' H qd2.
+  Eigen::VectorXd e, b, a5, c7, h6, h8;
+  double P1 = 0.0, P1p = 0.0, Q = 0.0;
+  Eigen::MatrixXd H, HV, S;
+  std::vector<double> prefix, suffix;
+  explicit PairTerms(int n)
+      : kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), H(n, n),
+        HV(n, n), S(n, n) {}
+};
+
+LagrangianKernel::LagrangianKernel(JointTypes joints) : joints_(std::move(joints)), n_(joints_.size()) {
+  int offset = num_velocity_weights();
+  for (int m = 0; m < n_; ++m) {
+    kinetic_offset_.push_back(offset);
+    offset += 2 * factor_size(m);
+  }
+  potential_offset_ = offset;
+  for (int m = 0; m < n_; ++m) {
+    potential_joint_.push_back(offset);
+    offset += factor_size(m);
+  }
+  log_params_ = Eigen::VectorXd::Zero(offset);
+  set_log_params(log_params_);
+}
+
+std::vector<std::string> LagrangianKernel::param_names() const {
+  std::vector<std::string> names;
+  for (int a = 0; a < n_; ++a)
+    for (int b = a; b < n_; ++b)
+      names.push_back("kinetic.velocity.w" + std::to_string(a + 1) + "_" + std::to_string(b + 1));
+  auto factor_names = [&](int m, const std::string& prefix) {
+    names.push_back(prefix + ".bias");
+    if (joints_.is_revolute(m)) {
+      names.push_back(prefix + ".l_cos");
+      names.push_back(prefix + ".l_sin");
+    } else {
+      names.push_back(prefix + ".l_q");
+    }
+  };
+  for (int m = 0; m < n_; ++m)
+    for (int f = 1; f <= 2; ++f)
+      factor_names(m, "kinetic.joint" + std::to_string(m + 1) + ".factor" + std::to_string(f));
+  for (int m = 0; m < n_; ++m) factor_names(m, "potential.joint" + std::to_string(m + 1));
+  return names;
+}
+
+void LagrangianKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& log_params) {
+  if (log_params.size() != log_params_.size())
+    throw Error("LagrangianKernel: " + std::to_string(log_params.size()) + " log-parameters given, " +
+                std::to_string(log_params_.size()) + " expected for joints " + joints_.str());
+  if (!log_params.allFinite()) throw Error("LagrangianKernel: a log-parameter is not finite");
+  log_params_ = log_params;
+  params_ = log_params_.array().exp();
+  nu_.resize(n_, n_);
+  int k = 0;
+  for (int a = 0; a < n_; ++a)
+    for (int b = a; b < n_; ++b, ++k) {
+      nu_(a, b) = nu_(b, a) = a == b ? params_(k) : 0.5 * params_(k);
+    }
+}
+
+void LagrangianKernel::position_jets(const double* q1, const double* q2, PairTerms& t) const {
+  for (int m = 0; m < n_; ++m) {
+    const bool rev = joints_.is_revolute(m);
+    const double* kp = params_.data() + kinetic_offset_[static_cast<size_t>(m)];
+    t.kinetic[static_cast<size_t>(m)] =
+        jet_product(factor_jet(rev, kp, q1[m], q2[m]), factor_jet(rev, kp + factor_size(m), q1[m], q2[m]));
+    t.potential[static_cast<size_t>(m)] =
+        factor_jet(rev, params_.data() + potential_joint_[static_cast<size_t>(m)], q1[m], q2[m]);
+  }
+}
+
+void LagrangianKernel::kinetic_pair_terms(const double* x1, const double* x2, PairTerms& t) const {
+  const int n = n_;
+  position_jets(x1, x2, t);
+  position_quantities(t.kinetic, t.P, t.g, t.gp, t.H, t.prefix, t.suffix);
+  const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
+  t.e = qd1.cwiseProduct(qd2);
+  t.b.noalias() = nu_ * t.e;
+  t.a5.noalias() = nu_ * qdd1.cwiseProduct(qd2);
+  t.c7.noalias() = nu_ * qdd2.cwiseProduct(qd1);
+  t.h6.noalias() = t.H.transpose() * qd1;
+  t.h8.noalias() = t.H * qd2;
+  t.P1 = qd1.dot(t.g);
+  t.P1p = qd2.dot(t.gp);
+  t.Q = qd1.dot(t.h8);
+}
+
+void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTerms& t,
+                                      Eigen::Ref<Eigen::MatrixXd> K) const {
+  const int n = n_;
+  kinetic_pair_terms(x1, x2, t);
+  position_quantities(t.potential, t.PV, t.gV, t.gpV, t.HV, t.prefix, t.suffix);
+  const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
+  const Eigen::VectorXd &e = t.e, &b = t.b, &a5 = t.a5, &c7 = t.c7, &h6 = t.h6, &h8 = t.h8;
+  const double P1 = t.P1, P1p = t.P1p, Q = t.Q, U = e.dot(b);
+
+  symmetric_term(nu_, qdd1, qdd2, t.S);
+  K.noalias() = t.P * t.S;
+  symmetric_term(nu_, qdd1, qd2, t.S);
+  K.noalias() += P1p * t.S;
+  symmetric_term(nu_, qd1, qdd2, t.S);
+  K.noalias() += P1 * t.S;
+  symmetric_term(nu_, qd1, qd2, t.S);
+  K.noalias() += Q * t.S;
+  K.noalias() -= 2.0 * qd2.cwiseProduct(a5) * t.gp.transpose();
+  K.noalias() -= 2.0 * qd2.cwiseProduct(b) * h6.transpose();
+  K.noalias() -= 2.0 * t.g * qd1.cwiseProduct(c7).transpose();
+  K.noalias() -= 2.0 * h8 * qd1.cwiseProduct(b).transpose();
+  K.noalias() += U * t.H + t.HV;
+}
+
+void LagrangianKernel::torque_block(const double* x1, const double* x2, Eigen::Ref<Eigen::MatrixXd> block) const {
+  PairTerms t(n_);
+  assemble_block(x1, x2, t, block);
+}
+
+Eigen::MatrixXd LagrangianKernel::torque_covariance(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2) const {
+  const int n = n_;
+  Eigen::MatrixXd K(X1.rows() * n, X2.rows() * n);
+  // Rows of X in contiguous memory: states are read one at a time.
+  const Eigen::MatrixXd A = X1.transpose(), B = X2.transpose();
+  parallel_chunks(X1.rows(), [&](Eigen::Index r0, Eigen::Index r1, int) {
+    PairTerms t(n);
+    Eigen::MatrixXd block(n, n);
+    for (Eigen::Index r = r0; r < r1; ++r)
+      for (Eigen::Index s = 0; s < X2.rows(); ++s) {
+        assemble_block(A.col(r).data(), B.col(s).data(), t, block);
+        K.block(r * n, s * n, n, n) = block;
+      }
+  });
+  return K;
+}
+
+void LagrangianKernel::torque_gram_lower(const Eigen::MatrixXd& X, Eigen::MatrixXd& K) const {
+  const int n = n_;
+  K.resize(X.rows() * n, X.rows() * n);
+  const Eigen::MatrixXd A = X.transpose();
+  parallel_chunks(X.rows(), [&](Eigen::Index r0, Eigen::Index r1, int) {
+    PairTerms t(n);
+    Eigen::MatrixXd block(n, n);
+    for (Eigen::Index r = r0; r < r1; ++r)
+      for (Eigen::Index s = 0; s <= r; ++s) {
+        assemble_block(A.col(r).data(), A.col(s).data(), t, block);
+        K.block(r * n, s * n, n, n) = block;
+      }
+  });
+}
+
+void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, const Eigen::Ref<const Eigen::MatrixXd>& W,
+                                         PairTerms& t, Eigen::Ref<Eigen::VectorXd> grad) const {
+  const int n = n_;
+  kinetic_pair_terms(x1, x2, t);
+  const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
+  const Eigen::VectorXd &e = t.e, &b = t.b, &a5 = t.a5, &c7 = t.c7, &h6 = t.h6, &h8 = t.h8;
+  const double P1 = t.P1, P1p = t.P1p, Q = t.Q, WH = W.cwiseProduct(t.H).sum();
+
+  // Velocity weights: G_ab = d<W, K>/d nu_ab with the entries of nu independent.
+  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, n);
+  add_symmetric_term_gradient(W, qdd1, qdd2, t.P, G);
+  add_symmetric_term_gradient(W, qdd1, qd2, P1p, G);
+  add_symmetric_term_gradient(W, qd1, qdd2, P1, G);
+  add_symmetric_term_gradient(W, qd1, qd2, Q, G);
+  G.noalias() -= 2.0 * qd2.cwiseProduct(W * t.gp) * qdd1.cwiseProduct(qd2).transpose();
+  G.noalias() -= 2.0 * qd2.cwiseProduct(W * h6) * e.transpose();
+  G.noalias() -= 2.0 * qd1.cwiseProduct(W.transpose() * t.g) * qdd2.cwiseProduct(qd1).transpose();
+  G.noalias() -= 2.0 * qd1.cwiseProduct(W.transpose() * h8) * e.transpose();
+  G.noalias() += WH * e * e.transpose();
+  int k = 0;
+  for (int a = 0; a < n; ++a)
+    for (int c = a; c < n; ++c, ++k) grad(k) += a == c ? nu_(a, a) * G(a, a) : nu_(a, c) * (G(a, c) + G(c, a));
+
+  // Position parameters: <W, K> as a linear function of each energy's position quantities.
+  PositionCoefficients kin;
+  kin.reset(n);
+  symmetric_term(nu_, qdd1, qdd2, t.S);
+  kin.cP = W.cwiseProduct(t.S).sum();
+  symmetric_term(nu_, qdd1, qd2, t.S);
+  kin.cgp = W.cwiseProduct(t.S).sum() * qd2 - 2.0 * W.transpose() * qd2.cwiseProduct(a5);
+  symmetric_term(nu_, qd1, qdd2, t.S);
+  kin.cg = W.cwiseProduct(t.S).sum() * qd1 - 2.0 * W * qd1.cwiseProduct(c7);
+  symmetric_term(nu_, qd1, qd2, t.S);
+  kin.cH = W.cwiseProduct(t.S).sum() * qd1 * qd2.transpose();
+  kin.cH.noalias() -= 2.0 * qd1 * (W.transpose() * qd2.cwiseProduct(b)).transpose();
+  kin.cH.noalias() -= 2.0 * (W * qd1.cwiseProduct(b)) * qd2.transpose();
+  kin.cH += e.dot(b) * W;
+  PositionCoefficients pot;
+  pot.reset(n);
+  pot.cH = W;
+
+  // The contraction is linear in each joint's jet: its partial derivatives are
+  // the contraction with that jet replaced by a unit jet.
+  auto jet_sensitivity = [&](std::vector<Jet>& jets, const PositionCoefficients& c, int m) {
+    const Jet saved = jets[static_cast<size_t>(m)];
+    Jet d{};
+    for (int r = 0; r < 4; ++r) {
+      Jet unit{0.0, 0.0, 0.0, 0.0};
+      unit[static_cast<size_t>(r)] = 1.0;
+      jets[static_cast<size_t>(m)] = unit;
+      d[static_cast<size_t>(r)] = contract_position(jets, c, t.prefix, t.suffix);
+    }
+    jets[static_cast<size_t>(m)] = saved;
+    return d;
+  };
+  auto dot = [](const Jet& a, const Jet& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]; };
+  for (int m = 0; m < n; ++m) {
+    const bool rev = joints_.is_revolute(m);
+    const int fs = factor_size(m);
+    const double q1 = x1[m], q2 = x2[m];
+    const Jet dk = jet_sensitivity(t.kinetic, kin, m);
+    const int ko = kinetic_offset_[static_cast<size_t>(m)];
+    const Jet f1 = factor_jet(rev, params_.data() + ko, q1, q2);
+    const Jet f2 = factor_jet(rev, params_.data() + ko + fs, q1, q2);
+    for (int p = 0; p < fs; ++p) {
+      grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, q1, q2), f2));
+      grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, q1, q2)));
+    }
+    const Jet dv = jet_sensitivity(t.potential, pot, m);
+    const int po = potential_joint_[static_cast<size_t>(m)];
+    for (int p = 0; p < fs; ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, q1, q2));
+  }
+}
+
+void LagrangianKernel::add_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W_lower,
+                                    Eigen::Ref<Eigen::VectorXd> grad) const {
+  const int n = n_;
+  const Eigen::MatrixXd A = X.transpose();
+  std::vector<Eigen::VectorXd> partial(kMaxChunks, Eigen::VectorXd::Zero(num_params()));
+  parallel_chunks(X.rows(), [&](Eigen::Index r0, Eigen::Index r1, int thread) {
+    PairTerms t(n);
+    Eigen::VectorXd& g = partial[static_cast<size_t>(thread)];
+    Eigen::MatrixXd Wd(n, n);
+    for (Eigen::Index r = r0; r < r1; ++r) {
+      for (Eigen::Index s = 0; s < r; ++s)  // the upper block (s, r) is the transpose: counted twice
+        add_pair_gradient(A.col(r).data(), A.col(s).data(), 2.0 * W_lower.block(r * n, s * n, n, n), t, g);
+      Wd = W_lower.block(r * n, r * n, n, n).selfadjointView<Eigen::Lower>();
+      add_pair_gradient(A.col(r).data(), A.col(r).data(), Wd, t, g);
+    }
+  });
+  for (const auto& g : partial) grad += g;
+}
+
+Eigen::RowVectorXd LagrangianKernel::kinetic_torque_covariance(const double* x, const Eigen::MatrixXd& X) const {
+  const int n = n_;
+  Eigen::RowVectorXd out(X.rows() * n);
+  PairTerms t(n);
+  const Eigen::Map<const Eigen::VectorXd> qd(x + n, n);
+  Eigen::VectorXd xs(3 * n);
+  for (Eigen::Index s = 0; s < X.rows(); ++s) {
+    xs = X.row(s).transpose();
+    position_jets(x, xs.data(), t);
+    position_quantities(t.kinetic, t.P, t.g, t.gp, t.H, t.prefix, t.suffix);
+    const auto qd2 = xs.segment(n, n), qdd2 = xs.segment(2 * n, n);
+    const Eigen::VectorXd e = qd.cwiseProduct(qd2);
+    const double U = e.dot(nu_ * e);
+    const Eigen::VectorXd row = 2.0 * qd.cwiseProduct(nu_ * qdd2.cwiseProduct(qd)) * t.P +
+                                2.0 * qd.cwiseProduct(nu_ * e) * qd2.dot(t.gp) - U * t.gp;
+    out.segment(s * n, n) = row.transpose();
+  }
+  return out;
+}
+
+Eigen::RowVectorXd LagrangianKernel::potential_torque_covariance(const double* x, const Eigen::MatrixXd& X) const {
+  const int n = n_;
+  Eigen::RowVectorXd out(X.rows() * n);
+  PairTerms t(n);
+  Eigen::VectorXd xs(3 * n);
+  for (Eigen::Index s = 0; s < X.rows(); ++s) {
+    xs = X.row(s).transpose();
+    position_jets(x, xs.data(), t);
+    position_quantities(t.potential, t.PV, t.gV, t.gpV, t.HV, t.prefix, t.suffix);
+    out.segment(s * n, n) = t.gpV.transpose();
+  }
+  return out;
+}
+
+void LagrangianKernel::initialize(const Eigen::MatrixXd& X, double target_variance) {
+  Eigen::VectorXd p = Eigen::VectorXd::Zero(num_params());  // velocity weights 1
+  auto set_factor = [&](int offset, int m, double bias_share) {
+    if (joints_.is_revolute(m)) {
+      // cos^2 + sin^2 = 1: the factor is exactly 1 on the diagonal.
+      p(offset) = std::log(bias_share);
+      p(offset + 1) = p(offset + 2) = std::log(1.0 - bias_share);
+    } else {
+      const double ms = X.rows() > 0 ? X.col(m).squaredNorm() / static_cast<double>(X.rows()) : 0.0;
+      p(offset) = std::log(bias_share);
+      p(offset + 1) = std::log((1.0 - bias_share) / (ms > 1e-12 ? ms : 1.0));
+    }
+  };
+  for (int m = 0; m < n_; ++m) {
+    const int ko = kinetic_offset_[static_cast<size_t>(m)];
+    set_factor(ko, m, 0.25);  // the two factors start apart, as GIP's
+    set_factor(ko + factor_size(m), m, 0.75);
+    set_factor(potential_joint_[static_cast<size_t>(m)], m, 0.5);
+  }
+  set_log_params(p);
+
+  // Measure the prior torque variance of each energy on (up to 200 of) the
+  // states, then scale: the kinetic part is linear in the velocity weights,
+  // the potential part is a product of n factors.
+  const Eigen::Index rows = std::min<Eigen::Index>(X.rows(), 200);
+  const Eigen::Index step = rows > 0 ? X.rows() / rows : 1;
+  double kinetic = 0.0, potential = 0.0;
+  PairTerms t(n_);
+  Eigen::MatrixXd block(n_, n_);
+  Eigen::VectorXd x(3 * n_);
+  for (Eigen::Index r = 0; r < rows; ++r) {
+    x = X.row(r * step).transpose();
+    assemble_block(x.data(), x.data(), t, block);
+    potential += t.HV.trace();
+    kinetic += block.trace() - t.HV.trace();
+  }
+  const double count = static_cast<double>(std::max<Eigen::Index>(rows, 1) * n_);
+  kinetic /= count;
+  potential /= count;
+  const double half = 0.5 * target_variance;
+  if (kinetic > 1e-300) p.head(num_velocity_weights()).array() += std::log(half / kinetic);
+  if (potential > 1e-300) {
+    const double per_factor = std::log(half / potential) / n_;
+    for (int m = 0; m < n_; ++m)
+      p.segment(potential_joint_[static_cast<size_t>(m)], factor_size(m)).array() += per_factor;
+  }
+  set_log_params(p);
+}
+
+}  // namespace gipdyn

@@ -1,0 +1,277 @@
+// The LIP kernel against an independent evaluation: the energy kernel written
+// out directly, with the Lagrange operator applied by finite differences.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <random>
+
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
+#include "gipdyn/kernels/lagrangian_kernel.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/sim/simulate.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+// The energy kernel k_T + k_V written from docs/method.md section 11, with the
+// parameters read in the order of LagrangianKernel::param_names().
+double energy_kernel(const JointTypes& joints, const Eigen::VectorXd& log_params, const Eigen::VectorXd& q1,
+                     const Eigen::VectorXd& qd1, const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
+  const int n = joints.size();
+  const Eigen::VectorXd p = log_params.array().exp();
+  int k = 0;
+  double velocity = 0.0;
+  for (int a = 0; a < n; ++a)
+    for (int b = a; b < n; ++b) velocity += p(k++) * qd1(a) * qd1(b) * qd2(a) * qd2(b);
+  auto factor = [&](int m) {
+    double f = p(k++);
+    if (joints.is_revolute(m)) {
+      f += p(k++) * std::cos(q1(m)) * std::cos(q2(m));
+      f += p(k++) * std::sin(q1(m)) * std::sin(q2(m));
+    } else {
+      f += p(k++) * q1(m) * q2(m);
+    }
+    return f;
+  };
+  double position_t = 1.0, position_v = 1.0;
+  for (int m = 0; m < n; ++m) position_t *= factor(m) * factor(m);
+  for (int m = 0; m < n; ++m) position_v *= factor(m);
+  return velocity * position_t + position_v;
+}
+
+// The Lagrange operator tau_i = sum_j qdd_j d2f/dqd_i dqd_j + qd_j d2f/dqd_i dq_j - df/dq_i,
+// applied to f(q, qd) by differences: along (qd, qdd) in (q, qd) with step h,
+// in qd with step 1 (exact: f is quadratic in qd).
+template <class F>
+Eigen::VectorXd lagrange_operator(const F& f, const Eigen::VectorXd& x, double h) {
+  const int n = static_cast<int>(x.size() / 3);
+  const Eigen::VectorXd q = x.head(n), qd = x.segment(n, n), qdd = x.tail(n);
+  Eigen::VectorXd tau(n);
+  for (int i = 0; i < n; ++i) {
+    auto dfdqd = [&](const Eigen::VectorXd& qq, const Eigen::VectorXd& vv) {
+      Eigen::VectorXd vp = vv, vm = vv;
+      vp(i) += 1.0;
+      vm(i) -= 1.0;
+      return (f(qq, vp) - f(qq, vm)) / 2.0;
+    };
+    const double time_derivative = (dfdqd(q + h * qd, qd + h * qdd) - dfdqd(q - h * qd, qd - h * qdd)) / (2.0 * h);
+    Eigen::VectorXd qp = q, qm = q;
+    qp(i) += h;
+    qm(i) -= h;
+    tau(i) = time_derivative - (f(qp, qd) - f(qm, qd)) / (2.0 * h);
+  }
+  return tau;
+}
+
+Eigen::VectorXd random_state(int n, std::mt19937_64& rng) {
+  std::uniform_real_distribution<double> u(-1.5, 1.5);
+  Eigen::VectorXd x(3 * n);
+  for (int k = 0; k < 3 * n; ++k) x(k) = u(rng);
+  return x;
+}
+
+LagrangianKernel random_kernel(const std::string& joints, std::mt19937_64& rng) {
+  LagrangianKernel k(JointTypes::parse(joints));
+  std::uniform_real_distribution<double> u(-1.0, 1.0);
+  Eigen::VectorXd p(k.num_params());
+  for (Eigen::Index i = 0; i < p.size(); ++i) p(i) = u(rng);
+  k.set_log_params(p);
+  return k;
+}
+
+class LagrangianKernelTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(LagrangianKernelTest, TorqueCovarianceIsTheLagrangeOperatorOnBothArguments) {
+  std::mt19937_64 rng(3);
+  const LagrangianKernel k = random_kernel(GetParam(), rng);
+  const JointTypes& joints = k.joints();
+  const int n = joints.size();
+  const Eigen::VectorXd x1 = random_state(n, rng), x2 = random_state(n, rng);
+  const double h = 1e-4;
+  // Column j of the block: the operator at x1 applied to the operator at x2.
+  Eigen::MatrixXd numeric(n, n);
+  auto inner = [&](const Eigen::VectorXd& q1, const Eigen::VectorXd& qd1) {
+    return lagrange_operator(
+        [&](const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
+          return energy_kernel(joints, k.log_params(), q1, qd1, q2, qd2);
+        },
+        x2, h);
+  };
+  for (int j = 0; j < n; ++j)
+    numeric.col(j) = lagrange_operator(
+        [&](const Eigen::VectorXd& q1, const Eigen::VectorXd& qd1) { return inner(q1, qd1)(j); }, x1, h);
+  Eigen::MatrixXd block(n, n);
+  k.torque_block(x1.data(), x2.data(), block);
+  EXPECT_LT((block - numeric).cwiseAbs().maxCoeff(), 1e-5 * (1.0 + block.cwiseAbs().maxCoeff()))
+      << "analytic\n" << block << "\nnumeric\n" << numeric;
+}
+
+TEST_P(LagrangianKernelTest, EnergyCovariancesAreTheOperatorOnOneArgument) {
+  std::mt19937_64 rng(4);
+  const LagrangianKernel k = random_kernel(GetParam(), rng);
+  const JointTypes& joints = k.joints();
+  const int n = joints.size();
+  const Eigen::VectorXd xs = random_state(n, rng), x2 = random_state(n, rng);
+  const Eigen::VectorXd q1 = xs.head(n), qd1 = xs.segment(n, n);
+  // Kinetic: the energy kernel without its potential part, which does not depend on qd.
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  const Eigen::VectorXd total = lagrange_operator(
+      [&](const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
+        return energy_kernel(joints, k.log_params(), q1, qd1, q2, qd2);
+      },
+      x2, 1e-5);
+  const Eigen::VectorXd potential = lagrange_operator(
+      [&](const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
+        return energy_kernel(joints, k.log_params(), q1, zero, q2, qd2);
+      },
+      x2, 1e-5);
+  const Eigen::MatrixXd X2 = x2.transpose();
+  const Eigen::RowVectorXd kin = k.kinetic_torque_covariance(xs.data(), X2);
+  // tau = D T + dV/dq, and D applied to a function of q alone is -d/dq: so
+  // cov(T, tau) = D k_T = total - potential and cov(V, tau) = dk_V/dq = -potential.
+  const Eigen::RowVectorXd pot = k.potential_torque_covariance(xs.data(), X2);
+  EXPECT_LT((kin.transpose() - (total - potential)).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + kin.cwiseAbs().maxCoeff()));
+  EXPECT_LT((pot.transpose() + potential).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + pot.cwiseAbs().maxCoeff()));
+}
+
+TEST_P(LagrangianKernelTest, GradientMatchesFiniteDifferences) {
+  std::mt19937_64 rng(5);
+  LagrangianKernel k = random_kernel(GetParam(), rng);
+  const int n = k.joints().size();
+  const int N = 5;
+  Eigen::MatrixXd X(N, 3 * n);
+  for (int r = 0; r < N; ++r) X.row(r) = random_state(n, rng).transpose();
+  Eigen::MatrixXd W = Eigen::MatrixXd::Random(N * n, N * n);
+  W = (W + W.transpose()).eval();
+  auto contraction = [&](const LagrangianKernel& kk) { return W.cwiseProduct(kk.torque_covariance(X, X)).sum(); };
+  Eigen::VectorXd grad = Eigen::VectorXd::Zero(k.num_params());
+  Eigen::MatrixXd W_lower = W;
+  W_lower.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));  // must not be read
+  k.add_gradient(X, W_lower, grad);
+  const Eigen::VectorXd p0 = k.log_params();
+  const double h = 1e-4;  // 1e-6 is already dominated by rounding here
+  for (int p = 0; p < k.num_params(); ++p) {
+    Eigen::VectorXd pp = p0, pm = p0;
+    pp(p) += h;
+    pm(p) -= h;
+    k.set_log_params(pp);
+    const double fp = contraction(k);
+    k.set_log_params(pm);
+    const double fm = contraction(k);
+    const double numeric = (fp - fm) / (2.0 * h);
+    EXPECT_NEAR(grad(p), numeric, 1e-5 * (1.0 + std::abs(numeric))) << k.param_names()[static_cast<size_t>(p)];
+  }
+}
+
+TEST_P(LagrangianKernelTest, GramIsSymmetricPositiveSemidefiniteAndMatchesItsLowerTriangle) {
+  std::mt19937_64 rng(6);
+  const LagrangianKernel k = random_kernel(GetParam(), rng);
+  const int n = k.joints().size();
+  const int N = 40;  // enough rows for the gram to use several chunks
+  Eigen::MatrixXd X(N, 3 * n);
+  for (int r = 0; r < N; ++r) X.row(r) = random_state(n, rng).transpose();
+  const Eigen::MatrixXd K = k.torque_covariance(X, X);
+  EXPECT_LT((K - K.transpose()).cwiseAbs().maxCoeff(), 1e-10 * K.cwiseAbs().maxCoeff());
+  Eigen::MatrixXd L;
+  k.torque_gram_lower(X, L);
+  EXPECT_LT((L.triangularView<Eigen::Lower>().toDenseMatrix() - K.triangularView<Eigen::Lower>().toDenseMatrix())
+                .cwiseAbs()
+                .maxCoeff(),
+            1e-12 * K.cwiseAbs().maxCoeff());
+  const Eigen::SelfAdjointEigenSolver<Eigen::MatrixXd> eig(K);
+  EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * eig.eigenvalues().maxCoeff());
+}
+
+INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest, ::testing::Values("R", "RR", "RRPR", "RPRRRR"));
+
+TEST(LagrangianKernel, InitializeGivesEachEnergyHalfTheTargetVariance) {
+  LagrangianKernel k(JointTypes::parse("RRP"));
+  std::mt19937_64 rng(7);
+  Eigen::MatrixXd X(50, 9);
+  for (int r = 0; r < 50; ++r) X.row(r) = random_state(3, rng).transpose();
+  k.initialize(X, 4.0);
+  const Eigen::MatrixXd K = k.torque_covariance(X.topRows(50), X.topRows(50));
+  // Potential and kinetic each about 2: their sum on the diagonal averages about 4.
+  EXPECT_NEAR(K.diagonal().mean(), 4.0, 0.4);
+  EXPECT_THROW(k.set_log_params(Eigen::VectorXd::Zero(3)), std::exception);
+}
+
+SimulationResult small_scara(unsigned seed, int samples) {
+  SimulationOptions o;
+  o.samples = samples;
+  o.dt = 0.1;
+  o.seed = seed;
+  return simulate(scara_robot(), o);
+}
+
+TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
+  const SimulationResult train = small_scara(1, 60), test = small_scara(2, 10);
+  EstimatorOptions o;
+  o.name = "lip";
+  o.gp.optimizer.max_iterations = 30;
+  const FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  ASSERT_EQ(r.report.joints.size(), 4u);
+  EXPECT_EQ(r.estimator->name(), "lip");
+  const std::string path = ::testing::TempDir() + "/lip_roundtrip.gipdyn";
+  save_estimator(*r.estimator, path);
+  const auto loaded = load_estimator(path);
+  ASSERT_EQ(loaded->name(), "lip");
+  EXPECT_EQ(loaded->predict(test.X), r.estimator->predict(test.X));  // bit-identical
+  const auto& a = dynamic_cast<const LagrangianEstimator&>(*r.estimator);
+  const auto& b = dynamic_cast<const LagrangianEstimator&>(*loaded);
+  EXPECT_EQ(a.kinetic_energy(test.X), b.kinetic_energy(test.X));
+  EXPECT_EQ(a.potential_energy(test.X.leftCols(4)), b.potential_energy(test.X.leftCols(4)));
+  // Kinetic energy is a quadratic form in the velocities: zero at rest, scales by s^2.
+  Eigen::MatrixXd rest = test.X;
+  rest.middleCols(4, 4).setZero();
+  EXPECT_LT(a.kinetic_energy(rest).cwiseAbs().maxCoeff(), 1e-12);
+  Eigen::MatrixXd doubled = test.X;
+  doubled.middleCols(4, 4) *= 2.0;
+  EXPECT_LT((a.kinetic_energy(doubled) - 4.0 * a.kinetic_energy(test.X)).cwiseAbs().maxCoeff(),
+            1e-9 * a.kinetic_energy(test.X).cwiseAbs().maxCoeff());
+  // Training is deterministic.
+  const FitResult again = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
+  EXPECT_EQ(again.estimator->predict(test.X), r.estimator->predict(test.X));
+}
+
+TEST(LagrangianEstimator, RefusesOptionsItCannotHonourAndBadInput) {
+  const SimulationResult train = small_scara(1, 20);
+  const JointTypes joints = JointTypes::parse("RRPR");
+  TrainOptions o;
+  o.warm_start_rows = 10;
+  EXPECT_NE(test::error_of([&] { LagrangianEstimator::fit(train.X, train.tau, joints, o); }).find("warm_start_rows"),
+            std::string::npos);
+  o = TrainOptions();
+  o.mean = MeanKind::Constant;
+  EXPECT_NE(test::error_of([&] { LagrangianEstimator::fit(train.X, train.tau, joints, o); }).find("mean"),
+            std::string::npos);
+  o = TrainOptions();
+  Eigen::MatrixXd bad = train.X;
+  bad(3, 2) = std::nan("");
+  EXPECT_FALSE(test::error_of([&] { LagrangianEstimator::fit(bad, train.tau, joints, o); }).empty());
+  o.optimizer.max_iterations = 5;
+  const auto fitted = LagrangianEstimator::fit(train.X, train.tau, joints, o);
+  ASSERT_TRUE(fitted.report.ok());
+  EXPECT_NE(test::error_of([&] { fitted.estimator->predict(train.X.leftCols(6)); }).find("12 expected"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] { fitted.estimator->kinetic_energy(train.X.leftCols(4)); }).find("at least 8"),
+            std::string::npos);
+  // A truncated model file is refused with the file named.
+  const std::string path = ::testing::TempDir() + "/lip_truncated.gipdyn";
+  save_estimator(*fitted.estimator, path);
+  std::string bytes = read_model_bytes(path);
+  bytes.resize(bytes.size() / 2);
+  {
+    std::FILE* f = std::fopen(path.c_str(), "wb");
+    std::fwrite(bytes.data(), 1, bytes.size(), f);
+    std::fclose(f);
+  }
+  EXPECT_NE(test::error_of([&] { load_estimator(path); }).find("lip_truncated.gipdyn"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace gipdyn
