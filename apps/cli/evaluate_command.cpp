@@ -1,4 +1,5 @@
 // `gipdyn evaluate`: accuracy of a model on a CSV with measured torques, and diagnostics plots.
+#include <array>
 #include <cmath>
 #include <cstdio>
 #include <filesystem>
@@ -9,11 +10,14 @@
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
+#include "gipdyn/robot/dynamics.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/plots.hpp"
 
@@ -37,9 +41,62 @@ std::vector<double> noise_ratios(const InverseDynamicsModel& m) {
   return out;
 }
 
+// The model's rigid-body terms against a robot's (KDL) at the test states.
+struct PhysicsComparison {
+  double gravity = 0.0, inertia = 0.0, coriolis = 0.0;  // relative errors (Frobenius, inertia averaged over states)
+  Eigen::MatrixXd table;                                // g, g_true, M, M_true per state
+  std::vector<std::string> header;
+};
+
+PhysicsComparison compare_physics(const Estimator& model, const RobotModel& robot, const Eigen::MatrixXd& X) {
+  require_physics(model);
+  const int n = model.joints().size();
+  if (robot.num_joints() != n || robot.joint_types().str() != model.joints().str())
+    throw Error("--physics: robot '" + robot.name() + "' has joints " + robot.joint_types().str() +
+                " but the model has " + model.joints().str() + "; give the robot the data came from");
+  const Eigen::MatrixXd Q = X.leftCols(n), QD = X.middleCols(n, n);
+  const Eigen::MatrixXd zero = Eigen::MatrixXd::Zero(Q.rows(), n);
+  auto rigid_body = [&](const Eigen::MatrixXd& qd, const Eigen::MatrixXd& qdd) {
+    Eigen::MatrixXd S(Q.rows(), 3 * n);
+    S << Q, qd, qdd;
+    return inverse_dynamics(robot, S, false);
+  };
+  const Eigen::MatrixXd g_true = rigid_body(zero, zero);
+  const Eigen::MatrixXd g = gravity(model, Q);
+  const std::vector<Eigen::MatrixXd> M = inertia(model, Q);
+  std::vector<Eigen::MatrixXd> M_true(static_cast<size_t>(Q.rows()), Eigen::MatrixXd(n, n));
+  for (int j = 0; j < n; ++j) {
+    Eigen::MatrixXd unit = zero;
+    unit.col(j).setOnes();
+    const Eigen::MatrixXd column = rigid_body(zero, unit) - g_true;
+    for (Eigen::Index r = 0; r < Q.rows(); ++r) M_true[static_cast<size_t>(r)].col(j) = column.row(r).transpose();
+  }
+  PhysicsComparison c;
+  c.gravity = (g - g_true).norm() / std::max(g_true.norm(), 1e-300);
+  for (Eigen::Index r = 0; r < Q.rows(); ++r)
+    c.inertia += (M[static_cast<size_t>(r)] - M_true[static_cast<size_t>(r)]).norm() /
+                 std::max(M_true[static_cast<size_t>(r)].norm(), 1e-300) / static_cast<double>(Q.rows());
+  const Eigen::MatrixXd coriolis_true = rigid_body(QD, zero) - g_true;
+  c.coriolis = (velocity_terms(model, Q, QD).coriolis - coriolis_true).norm() / std::max(coriolis_true.norm(), 1e-300);
+  for (int i = 1; i <= n; ++i) c.header.push_back("g" + std::to_string(i));
+  for (int i = 1; i <= n; ++i) c.header.push_back("g" + std::to_string(i) + "_true");
+  for (const char* suffix : {"", "_true"})
+    for (int i = 1; i <= n; ++i)
+      for (int j = 1; j <= n; ++j) c.header.push_back("M" + std::to_string(i) + "_" + std::to_string(j) + suffix);
+  c.table.resize(Q.rows(), 2 * n + 2 * n * n);
+  for (Eigen::Index r = 0; r < Q.rows(); ++r) {
+    c.table.row(r).head(n) = g.row(r);
+    c.table.row(r).segment(n, n) = g_true.row(r);
+    const Eigen::MatrixXd Mt = M[static_cast<size_t>(r)].transpose(), Mtt = M_true[static_cast<size_t>(r)].transpose();
+    c.table.row(r).segment(2 * n, n * n) = Eigen::Map<const Eigen::RowVectorXd>(Mt.data(), n * n);  // row-major
+    c.table.row(r).segment(2 * n + n * n, n * n) = Eigen::Map<const Eigen::RowVectorXd>(Mtt.data(), n * n);
+  }
+  return c;
+}
+
 int write_diagnostics(const std::string& dir, int window, const Estimator& model, const std::string& model_path,
                       const std::string& data_path, const Eigen::MatrixXd& target, const Eigen::MatrixXd& prediction,
-                      const Accuracy& acc) {
+                      const Accuracy& acc, const PhysicsComparison* physics) {
   namespace fs = std::filesystem;
   if (window < 1) throw Error("--plot-window must be >= 1");
   fs::create_directories(dir);
@@ -73,18 +130,25 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
   j["mse"] = std::vector<double>(acc.mse.data(), acc.mse.data() + acc.mse.size());
   j["residual_mean"] = std::vector<double>(mean.data(), mean.data() + mean.size());
   j["residual_std"] = std::vector<double>(sd.data(), sd.data() + sd.size());
-  std::vector<std::string> pngs{"torque_time.png", "residuals.png"};
+  const std::string json_path = (fs::path(dir) / "diagnostics.json").string();
+  // (kind, input, png)
+  std::vector<std::array<std::string, 3>> plots{{"timeseries", window_csv, "torque_time.png"},
+                                                {"residuals", predictions, "residuals.png"}};
   std::vector<std::string> warnings;
   if (const InverseDynamicsModel* gp = model.gp_model()) {
     j["noise_ratio"] = noise_ratios(*gp);
-    pngs.push_back("noise_ratio.png");
+    plots.push_back({"noise-ratio", json_path, "noise_ratio.png"});
   }
-  const std::string json_path = (fs::path(dir) / "diagnostics.json").string();
+  if (physics) {
+    j["physics_relative_error"] = {
+        {"gravity", physics->gravity}, {"inertia", physics->inertia}, {"coriolis", physics->coriolis}};
+    const std::string physics_csv = (fs::path(dir) / "physics.csv").string();
+    write_csv(physics_csv, physics->header, physics->table);
+    plots.push_back({"physics", physics_csv, "physics.png"});
+  }
   write_file_atomically(json_path, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
-  const std::vector<std::pair<std::string, std::string>> plots{
-      {"timeseries", window_csv}, {"residuals", predictions}, {"noise-ratio", json_path}};
-  for (size_t k = 0; k < pngs.size(); ++k) {
-    const PlotResult p = render_plot(plots[k].first, plots[k].second, (fs::path(dir) / pngs[k]).string());
+  for (const auto& [kind, input, png] : plots) {
+    const PlotResult p = render_plot(kind, input, (fs::path(dir) / png).string());
     if (!p.ok) warnings.push_back(p.message);
   }
   for (const auto& wmsg : warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", wmsg.c_str());
@@ -101,7 +165,7 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
 
 Command add_evaluate(CLI::App& app) {
   struct Args {
-    std::string model, data, json, plots;
+    std::string model, data, json, plots, physics;
     int plot_window = 1000;
   };
   auto a = std::make_shared<Args>();
@@ -112,9 +176,14 @@ Command add_evaluate(CLI::App& app) {
   app.add_option("--plots", a->plots,
                  "Diagnostics folder: predicted vs measured torque over time, residual histograms and, for GP "
                  "models, the share of the output variance the model calls noise (PNG + diagnostics.json)");
+  app.add_option("--physics", a->physics,
+                 "Compare the model's gravity, inertia and Coriolis torque (gip, gip-friction, lip, pp, fe) with "
+                 "this robot's (scara, ur10, a URDF or JSON file) at the test states: relative errors printed, "
+                 "in --json, and with --plots as physics.csv and physics.png (estimated against true)");
   app.add_option("--plot-window", a->plot_window, "Rows shown in the torque-over-time plot")->capture_default_str();
   return [a]() -> int {
     refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--json", a->json}});
+    std::unique_ptr<PhysicsComparison> physics;
     if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     const Dataset data = read_dataset(a->data, model->joints(), true);
@@ -130,11 +199,16 @@ Command add_evaluate(CLI::App& app) {
                      static_cast<long>(shared), static_cast<long>(data.rows()), a->data.c_str());
     }
     const Accuracy acc = compute_accuracy(target, prediction);
+    if (!a->physics.empty())
+      physics = std::make_unique<PhysicsComparison>(compare_physics(*model, load_robot(a->physics), data.X));
     std::printf("%ld test rows, target %s\n", static_cast<long>(data.rows()),
                 noise_free ? "noise-free tau*_true" : "measured tau*");
     std::printf(" joint  MSE           nMSE\n");
     for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
+    if (physics)
+      std::printf(" relative error against %s: gravity %.3g, inertia %.3g (mean over states), Coriolis %.3g\n",
+                  a->physics.c_str(), physics->gravity, physics->inertia, physics->coriolis);
     if (!a->json.empty()) {
       nlohmann::json j;
       j["mse"] = std::vector<double>(acc.mse.data(), acc.mse.data() + acc.mse.size());
@@ -144,9 +218,14 @@ Command add_evaluate(CLI::App& app) {
       j["rows"] = data.rows();
       j["model"] = a->model;
       j["data"] = a->data;
+      if (physics)
+        j["physics_relative_error"] = {
+            {"gravity", physics->gravity}, {"inertia", physics->inertia}, {"coriolis", physics->coriolis}};
       write_file_atomically(a->json, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
     }
-    if (!a->plots.empty()) return write_diagnostics(a->plots, a->plot_window, *model, a->model, a->data, target, prediction, acc);
+    if (!a->plots.empty())
+      return write_diagnostics(a->plots, a->plot_window, *model, a->model, a->data, target, prediction, acc,
+                               physics.get());
     return 0;
   };
 }

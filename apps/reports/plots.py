@@ -190,9 +190,34 @@ def noise_ratio(json_path, out):
     fig.savefig(out, dpi=110)
 
 
+def physics(physics_csv, out):
+    """Columns g1..gn, g1_true..gn_true, M1_1..Mn_n, M1_1_true..: estimated against true, per joint's
+    gravity and for every entry of M."""
+    rows = read_rows(physics_csv)
+    cols = list(rows[0].keys())
+    n = sum(1 for c in cols if c.startswith("g") and not c.endswith("_true"))
+    fig, axes = plt.subplots(1, n + 1, figsize=(3 * (n + 1), 3.2), squeeze=False)
+
+    def scatter(ax, pairs, title):
+        t = [number(r[c + "_true"]) for r in rows for c in pairs]
+        e = [number(r[c]) for r in rows for c in pairs]
+        ax.plot(t, e, ".", ms=3)
+        finite = [v for v in t + e if math.isfinite(v)] or [0.0]
+        lo, hi = min(finite), max(finite)
+        ax.plot([lo, hi], [lo, hi], color="grey", lw=0.8)
+        ax.set_title(title, fontsize=9)
+        ax.set_xlabel("true")
+    for i in range(n):
+        scatter(axes[0][i], ["g%d" % (i + 1)], "gravity, joint %d" % (i + 1))
+    scatter(axes[0][n], [c for c in cols if c.startswith("M") and not c.endswith("_true")], "inertia matrix entries")
+    axes[0][0].set_ylabel("estimated")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
          "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion,
-         "tracking": tracking}
+         "tracking": tracking, "physics": physics}
 
 if __name__ == "__main__":
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:

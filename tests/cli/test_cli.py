@@ -302,6 +302,30 @@ def test_lip_trains_and_gives_energies(tmp_path, gipdyn_bin):
     assert r.returncode == 0, r.stderr
 
 
+def test_evaluate_compares_physics_with_the_robot(tmp_path, gipdyn_bin):
+    for name, seed, rows in [("train", 1, 80), ("test", 2, 30)]:
+        r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", str(rows), "--dt", "0.1", "--seed", str(seed),
+                "--quiet", "--out", str(tmp_path / f"{name}.csv"))
+        assert r.returncode == 0, r.stderr
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RRPR", "--kernel", "lip",
+            "--quiet", "--out", str(tmp_path / "lip.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"),
+            "--physics", "scara", "--json", str(tmp_path / "e.json"), "--plots", str(tmp_path / "plots"))
+    assert r.returncode == 0, r.stderr
+    assert "relative error against scara: gravity" in r.stdout
+    errors = json.loads((tmp_path / "e.json").read_text())["physics_relative_error"]
+    assert errors["gravity"] < 1e-2 and errors["inertia"] < 0.1, errors
+    assert (tmp_path / "plots" / "physics.png").stat().st_size > 0
+    header, table = read_table(tmp_path / "plots" / "physics.csv")
+    assert header[:8] == ["g1", "g2", "g3", "g4", "g1_true", "g2_true", "g3_true", "g4_true"] and len(table) == 30
+    # The wrong robot is named, with nothing written.
+    r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"),
+            "--physics", "ur10", "--json", str(tmp_path / "bad.json"))
+    assert r.returncode == 1 and not (tmp_path / "bad.json").exists()
+    assert len(r.stderr.strip().splitlines()) == 1 and "has joints RRRRRR but the model has RRPR" in r.stderr
+
+
 def test_physics_refuses_models_without_the_structure(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "t.csv", 40, seed=3)
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "rbf",
