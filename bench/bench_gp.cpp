@@ -17,6 +17,7 @@
 #include "gipdyn/features.hpp"
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/training.hpp"
@@ -207,6 +208,57 @@ void BM_Train(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, default options, all joints");
 }
 
+// LIP (docs/method.md section 11): the (N n) x (N n) torque covariance and the
+// gradient contraction of one NLL evaluation, at its data-driven start. The
+// factorisation is LAPACK's, as BM_PotrfPotri at N n.
+LagrangianKernel lip_kernel(const Problem& p) {
+  LagrangianKernel k(p.joints);
+  k.initialize(p.X, 1.0);
+  return k;
+}
+
+void BM_LipGram(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const LagrangianKernel k = lip_kernel(p);
+  Eigen::MatrixXd K;
+  for (auto _ : state) {
+    k.torque_gram_lower(p.X, K);
+    benchmark::DoNotOptimize(K.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " system " + std::to_string(K.rows()));
+}
+
+void BM_LipGradient(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const LagrangianKernel k = lip_kernel(p);
+  const Eigen::Index m = p.X.rows() * p.joints.size();
+  const Eigen::MatrixXd W = Eigen::MatrixXd::Constant(m, m, 1e-3);
+  Eigen::VectorXd grad(k.num_params());
+  for (auto _ : state) {
+    grad.setZero();
+    k.add_gradient(p.X, W, grad);
+    benchmark::DoNotOptimize(grad.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + std::to_string(k.num_params()) + " parameters");
+}
+
+// One query's torques from a LIP model on N rows (weights arbitrary: the cost does not depend on them).
+void BM_LipPredictOne(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const int n = p.joints.size();
+  const LagrangianEstimator model(lip_kernel(p), Eigen::VectorXd::Ones(n), 1.0, p.X,
+                                  Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
+  const Eigen::MatrixXd x = p.X.row(0);
+  for (auto _ : state) benchmark::DoNotOptimize(model.predict(x).data());
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints");
+}
+
+void lip_sizes(benchmark::internal::Benchmark* b) {
+  for (int robot : {4, 6})
+    for (int N : {150, 300, 600}) b->Args({robot, N});
+  b->Unit(benchmark::kMillisecond);
+}
+
 void sizes(benchmark::internal::Benchmark* b) {
   for (int robot : {4, 6})
     for (int N : {1000, 2000, 4000}) b->Args({robot, N});
@@ -220,6 +272,9 @@ BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanCApi)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_UpdateOneSample)->Apply(sizes)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_LipGram)->Apply(lip_sizes);
+BENCHMARK(BM_LipGradient)->Apply(lip_sizes);
+BENCHMARK(BM_LipPredictOne)->Apply(lip_sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_Train)->Apply(sizes)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 // Collects per-case times to print the NLL-gradient / potrf+potri ratio.

@@ -164,7 +164,7 @@ TEST(Physics, LipModelGivesTermsAndEnergiesCloseToKdl) {
   const double v_error = relative_error(dV, dV_true);
   std::printf("LIP relative errors: gravity %.3g, inertia %.3g, Coriolis %.3g, kinetic energy %.3g, "
               "potential energy differences %.3g\n", g_error, m_error, c_error, t_error, v_error);
-  // Measured 7.7e-6, 2.2e-3, 1.5e-3, 8.1e-4, 7.6e-6 (GIP above: 3.9e-4, 4.2e-3, 1.1e-2).
+  // Measured 9.7e-6, 2.1e-3, 1.5e-3, 8.1e-4, 1.4e-5 (GIP above: 3.9e-4, 4.2e-3, 1.1e-2).
   EXPECT_LT(g_error, 1e-4);
   EXPECT_LT(m_error, 5e-3);
   EXPECT_LT(c_error, 1e-2);

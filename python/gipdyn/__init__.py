@@ -311,7 +311,7 @@ class LagrangianGP(InverseDynamicsGP):
     (docs/method.md section 11). Besides torques, gravity, inertia and Coriolis
     it estimates the energies: kinetic_energy(X) and potential_energy(q) (the
     latter up to a constant). The system is (N n) x (N n): train it on a few
-    hundred rows (fit on 300 SCARA rows takes about 30 s).
+    hundred rows (300 SCARA rows train in about 100 s).
 
     Parameters: joints, optimizer, max_iter, restarts, seed, min_noise,
     learning_rate, verbose, gradient_tolerance, as InverseDynamicsGP's.
