@@ -8,6 +8,7 @@
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/closed_loop.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "scara_fit.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -22,16 +23,6 @@ SimulationResult trajectory(int samples, double dt, unsigned seed, double noise)
   return simulate(scara_robot(), o);
 }
 
-std::unique_ptr<Estimator> fitted(const std::string& name, const SimulationResult& d) {
-  EstimatorOptions o;
-  o.name = name;
-  o.gp.optimizer.max_iterations = 100;
-  if (estimator_needs_robot(name)) o.robot_prior = {std::make_shared<const RobotModel>(scara_robot()), false};
-  FitResult r = fit_estimator(o, d.X, d.tau, scara_robot().joint_types());
-  EXPECT_TRUE(r.report.ok()) << r.report.message;
-  return std::move(r.estimator);
-}
-
 TEST(ClosedLoop, FeedForwardFromTheRightModelTracksAndPdAloneLags) {
   const RobotModel robot = scara_robot();
   const SimulationResult reference = trajectory(1000, 0.001, 12, 0.0);  // 1 s at 1 kHz
@@ -40,7 +31,7 @@ TEST(ClosedLoop, FeedForwardFromTheRightModelTracksAndPdAloneLags) {
   const TrackingResult pd = track_reference(robot, reference.X, zero, o);
   const TrackingResult ideal = track_reference(robot, reference.X, inverse_dynamics(robot, reference.X), o);
   const SimulationResult train = trajectory(300, 0.1, 11, 0.01);
-  const auto fe = fitted("fe", train), gip = fitted("gip", train);
+  const auto fe = test::fit_on_scara("fe", train), gip = test::fit_on_scara("gip", train);
   const TrackingResult with_fe = track_reference(robot, reference.X, fe->predict(reference.X), o);
   const TrackingResult with_gip = track_reference(robot, reference.X, gip->predict(reference.X), o);
   std::cout << "RMS tracking error per joint\n  PD alone  " << pd.rms_error.transpose() << "\n  ideal     "
@@ -67,7 +58,7 @@ TEST(ClosedLoop, ComputedTorqueWithTheRightModelTracks) {
   const TrackingResult ct = track_computed_torque(
       robot, reference.X, [&](const Eigen::VectorXd& x) { return inverse_dynamics(robot, x.head(4), x.segment(4, 4), x.tail(4)); },
       o);
-  const auto fe = fitted("fe", trajectory(300, 0.1, 11, 0.01));
+  const auto fe = test::fit_on_scara("fe", trajectory(300, 0.1, 11, 0.01));
   const TrackingResult fe_ct = track_computed_torque(
       robot, reference.X, [&](const Eigen::VectorXd& x) -> Eigen::VectorXd { return fe->predict(x.transpose()).row(0).transpose(); }, o);
   std::cout << "computed torque RMS error: true " << ct.rms_error.transpose() << "; fe " << fe_ct.rms_error.transpose()

@@ -110,3 +110,26 @@ TEST(Minimize, ReportsFailureWhenNoPointCanBeEvaluated) {
     EXPECT_NE(r.message.find("not positive definite"), std::string::npos);
   }
 }
+
+TEST(BestOfStarts, KeepsTheLowestUsableRunAndEveryObjective) {
+  gipdyn::BestOfStarts starts;
+  gipdyn::OptimizerResult failed;
+  failed.message = "not positive definite";
+  starts.add(failed);
+  EXPECT_FALSE(starts.found());
+  EXPECT_EQ(starts.kept.message, "not positive definite");
+  gipdyn::OptimizerResult a, b;
+  a.status = b.status = gipdyn::OptimizerResult::Status::Converged;
+  a.f = 3.0;
+  b.f = -1.0;
+  b.x = Eigen::VectorXd::Ones(2);
+  starts.add(a);
+  starts.add(b);
+  starts.add(a);
+  ASSERT_TRUE(starts.found());
+  EXPECT_EQ(starts.kept.f, -1.0);
+  EXPECT_EQ(starts.kept.x, b.x);
+  ASSERT_EQ(starts.objectives.size(), 4u);
+  EXPECT_TRUE(std::isnan(starts.objectives[0]));
+  EXPECT_EQ(starts.objectives[3], 3.0);
+}

@@ -10,6 +10,7 @@
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "scara_fit.hpp"
 #include "test_util.hpp"
 
 using namespace gipdyn;
@@ -25,16 +26,6 @@ SimulationResult scara_data(unsigned seed, int samples, double noise, bool frict
   o.seed = seed;
   o.friction = friction;
   return simulate(scara_robot(), o);
-}
-
-std::unique_ptr<Estimator> fit(const std::string& name, const SimulationResult& d, bool friction = false) {
-  EstimatorOptions o;
-  o.name = name;
-  o.gp.optimizer.max_iterations = 100;
-  if (estimator_needs_robot(name)) o.robot_prior = {std::make_shared<const RobotModel>(scara_robot()), friction};
-  FitResult r = fit_estimator(o, d.X, d.tau, scara_robot().joint_types());
-  EXPECT_TRUE(r.report.ok()) << r.report.message;
-  return std::move(r.estimator);
 }
 
 struct Truth {
@@ -84,7 +75,7 @@ double relative_error(const Eigen::MatrixXd& a, const Eigen::MatrixXd& b) { retu
 // friction included, to rounding.
 TEST(Physics, FisherianEstimatorRecoversKdlsTermsIncludingFriction) {
   const SimulationResult train = scara_data(11, 300, 0.0, true), test = scara_data(12, 40, 0.0, true);
-  const auto fe = fit("fe", train, true);
+  const auto fe = test::fit_on_scara("fe", train, true);
   const int n = 4;
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n);
   const Truth truth = kdl_terms(Q, QD);
@@ -108,7 +99,7 @@ TEST(Physics, FisherianEstimatorRecoversKdlsTermsIncludingFriction) {
 // bounds keep gravity and inertia within the 1 % the method promises.
 TEST(Physics, GipModelGivesGravityInertiaAndCoriolisCloseToKdl) {
   const SimulationResult train = scara_data(11, 300, 0.01, false), test = scara_data(12, 40, 0.0, false);
-  const auto gip = fit("gip", train);
+  const auto gip = test::fit_on_scara("gip", train);
   const int n = 4;
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n);
   const Truth truth = kdl_terms(Q, QD);
@@ -131,7 +122,7 @@ TEST(Physics, GipModelGivesGravityInertiaAndCoriolisCloseToKdl) {
 // KDL's gravity torques along the straight path from q0 to q.
 TEST(Physics, LipModelGivesTermsAndEnergiesCloseToKdl) {
   const SimulationResult train = scara_data(11, 300, 0.01, false), test = scara_data(12, 40, 0.0, false);
-  const auto lip = fit("lip", train);
+  const auto lip = test::fit_on_scara("lip", train);
   const int n = 4;
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n);
   const Truth truth = kdl_terms(Q, QD);
@@ -186,7 +177,7 @@ TEST(Physics, ModelsWithoutTheStructureAreRefused) {
   EXPECT_FALSE(estimator_gives_physics("gip+rbf"));
   EXPECT_FALSE(estimator_gives_physics("nn"));
   EXPECT_TRUE(estimator_gives_physics("gip-friction"));
-  const auto fe = fit("fe", train);
+  const auto fe = test::fit_on_scara("fe", train);
   EXPECT_NE(error_of([&] { gravity(*fe, Q.leftCols(3)); }).find("needs 4"), std::string::npos);
   EXPECT_NE(error_of([&] { velocity_terms(*fe, Q, Q.topRows(5)); }).find("one velocity per position"),
             std::string::npos);
@@ -199,11 +190,11 @@ TEST(ForwardDynamics, RecoversTheSimulatedAccelerationsFromTheTorques) {
   const SimulationResult train = scara_data(11, 300, 0.0, true), test = scara_data(12, 40, 0.0, true);
   const int n = 4;
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n), QDD = test.X.rightCols(n);
-  const auto fe = fit("fe", train, true);
+  const auto fe = test::fit_on_scara("fe", train, true);
   EXPECT_LT(relative_error(forward_dynamics(*fe, Q, QD, test.tau_true), QDD), 1e-7);
 
   const SimulationResult noisy = scara_data(11, 300, 0.01, false), clean = scara_data(12, 40, 0.0, false);
-  const auto gip = fit("gip", noisy);
+  const auto gip = test::fit_on_scara("gip", noisy);
   const Eigen::MatrixXd gip_qdd = forward_dynamics(*gip, Q, QD, clean.tau_true);
   for (int j = 0; j < n; ++j)
     std::printf("GIP forward dynamics joint %d: relative acceleration error %.3g\n", j + 1,
@@ -220,7 +211,7 @@ TEST(ForwardDynamics, RecoversTheSimulatedAccelerationsFromTheTorques) {
 // time: tight after 0.1 s, RK4 well ahead of Euler after 1 s.
 TEST(ForwardDynamics, IntegratingTheTorquesReproducesTheMotion) {
   const SimulationResult train = scara_data(11, 300, 0.0, false);
-  const auto fe = fit("fe", train);
+  const auto fe = test::fit_on_scara("fe", train);
   SimulationOptions o;
   o.samples = 201;
   o.dt = 0.005;
@@ -246,10 +237,10 @@ TEST(ForwardDynamics, IntegratingTheTorquesReproducesTheMotion) {
 
 TEST(ForwardDynamics, RefusesModelsWithoutInertiaAndMismatchedRows) {
   const SimulationResult train = scara_data(11, 60, 0.01, false);
-  const auto rbf = fit("rbf", train);
+  const auto rbf = test::fit_on_scara("rbf", train);
   const Eigen::MatrixXd Q = train.X.leftCols(4), QD = train.X.middleCols(4, 4);
   EXPECT_NE(error_of([&] { forward_dynamics(*rbf, Q, QD, train.tau); }).find("cannot give"), std::string::npos);
-  const auto fe = fit("fe", train);
+  const auto fe = test::fit_on_scara("fe", train);
   EXPECT_NE(error_of([&] { forward_dynamics(*fe, Q, QD, train.tau.topRows(5)); }).find("one of each per state"),
             std::string::npos);
   EXPECT_NE(error_of([&] { integrate_forward_dynamics(*fe, Eigen::VectorXd::Zero(3), Eigen::VectorXd::Zero(4), train.tau, 0.01); })

@@ -50,8 +50,9 @@ Command add_physics(CLI::App& app) {
     const bool with_velocity = read_csv_header(a->data).has("qd1");
     const Eigen::MatrixXd g = gravity(*model, Q);
     const std::vector<Eigen::MatrixXd> M = inertia(*model, Q);
+    const Eigen::MatrixXd QD = with_velocity ? read_csv_columns(a->data, names("qd", n)) : Eigen::MatrixXd();
     VelocityTerms v;
-    if (with_velocity) v = velocity_terms(*model, Q, read_csv_columns(a->data, names("qd", n)));
+    if (with_velocity) v = velocity_terms(*model, Q, QD);
 
     std::vector<std::string> header = names("g", n);
     for (int i = 1; i <= n; ++i)
@@ -69,7 +70,7 @@ Command add_physics(CLI::App& app) {
       header.push_back("potential_energy");
       if (with_velocity) {
         Eigen::MatrixXd states(Q.rows(), 2 * n);
-        states << Q, read_csv_columns(a->data, names("qd", n));
+        states << Q, QD;
         kinetic = lip->kinetic_energy(states);
         header.push_back("kinetic_energy");
       }

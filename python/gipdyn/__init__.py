@@ -166,14 +166,18 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     def n_joints(self):
         return len(self.joints)
 
-    def fit(self, X, Y):
+    def _training_arrays(self, X, Y):
+        """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
         n = self.n_joints
         X = _as_matrix("X", X, 3 * n)
         Y = _as_matrix("Y", Y, n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
-        self.model_ = _core.train(np.asfortranarray(X), np.asfortranarray(Y), str(self.joints),
-                                  self.train_options(), bool(self.verbose))
+        return np.asfortranarray(X), np.asfortranarray(Y)
+
+    def fit(self, X, Y):
+        X, Y = self._training_arrays(X, Y)
+        self.model_ = _core.train(X, Y, str(self.joints), self.train_options(), bool(self.verbose))
         self._set_fitted_attributes()
         capped = [r["joint"] for r in self.training_report_ if r["status"] != "converged"]
         if capped:
@@ -335,13 +339,8 @@ class LagrangianGP(InverseDynamicsGP):
         return self._optimizer_options()
 
     def fit(self, X, Y):
-        n = self.n_joints
-        X = _as_matrix("X", X, 3 * n)
-        Y = _as_matrix("Y", Y, n)
-        if X.shape[0] != Y.shape[0]:
-            raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
-        self.model_ = _core.train_lagrangian(np.asfortranarray(X), np.asfortranarray(Y), str(self.joints),
-                                             self.train_options(), bool(self.verbose))
+        X, Y = self._training_arrays(X, Y)
+        self.model_ = _core.train_lagrangian(X, Y, str(self.joints), self.train_options(), bool(self.verbose))
         self._set_fitted_attributes()
         if self.training_report_ and self.training_report_[0]["status"] != "converged":
             warnings.warn("the optimiser stopped before it converged (see training_report_); raise max_iter",

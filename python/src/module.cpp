@@ -79,9 +79,10 @@ py::array_t<double> stack_matrices(const std::vector<Eigen::MatrixXd>& Ms, int n
   return out;
 }
 
-std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
-                             bool verbose) {
-  const JointTypes jt = JointTypes::parse(joints);
+// Runs fit(progress) without the GIL; verbose prints a sample of the progress
+// and the brief report. A failed fit raises.
+template <class Fit>
+auto fit_without_gil(bool verbose, Fit&& fit) {
   std::mutex print_mutex;
   ProgressCallback cb;
   if (verbose)
@@ -90,14 +91,52 @@ std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, 
       std::lock_guard<std::mutex> lock(print_mutex);
       std::fprintf(stderr, "  %s\n", describe(e).c_str());
     };
-  TrainResult r;
+  decltype(fit(cb)) r;
   {
     py::gil_scoped_release release;
-    r = train_model(X, Y, jt, options, cb);
+    r = fit(cb);
   }
   if (!r.report.ok()) throw Error("training failed: " + r.report.message);
   if (verbose) std::fprintf(stderr, "%s", r.report.brief_report().c_str());
+  return r;
+}
+
+std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
+                             bool verbose) {
+  const JointTypes jt = JointTypes::parse(joints);
+  TrainResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return train_model(X, Y, jt, options, cb); });
   return std::make_shared<Model>(std::move(r.model));
+}
+
+// gravity, inertia and velocity_terms for a model class whose `estimator` points to an Estimator.
+template <class Holder>
+void add_physics_methods(py::class_<Holder, std::shared_ptr<Holder>>& cls) {
+  cls.def(
+         "gravity",
+         [](const Holder& s, ConstRef Q) {
+           py::gil_scoped_release release;
+           return gravity(*s.estimator, Q);
+         },
+         py::arg("Q"))
+      .def(
+          "inertia",
+          [](const Holder& s, ConstRef Q) {
+            std::vector<Eigen::MatrixXd> Ms;
+            {
+              py::gil_scoped_release release;
+              Ms = inertia(*s.estimator, Q);
+            }
+            return stack_matrices(Ms, s.estimator->joints().size());
+          },
+          py::arg("Q"))
+      .def(
+          "velocity_terms",
+          [](const Holder& s, ConstRef Q, ConstRef QD) {
+            py::gil_scoped_release release;
+            VelocityTerms t = velocity_terms(*s.estimator, Q, QD);
+            return std::make_pair(t.coriolis, t.friction);
+          },
+          py::arg("Q"), py::arg("QD"));
 }
 
 py::list report_to_list(const std::vector<JointReport>& reports) {
@@ -127,19 +166,8 @@ struct LagrangianModel {
 std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const std::string& joints,
                                                   const TrainOptions& options, bool verbose) {
   const JointTypes jt = JointTypes::parse(joints);
-  ProgressCallback cb;
-  if (verbose)
-    cb = [](const ProgressEvent& e) {
-      if (!e.finished && e.iteration % 10 != 0) return;
-      std::fprintf(stderr, "  %s\n", describe(e).c_str());
-    };
-  LagrangianEstimator::FitOutcome r;
-  {
-    py::gil_scoped_release release;
-    r = LagrangianEstimator::fit(X, Y, jt, options, cb);
-  }
-  if (!r.report.ok()) throw Error("training failed: " + r.report.message);
-  if (verbose) std::fprintf(stderr, "%s", r.report.brief_report().c_str());
+  LagrangianEstimator::FitOutcome r = fit_without_gil(
+      verbose, [&](const ProgressCallback& cb) { return LagrangianEstimator::fit(X, Y, jt, options, cb); });
   auto m = std::make_shared<LagrangianModel>();
   m->estimator = std::move(r.estimator);
   m->report = r.report.joints;
@@ -256,7 +284,9 @@ PYBIND11_MODULE(_core, m) {
   string_property(train_options, "scaling", &TrainOptions::scaling, &parse_output_scaling, &to_string);
   string_property(train_options, "mean", &TrainOptions::mean, &parse_mean_kind, &to_string);
 
-  py::class_<Model, std::shared_ptr<Model>>(m, "Model")
+  py::class_<Model, std::shared_ptr<Model>> model_class(m, "Model");
+  add_physics_methods(model_class);
+  model_class
       .def_property_readonly("joints", [](const Model& s) { return s.model->joints().str(); })
       .def_property_readonly("kernel", [](const Model& s) { return s.model->kernel_name(); })
       .def_property_readonly("num_training_samples", [](const Model& s) { return s.model->num_training_samples(); })
@@ -298,32 +328,6 @@ PYBIND11_MODULE(_core, m) {
           },
           py::arg("X"))
       .def(
-          "gravity",
-          [](const Model& s, ConstRef Q) {
-            py::gil_scoped_release release;
-            return gravity(*s.estimator, Q);
-          },
-          py::arg("Q"))
-      .def(
-          "inertia",
-          [](const Model& s, ConstRef Q) {
-            std::vector<Eigen::MatrixXd> Ms;
-            {
-              py::gil_scoped_release release;
-              Ms = inertia(*s.estimator, Q);
-            }
-            return stack_matrices(Ms, s.model->num_joints());
-          },
-          py::arg("Q"))
-      .def(
-          "velocity_terms",
-          [](const Model& s, ConstRef Q, ConstRef QD) {
-            py::gil_scoped_release release;
-            VelocityTerms t = velocity_terms(*s.estimator, Q, QD);
-            return std::make_pair(t.coriolis, t.friction);
-          },
-          py::arg("Q"), py::arg("QD"))
-      .def(
           "predict_one",
           [](Model& s, const Eigen::VectorXd& x) {
             if (x.size() != 3 * s.model->num_joints())
@@ -342,7 +346,9 @@ PYBIND11_MODULE(_core, m) {
         return std::make_shared<Model>(deserialize_model(std::string(b), "pickled model"));
       });
 
-  py::class_<LagrangianModel, std::shared_ptr<LagrangianModel>>(m, "LagrangianModel")
+  py::class_<LagrangianModel, std::shared_ptr<LagrangianModel>> lagrangian_class(m, "LagrangianModel");
+  add_physics_methods(lagrangian_class);
+  lagrangian_class
       .def_property_readonly("joints", [](const LagrangianModel& s) { return s.estimator->joints().str(); })
       .def_property_readonly("num_training_samples",
                              [](const LagrangianModel& s) { return s.estimator->training_inputs().rows(); })
@@ -376,32 +382,6 @@ PYBIND11_MODULE(_core, m) {
             return s.estimator->potential_energy(Q);
           },
           py::arg("Q"))
-      .def(
-          "gravity",
-          [](const LagrangianModel& s, ConstRef Q) {
-            py::gil_scoped_release release;
-            return gravity(*s.estimator, Q);
-          },
-          py::arg("Q"))
-      .def(
-          "inertia",
-          [](const LagrangianModel& s, ConstRef Q) {
-            std::vector<Eigen::MatrixXd> Ms;
-            {
-              py::gil_scoped_release release;
-              Ms = inertia(*s.estimator, Q);
-            }
-            return stack_matrices(Ms, s.estimator->joints().size());
-          },
-          py::arg("Q"))
-      .def(
-          "velocity_terms",
-          [](const LagrangianModel& s, ConstRef Q, ConstRef QD) {
-            py::gil_scoped_release release;
-            VelocityTerms t = velocity_terms(*s.estimator, Q, QD);
-            return std::make_pair(t.coriolis, t.friction);
-          },
-          py::arg("Q"), py::arg("QD"))
       .def("save", [](const LagrangianModel& s, const std::string& path) { save_estimator(*s.estimator, path); })
       .def_static("load", [](const std::string& path) {
         std::unique_ptr<Estimator> e = load_estimator(path);

@@ -2,7 +2,6 @@
 
 #include <chrono>
 #include <cmath>
-#include <limits>
 #include <random>
 
 #include "gipdyn/blas_threads.hpp"
@@ -158,9 +157,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
 
   FitOutcome out;
   JointReport shared;
-  Eigen::VectorXd best_x;
-  double best_f = std::numeric_limits<double>::infinity();
-  OptimizerResult kept;
+  BestOfStarts starts;
   // The coupled likelihood has optima that explain whole joints as noise
   // (UR10, 150 rows: NLL -2406 against -4600, test nMSE 100-1000x worse), and
   // which start reaches the better one depends on the starting noise. So the
@@ -194,25 +191,20 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
       };
     OptimizerResult res = minimize(objective, start, opt, cb);
     shared.evaluations += res.evaluations;
-    shared.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
-    if (res.usable() && res.f < best_f) {
-      best_f = res.f;
-      best_x = res.x;
-      kept = res;
-    } else if (best_x.size() == 0) {
-      kept.message = res.message;
-    }
+    starts.add(res);
   }
+  shared.restart_nlls = starts.objectives;
+  const OptimizerResult& kept = starts.kept;
   shared.status = kept.status;
   shared.message = kept.message;
   shared.grad_norm = kept.grad_norm;
   out.report.seconds = seconds();
-  if (best_x.size() == 0) {
+  if (!starts.found()) {
     out.report.message = "lip: " + (kept.message.empty() ? std::string("no start could be evaluated") : kept.message);
     return out;
   }
-  kernel.set_log_params(best_x.head(P));
-  const Eigen::VectorXd noise = best_x.tail(n).array().exp();
+  kernel.set_log_params(kept.x.head(P));
+  const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
   const Evaluation final_fit = ws.evaluate(kernel, noise, false);
   if (!final_fit.ok) {
     out.report.message = "lip: final fit failed: " + final_fit.message;

@@ -76,15 +76,21 @@ struct PositionCoefficients {
   }
 };
 
+// prefix[m] = product of the jets' values before joint m, suffix[m] = from joint m on.
+void value_products(const std::vector<Jet>& jets, std::vector<double>& prefix, std::vector<double>& suffix) {
+  const size_t n = jets.size();
+  prefix.assign(n + 1, 1.0);
+  suffix.assign(n + 1, 1.0);
+  for (size_t m = 0; m < n; ++m) prefix[m + 1] = prefix[m] * jets[m][0];
+  for (size_t m = n; m-- > 0;) suffix[m] = suffix[m + 1] * jets[m][0];
+}
+
 // The linear function of the position quantities of the product of `jets`, in
 // O(n^2): products over all joints but one or two from prefix and suffix products.
 double contract_position(const std::vector<Jet>& jets, const PositionCoefficients& c, std::vector<double>& prefix,
                          std::vector<double>& suffix) {
   const int n = static_cast<int>(jets.size());
-  prefix.assign(static_cast<size_t>(n) + 1, 1.0);
-  suffix.assign(static_cast<size_t>(n) + 1, 1.0);
-  for (int m = 0; m < n; ++m) prefix[static_cast<size_t>(m) + 1] = prefix[static_cast<size_t>(m)] * jets[static_cast<size_t>(m)][0];
-  for (int m = n - 1; m >= 0; --m) suffix[static_cast<size_t>(m)] = suffix[static_cast<size_t>(m) + 1] * jets[static_cast<size_t>(m)][0];
+  value_products(jets, prefix, suffix);
   double value = c.cP * prefix[static_cast<size_t>(n)];
   for (int i = 0; i < n; ++i) {
     const Jet& ji = jets[static_cast<size_t>(i)];
@@ -105,10 +111,7 @@ double contract_position(const std::vector<Jet>& jets, const PositionCoefficient
 void position_quantities(const std::vector<Jet>& jets, double& P, Eigen::VectorXd& g, Eigen::VectorXd& gp,
                          Eigen::MatrixXd& H, std::vector<double>& prefix, std::vector<double>& suffix) {
   const int n = static_cast<int>(jets.size());
-  prefix.assign(static_cast<size_t>(n) + 1, 1.0);
-  suffix.assign(static_cast<size_t>(n) + 1, 1.0);
-  for (int m = 0; m < n; ++m) prefix[static_cast<size_t>(m) + 1] = prefix[static_cast<size_t>(m)] * jets[static_cast<size_t>(m)][0];
-  for (int m = n - 1; m >= 0; --m) suffix[static_cast<size_t>(m)] = suffix[static_cast<size_t>(m) + 1] * jets[static_cast<size_t>(m)][0];
+  value_products(jets, prefix, suffix);
   P = prefix[static_cast<size_t>(n)];
   for (int i = 0; i < n; ++i) {
     const Jet& ji = jets[static_cast<size_t>(i)];
@@ -294,36 +297,31 @@ void LagrangianKernel::torque_block(const double* x1, const double* x2, Eigen::R
   assemble_block(x1, x2, t, block);
 }
 
-Eigen::MatrixXd LagrangianKernel::torque_covariance(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2) const {
+void LagrangianKernel::fill_blocks(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2, bool lower_only,
+                                   Eigen::MatrixXd& K) const {
   const int n = n_;
-  Eigen::MatrixXd K(X1.rows() * n, X2.rows() * n);
+  K.resize(X1.rows() * n, X2.rows() * n);
   // Rows of X in contiguous memory: states are read one at a time.
   const Eigen::MatrixXd A = X1.transpose(), B = X2.transpose();
   parallel_chunks(X1.rows(), [&](Eigen::Index r0, Eigen::Index r1, int) {
     PairTerms t(n);
     Eigen::MatrixXd block(n, n);
     for (Eigen::Index r = r0; r < r1; ++r)
-      for (Eigen::Index s = 0; s < X2.rows(); ++s) {
+      for (Eigen::Index s = 0; s < (lower_only ? r + 1 : X2.rows()); ++s) {
         assemble_block(A.col(r).data(), B.col(s).data(), t, block);
         K.block(r * n, s * n, n, n) = block;
       }
   });
+}
+
+Eigen::MatrixXd LagrangianKernel::torque_covariance(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2) const {
+  Eigen::MatrixXd K;
+  fill_blocks(X1, X2, false, K);
   return K;
 }
 
 void LagrangianKernel::torque_gram_lower(const Eigen::MatrixXd& X, Eigen::MatrixXd& K) const {
-  const int n = n_;
-  K.resize(X.rows() * n, X.rows() * n);
-  const Eigen::MatrixXd A = X.transpose();
-  parallel_chunks(X.rows(), [&](Eigen::Index r0, Eigen::Index r1, int) {
-    PairTerms t(n);
-    Eigen::MatrixXd block(n, n);
-    for (Eigen::Index r = r0; r < r1; ++r)
-      for (Eigen::Index s = 0; s <= r; ++s) {
-        assemble_block(A.col(r).data(), A.col(s).data(), t, block);
-        K.block(r * n, s * n, n, n) = block;
-      }
-  });
+  fill_blocks(X, X, true, K);
 }
 
 void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, const Eigen::Ref<const Eigen::MatrixXd>& W,
@@ -431,9 +429,9 @@ Eigen::RowVectorXd LagrangianKernel::kinetic_torque_covariance(const double* x, 
     position_quantities(t.kinetic, t.P, t.g, t.gp, t.H, t.prefix, t.suffix);
     const auto qd2 = xs.segment(n, n), qdd2 = xs.segment(2 * n, n);
     const Eigen::VectorXd e = qd.cwiseProduct(qd2);
-    const double U = e.dot(nu_ * e);
+    const Eigen::VectorXd nu_e = nu_ * e;
     const Eigen::VectorXd row = 2.0 * qd.cwiseProduct(nu_ * qdd2.cwiseProduct(qd)) * t.P +
-                                2.0 * qd.cwiseProduct(nu_ * e) * qd2.dot(t.gp) - U * t.gp;
+                                2.0 * qd.cwiseProduct(nu_e) * qd2.dot(t.gp) - e.dot(nu_e) * t.gp;
     out.segment(s * n, n) = row.transpose();
   }
   return out;

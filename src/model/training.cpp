@@ -113,24 +113,18 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     Zw = Z(rows, Eigen::all);
     yw = y(rows);
   }
-  Eigen::VectorXd best_x;
-  double best_f = std::numeric_limits<double>::infinity();
-  OptimizerResult kept;
+  BestOfStarts starts;
   for (int r = 0; r <= o.restarts; ++r) {
     Eigen::VectorXd start = x0;
     if (r > 0)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
     OptimizerResult res = warm ? optimise(Xw, Zw, yw, start, r) : optimise(X, Z, y, start, r);
     (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
-    out.report.restart_nlls.push_back(res.usable() ? res.f : std::numeric_limits<double>::quiet_NaN());
-    if (res.usable() && res.f < best_f) {
-      best_f = res.f;
-      best_x = res.x;
-      kept = res;
-    } else if (best_x.size() == 0) {
-      kept.message = res.message;
-    }
+    starts.add(res);
   }
+  out.report.restart_nlls = starts.objectives;
+  OptimizerResult kept = starts.kept;
+  Eigen::VectorXd best_x = starts.found() ? kept.x : Eigen::VectorXd();
   if (warm && best_x.size() > 0) {
     OptimizerResult res = optimise(X, Z, y, best_x, 0);
     out.report.evaluations += res.evaluations;

@@ -21,6 +21,16 @@ OptimizerKind parse_optimizer(const std::string& name) {
   throw Error("OptimizerOptions::kind '" + name + "' is unknown; choose lbfgs or adam");
 }
 
+void BestOfStarts::add(const OptimizerResult& run) {
+  objectives.push_back(run.usable() ? run.f : std::numeric_limits<double>::quiet_NaN());
+  if (run.usable() && (!found_ || run.f < kept.f)) {
+    kept = run;
+    found_ = true;
+  } else if (!found_) {
+    kept.message = run.message;
+  }
+}
+
 std::string to_string(OptimizerKind kind) { return kind == OptimizerKind::Lbfgs ? "lbfgs" : "adam"; }
 
 std::string to_string(OptimizerResult::Status status) {

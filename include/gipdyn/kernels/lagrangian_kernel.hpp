@@ -73,6 +73,8 @@ class LagrangianKernel {
   void position_jets(const double* q1, const double* q2, PairTerms& t) const;
   // The kinetic energy's position quantities and velocity products for a pair.
   void kinetic_pair_terms(const double* x1, const double* x2, PairTerms& t) const;
+  // The blocks of cov(tau(X1), tau(X2)), or only those on and below the diagonal.
+  void fill_blocks(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2, bool lower_only, Eigen::MatrixXd& K) const;
   void assemble_block(const double* x1, const double* x2, PairTerms& t, Eigen::Ref<Eigen::MatrixXd> block) const;
   void add_pair_gradient(const double* x1, const double* x2, const Eigen::Ref<const Eigen::MatrixXd>& W, PairTerms& t,
                          Eigen::Ref<Eigen::VectorXd> grad) const;

@@ -5,6 +5,7 @@
 #include <Eigen/Dense>
 #include <functional>
 #include <string>
+#include <vector>
 
 #include "gipdyn/progress.hpp"
 
@@ -46,6 +47,19 @@ struct OptimizerResult {
 };
 std::string to_string(OptimizerResult::Status status);  // converged, max-iter, stalled, failed
 OptimizerResult::Status parse_optimizer_status(const std::string& name);  // the inverse; throws gipdyn::Error
+
+// The best of several runs from different starts (restarts), by objective.
+struct BestOfStarts {
+  // The lowest-objective usable run so far; while none is usable, a failed
+  // result carrying the last run's message.
+  OptimizerResult kept;
+  std::vector<double> objectives;  // one per run, NaN where a run failed
+  void add(const OptimizerResult& run);
+  bool found() const { return found_; }
+
+ private:
+  bool found_ = false;
+};
 
 // progress gets one event after every accepted evaluation (iteration, objective,
 // projected |grad|_inf); the caller's fields of the event are left empty.
