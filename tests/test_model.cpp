@@ -191,6 +191,24 @@ TEST(Training, ConstantStepSubsample) {
   EXPECT_EQ(constant_step_indices(5, 10).size(), 5u);
 }
 
+TEST(Training, ShiftedConstantStepSubsamplesInterleave) {
+  // Three shifts of 4 rows out of 12: disjoint, together every row once, each in range and increasing.
+  std::vector<int> seen(12, 0);
+  for (Eigen::Index shift = 0; shift < 3; ++shift) {
+    const auto idx = constant_step_indices(12, 4, shift, 3);
+    ASSERT_EQ(idx.size(), 4u);
+    for (size_t k = 0; k < idx.size(); ++k) {
+      ++seen[static_cast<size_t>(idx[k])];
+      if (k > 0) EXPECT_GT(idx[k], idx[k - 1]);
+    }
+  }
+  EXPECT_EQ(seen, std::vector<int>(12, 1));
+  EXPECT_EQ(constant_step_indices(40000, 4000, 0, 5), constant_step_indices(40000, 4000));
+  EXPECT_EQ(constant_step_indices(6340, 1000, 4, 5).back(), 6338);  // never past the last row
+  EXPECT_THROW(constant_step_indices(10, 5, 3, 3), Error);
+  EXPECT_THROW(constant_step_indices(10, 5, 0, 0), Error);
+}
+
 TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
   for (const auto& [kernel, mean] : {std::pair{"gip", MeanKind::Zero}, std::pair{"gip-friction", MeanKind::Zero},
                                      std::pair{"rbf", MeanKind::Zero}, std::pair{"gip", MeanKind::Linear},

@@ -90,7 +90,7 @@ Command add_experiment(CLI::App& app) {
 
   struct RealArgs {
     RealRobotConfig config;
-    std::string estimators, protocol, train_rows, test_rows;
+    std::string estimators, protocol, train_rows, test_rows, sizes;
     EstimatorArgs est;
   };
   auto real = std::make_shared<RealArgs>();
@@ -113,6 +113,12 @@ Command add_experiment(CLI::App& app) {
       ->capture_default_str();
   r->add_option("--max-train", real->config.max_train,
                 "GP estimators: at most this many training rows, a constant-step subsample")
+      ->capture_default_str();
+  r->add_option("--sizes", real->sizes,
+                "Learning curve instead: train every estimator on constant-step subsamples of these sizes of the "
+                "training rows, e.g. 100,200,500,1000,2000 (writes learning_curve.csv/.md/.png)");
+  r->add_option("--repeats", real->config.repeats,
+                "With --sizes: interleaved subsamples per size (shifted by a fraction of the step), for error bars")
       ->capture_default_str();
   r->add_option("--plot-window", real->config.plot_window, "Test rows in the torque-over-time plot")
       ->capture_default_str();
@@ -177,6 +183,7 @@ Command add_experiment(CLI::App& app) {
     } else if (!c.robot.empty()) {
       c.estimators = {"gip", "gip-friction", "rbf", "nn", "fe", "pp", "sp"};
     }
+    if (!real->sizes.empty()) c.sizes = parse_int_list(real->sizes, "--sizes", "100,200,500");
     c.base = base_options(real->est);
     c.base.gp.seed = real->est.seed;
     return report(run_real_robot_experiment(c, printer(*quiet)), *quiet);

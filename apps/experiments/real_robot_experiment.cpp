@@ -36,6 +36,13 @@ void RealRobotConfig::validate() const {
   if (nn_max_train != 0 && nn_max_train < kMinTrainingRows)
     throw Error("--nn-max-train must be 0 (every row) or >= " + std::to_string(kMinTrainingRows));
   if (plot_window < 1) throw Error("--plot-window must be >= 1");
+  for (int size : sizes)
+    if (size < kMinTrainingRows)
+      throw Error("--sizes: " + std::to_string(size) + " is below the minimum of " + std::to_string(kMinTrainingRows) +
+                  " training rows");
+  if (!sizes.empty() && nn_max_train != 0)
+    throw Error("--sizes sets the training rows of every estimator, nn included; drop --nn-max-train");
+  if (repeats < 1) throw Error("--repeats must be >= 1 (subsamples per training size)");
   validate_estimators(estimators);
   validate_base_options(base);
   for (const auto& e : estimators)
@@ -59,6 +66,10 @@ nlohmann::json RealRobotConfig::to_json() const {
   // Only when set, so folders written before these options existed still resume.
   if (alternate_blocks > 0) j["alternate_blocks"] = alternate_blocks;
   if (nn_max_train > 0) j["nn_max_train"] = nn_max_train;
+  if (!sizes.empty()) {
+    j["sizes"] = sizes;
+    j["repeats"] = repeats;
+  }
   return j;
 }
 
@@ -76,49 +87,62 @@ void apply_protocol(const std::string& protocol, RealRobotConfig& c) {
   }
 }
 
-ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const ProgressCallback& progress) {
-  c.validate();
-  const JointTypes joints = JointTypes::parse(c.joints);
-  const int n = joints.size();
-  const Dataset all = c.mat_variable.empty() ? read_dataset(c.data, joints, true)
-                                             : read_mat_dataset(c.data, c.mat_variable, joints, true);
-  // 0-based row indices of the two sets, and how to describe them.
-  std::vector<Eigen::Index> train_idx, test_idx;
-  std::vector<std::string> outcome_warnings;
-  std::string split;
+RealSplit load_real_split(const RealRobotConfig& c) {
+  RealSplit s;
+  s.joints = JointTypes::parse(c.joints);
+  const Dataset all = c.mat_variable.empty() ? read_dataset(c.data, s.joints, true)
+                                             : read_mat_dataset(c.data, c.mat_variable, s.joints, true);
+  std::vector<Eigen::Index> train_idx;
   if (c.alternate_blocks > 0) {
     const Eigen::Index B = c.alternate_blocks;
     if (all.rows() < 2 * B)
       throw Error("--alternate-blocks " + std::to_string(B) + " needs at least " + std::to_string(2 * B) +
                   " rows but '" + c.data + "' has " + std::to_string(all.rows()) + "; use smaller blocks");
-    for (Eigen::Index r = 0; r < all.rows(); ++r) ((r / B) % 2 == 0 ? train_idx : test_idx).push_back(r);
-    split = "alternating blocks of " + std::to_string(B) + " rows (odd blocks train, even blocks test)";
+    for (Eigen::Index r = 0; r < all.rows(); ++r) ((r / B) % 2 == 0 ? train_idx : s.test_rows).push_back(r);
+    s.description = "alternating blocks of " + std::to_string(B) + " rows (odd blocks train, even blocks test)";
   } else {
     for (const auto& [name, range] : {std::pair{"--train-rows", c.train_rows}, std::pair{"--test-rows", c.test_rows}})
       if (range.second > all.rows())
         throw Error(std::string(name) + " ends at row " + std::to_string(range.second) + " but '" + c.data +
                     "' has " + std::to_string(all.rows()) + " data rows");
     for (long k = c.train_rows.first; k <= c.train_rows.second; ++k) train_idx.push_back(k - 1);
-    for (long k = c.test_rows.first; k <= c.test_rows.second; ++k) test_idx.push_back(k - 1);
-    split = "train rows " + std::to_string(c.train_rows.first) + "-" + std::to_string(c.train_rows.second) +
-            ", test rows " + std::to_string(c.test_rows.first) + "-" + std::to_string(c.test_rows.second);
+    for (long k = c.test_rows.first; k <= c.test_rows.second; ++k) s.test_rows.push_back(k - 1);
+    s.description = "train rows " + std::to_string(c.train_rows.first) + "-" + std::to_string(c.train_rows.second) +
+                    ", test rows " + std::to_string(c.test_rows.first) + "-" + std::to_string(c.test_rows.second);
   }
-  const Dataset train = all.subset(train_idx), test = all.subset(test_idx);
-  if (const Eigen::Index shared = count_shared_rows(train.X, test.X); shared > 0)
-    outcome_warnings.push_back(std::to_string(shared) + " of the " + std::to_string(test.rows()) +
-                               " test rows also appear among the training rows: their error is not a test error");
+  s.train = all.subset(train_idx);
+  s.test = all.subset(s.test_rows);
+  if (const Eigen::Index shared = count_shared_rows(s.train.X, s.test.X); shared > 0)
+    s.warnings.push_back(std::to_string(shared) + " of the " + std::to_string(s.test.rows()) +
+                         " test rows also appear among the training rows: their error is not a test error");
+  for (int size : c.sizes)
+    if (size > s.train.rows())
+      throw Error("--sizes: " + std::to_string(size) + " is more than the " + std::to_string(s.train.rows()) +
+                  " training rows of this split; use sizes up to " + std::to_string(s.train.rows()));
+  if (!c.robot.empty()) {
+    s.prior.robot = std::make_shared<const RobotModel>(load_robot(c.robot));
+    s.prior.friction = c.robot_friction;
+  }
+  return s;
+}
+
+ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const ProgressCallback& progress) {
+  c.validate();
+  if (!c.sizes.empty()) return run_real_learning_curve(c, progress);
+  const RealSplit s = load_real_split(c);
+  const JointTypes& joints = s.joints;
+  const int n = joints.size();
+  const Dataset &train = s.train, &test = s.test;
+  const std::vector<Eigen::Index>& test_idx = s.test_rows;
+  const std::string& split = s.description;
+  const RobotPrior& prior = s.prior;
   const Dataset train_gp = train.subset(constant_step_indices(train.rows(), c.max_train));
   const Dataset train_nn = train.subset(constant_step_indices(train.rows(), c.nn_max_train));
-  RobotPrior prior;
-  if (!c.robot.empty()) {
-    prior.robot = std::make_shared<const RobotModel>(load_robot(c.robot));
-    prior.friction = c.robot_friction;
-  }
   prepare_folder(c.out, c.to_json());
   ResultTable table((fs::path(c.out) / "nmse.csv").string(),
                     {"estimator", "joint", "nmse", "seconds", "training_rows"});
   ExperimentOutcome outcome;
-  outcome.warnings = outcome_warnings;
+  outcome.warnings = s.warnings;
   Eta eta;
   for (const auto& e : c.estimators)
     if (table.contains({{"estimator", e}})) ++outcome.units_skipped;

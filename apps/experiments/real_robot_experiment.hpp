@@ -9,6 +9,7 @@
 
 #include "experiments/experiment_runner.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/io/dataset.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {
@@ -28,6 +29,11 @@ struct RealRobotConfig {
   int nn_max_train = 0;      // nn: the same kind of subsample (0: every training row, as the paper)
   int plot_window = 1000;    // test rows shown in the torque-over-time plot
   std::vector<std::string> estimators{"gip", "gip-friction", "rbf", "nn"};
+  // Learning curve instead of one fit per estimator: every estimator on
+  // `repeats` interleaved constant-step subsamples of each size (max_train and
+  // nn_max_train are then not used).
+  std::vector<int> sizes;
+  int repeats = 3;
   std::string robot;         // nominal robot for fe, pp, sp ("" : those are not run)
   bool robot_friction = false;
   EstimatorOptions base;
@@ -37,6 +43,20 @@ struct RealRobotConfig {
 };
 // The reference protocols of ../shared/data/README.md: "ur10" fills rows, robot and estimators.
 void apply_protocol(const std::string& protocol, RealRobotConfig& config);
+// Runs the learning curve when config.sizes is set, the one-size comparison otherwise.
 ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& config, const ProgressCallback& progress = {});
+
+// The log split as the config asks, for both kinds of run.
+struct RealSplit {
+  JointTypes joints;
+  Dataset train, test;
+  std::vector<Eigen::Index> test_rows;  // 0-based rows of the log
+  std::string description;
+  std::vector<std::string> warnings;
+  RobotPrior prior;
+};
+RealSplit load_real_split(const RealRobotConfig& config);
+// nMSE against training size: learning_curve.csv, learning_curve.md, learning_curve.png.
+ExperimentOutcome run_real_learning_curve(const RealRobotConfig& config, const ProgressCallback& progress = {});
 
 }  // namespace gipdyn

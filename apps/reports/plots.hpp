@@ -14,7 +14,9 @@ struct PlotResult {
 // kind: boxplot (nmse.csv), gmse (gmse.csv), bars (nmse.csv of one split),
 // timeseries (predictions CSV), residuals (predictions CSV with *_hat),
 // noise-ratio (diagnostics JSON), motion (true and learned positions from
-// `simulate --model`), tracking (errors.csv of the control experiment).
+// `simulate --model`), tracking (errors.csv of the control experiment),
+// physics (physics.csv of `evaluate --physics`), learning_curve
+// (learning_curve.csv of `experiment real --sizes`).
 // Writes `png` atomically.
 PlotResult render_plot(const std::string& kind, const std::string& input, const std::string& png);
 

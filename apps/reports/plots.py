@@ -215,9 +215,52 @@ def physics(physics_csv, out):
     fig.savefig(out, dpi=110)
 
 
+def learning_curve(curve_csv, out):
+    """Columns estimator, size, repeat, joint, nmse: median nMSE against training rows per joint and
+    for the mean over joints, bars from the smallest to the largest repeat."""
+    rows = read_rows(curve_csv)
+    estimators = ordered(r["estimator"] for r in rows)
+    joints = sorted({int(r["joint"]) for r in rows})
+    panels = [0] + joints
+    cols = min(4, len(panels))
+    nrows = (len(panels) + cols - 1) // cols
+    fig, axes = plt.subplots(nrows, cols, figsize=(3.6 * cols, 3.0 * nrows), squeeze=False)
+    for k, j in enumerate(panels):
+        ax = axes[k // cols][k % cols]
+        for e in estimators:
+            sizes = sorted({int(r["size"]) for r in rows if r["estimator"] == e})
+            med, lo, hi = [], [], []
+            for s in sizes:
+                per_repeat = {}
+                for r in rows:
+                    if r["estimator"] == e and int(r["size"]) == s and (j == 0 or int(r["joint"]) == j):
+                        per_repeat.setdefault(r["repeat"], []).append(number(r["nmse"]))
+                v = sorted(sum(x) / len(x) for x in per_repeat.values() if all(math.isfinite(y) for y in x))
+                med.append((v[(len(v) - 1) // 2] + v[len(v) // 2]) / 2 if v else math.nan)
+                lo.append(v[0] if v else math.nan)
+                hi.append(v[-1] if v else math.nan)
+            err = [[max(m - a, 0) for m, a in zip(med, lo)], [max(b - m, 0) for m, b in zip(med, hi)]]
+            ax.errorbar(sizes, med, yerr=err, marker="o", ms=3, capsize=2, label=e)
+        ax.set_xscale("log")
+        ax.set_yscale("log")
+        ax.axhline(1.0, color="grey", lw=0.8, ls="--")
+        ax.set_title("mean over joints" if j == 0 else "joint %d" % j, fontsize=9)
+        ax.grid(True, which="both", alpha=0.3)
+        if k % cols == 0:
+            ax.set_ylabel("test nMSE")
+        if k // cols == nrows - 1:
+            ax.set_xlabel("training rows")
+    for k in range(len(panels), nrows * cols):
+        axes[k // cols][k % cols].axis("off")
+    axes[0][0].legend(fontsize=7)
+    fig.suptitle("learning curve (median over subsamples, bars: min-max; dashed: predicting the mean)", fontsize=9)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
          "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion,
-         "tracking": tracking, "physics": physics}
+         "tracking": tracking, "physics": physics, "learning_curve": learning_curve}
 
 if __name__ == "__main__":
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:

@@ -17,6 +17,11 @@ void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, 
 // (possibly fractional) step over the whole range, as the paper subsampled the
 // UR10 data. count <= 0 or count >= rows keeps everything.
 std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count);
+// The shift-th (0 <= shift < shifts) of `shifts` interleaved constant-step
+// subsamples: rows floor((k + shift / shifts) rows / count). Different shifts
+// give different rows of the same motions, for repeats of a learning curve.
+std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count, Eigen::Index shift,
+                                                Eigen::Index shifts);
 
 // Columns of X whose values (almost) do not vary: max - min <= tolerance x
 // (1 + max |value|). A model cannot learn how the torque depends on them.

@@ -34,6 +34,18 @@ std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index 
   return idx;
 }
 
+std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count, Eigen::Index shift,
+                                                Eigen::Index shifts) {
+  if (shifts < 1 || shift < 0 || shift >= shifts)
+    throw Error("constant_step_indices: shift must be in [0, shifts) with shifts >= 1, got shift " +
+                std::to_string(shift) + " of " + std::to_string(shifts));
+  if (count <= 0 || count >= rows) return constant_step_indices(rows, count);
+  std::vector<Eigen::Index> idx;
+  // Integer arithmetic: (k shifts + shift) rows / (count shifts) < rows for every k < count.
+  for (Eigen::Index k = 0; k < count; ++k) idx.push_back((k * shifts + shift) * rows / (count * shifts));
+  return idx;
+}
+
 std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tolerance) {
   std::vector<Eigen::Index> out;
   if (X.rows() == 0) return out;

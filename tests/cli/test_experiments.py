@@ -162,6 +162,43 @@ def test_real_with_alternating_blocks_and_a_subsampled_network(tmp_path, gipdyn_
     assert big.returncode != 0 and "smaller blocks" in big.stderr
 
 
+def test_real_learning_curve_writes_every_size_and_repeat_and_resumes(tmp_path, gipdyn_bin):
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 300)
+    out = tmp_path / "curve"
+    args = ["experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-200",
+            "--test-rows", "201-300", "--sizes", "15,120", "--repeats", "2", "--estimators", "gip-friction,rbf",
+            "--max-iter", "100", "--out", str(out)]
+    r = run(gipdyn_bin, *args)
+    assert r.returncode == 0, r.stderr
+    table = rows(out / "learning_curve.csv")
+    assert header(out / "learning_curve.csv")[:5] == ["estimator", "size", "repeat", "joint", "nmse"]
+    assert len(table) == 2 * 2 * 2 * 4
+    assert is_png(out / "learning_curve.png")
+    assert "## Mean test nMSE over joints" in (out / "learning_curve.md").read_text()
+
+    def mean_nmse(e, size, repeat):
+        return np.mean([float(x["nmse"]) for x in table
+                        if x["estimator"] == e and x["size"] == str(size) and x["repeat"] == str(repeat)])
+    # The repeats train on different rows; on this noise-free rigid-body log with friction the
+    # structured kernel must improve with 8x the rows, in every repeat.
+    assert mean_nmse("gip-friction", 15, 1) != mean_nmse("gip-friction", 15, 2)
+    for repeat in (1, 2):
+        assert mean_nmse("gip-friction", 120, repeat) < 0.5 * mean_nmse("gip-friction", 15, repeat)
+    again = run(gipdyn_bin, *args)
+    assert again.returncode == 0 and "8 fits already recorded" in again.stdout
+    assert len(rows(out / "learning_curve.csv")) == len(table)
+    for bad_args, message in [(["--sizes", "15,500"], "more than the 200 training rows"),
+                              (["--sizes", "2"], "below the minimum"),
+                              (["--sizes", "50", "--repeats", "0"], "--repeats must be >= 1"),
+                              (["--sizes", "50", "--nn-max-train", "40"], "drop --nn-max-train")]:
+        bad = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-200",
+                  "--test-rows", "201-300", *bad_args, "--out", str(tmp_path / "bad"))
+        assert bad.returncode != 0 and message in bad.stderr, bad.stderr
+        assert len(bad.stderr.strip().splitlines()) == 1
+        assert not (tmp_path / "bad").exists()
+
+
 def test_real_reads_a_mat_file(tmp_path, gipdyn_bin):
     scipy_io = pytest.importorskip("scipy.io")
     log = tmp_path / "log.csv"
