@@ -60,10 +60,10 @@ struct JointSetup {
   Eigen::VectorXd y;
 };
 
-JointSetup joint_setup(const benchmark::State& state) {
+JointSetup joint_setup(const benchmark::State& state, const std::string& kernel = "gip") {
   use_single_threaded_blas();
   JointSetup s{problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1))), nullptr, std::log(1e-2), {}};
-  s.kernel = make_kernel("gip", FeatureMap(s.p.joints), 0);
+  s.kernel = make_kernel(kernel, FeatureMap(s.p.joints), 0);
   const Eigen::VectorXd t = s.p.Y.col(0);
   s.y = ((t.array() - t.mean()) / std::sqrt((t.array() - t.mean()).square().mean())).matrix();
   s.kernel->initialize(s.p.Z, 1.0);
@@ -82,8 +82,8 @@ void BM_KernelBuild(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip");
 }
 
-void BM_NllGradient(benchmark::State& state) {
-  JointSetup s = joint_setup(state);
+void nll_gradient(benchmark::State& state, const std::string& kernel) {
+  JointSetup s = joint_setup(state, kernel);
   const Problem& p = s.p;
   GpWorkspace ws;
   for (auto _ : state) {
@@ -91,8 +91,13 @@ void BM_NllGradient(benchmark::State& state) {
     if (!e.ok()) state.SkipWithError(e.message.c_str());
     benchmark::DoNotOptimize(e.gradient.data());
   }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, " + std::to_string(s.kernel->num_params() + 1) + " params");
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + kernel + ", " +
+                 std::to_string(s.kernel->num_params() + 1) + " params");
 }
+
+void BM_NllGradient(benchmark::State& state) { nll_gradient(state, "gip"); }
+// The smooth friction term on top of GIP (SumKernel, FrictionKernel): what it adds to an evaluation.
+void BM_NllGradientGipFriction(benchmark::State& state) { nll_gradient(state, "gip+friction"); }
 
 void BM_PotrfPotri(benchmark::State& state) {
   JointSetup s = joint_setup(state);
@@ -267,6 +272,7 @@ void sizes(benchmark::internal::Benchmark* b) {
 
 BENCHMARK(BM_KernelBuild)->Apply(sizes);
 BENCHMARK(BM_NllGradient)->Apply(sizes);
+BENCHMARK(BM_NllGradientGipFriction)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);

@@ -6,6 +6,7 @@
 
 #include "gipdyn/features.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
+#include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
@@ -139,6 +140,57 @@ TEST(RbfKernel, ValueAndGradients) {
   EXPECT_EQ(k->param_names()[1], "rbf.lengthscale_q1");
   expect_gradient_matrices_match(*k, Z1, Z2, "rbf");
   expect_contractions_match(*k, Z1, "rbf");
+}
+
+// docs/method.md section 12 written out: offset, viscous, tanh Coulomb and Stribeck.
+TEST(FrictionKernel, ValueGradientsAndFastPathsMatchTheFormula) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  const Eigen::MatrixXd Z1 = fm.compute(random_inputs(fm.joints(), 9, 21));
+  const Eigen::MatrixXd Z2 = fm.compute(random_inputs(fm.joints(), 7, 22));
+  FrictionKernel k(fm.qd(2), "joint3.friction");
+  k.set_log_params(random_vector(k.num_params(), -1.0, 0.5, 23));
+  const Eigen::VectorXd w = k.log_params().array().exp();
+  auto naive = [&](double v, double u) {
+    auto c = [&](double x) { return std::tanh(x / w(4)); };
+    auto r = [&](double x) { return std::exp(-std::pow(x / w(5), 2)) * c(x); };
+    return w(0) + w(1) * v * u + w(2) * c(v) * c(u) + w(3) * r(v) * r(u);
+  };
+  Eigen::MatrixXd K;
+  k.cross(Z1, Z2, K);
+  for (Eigen::Index i = 0; i < Z1.rows(); ++i)
+    for (Eigen::Index j = 0; j < Z2.rows(); ++j) EXPECT_NEAR(K(i, j), naive(Z1(i, fm.qd(2)), Z2(j, fm.qd(2))), 1e-12);
+  EXPECT_EQ(k.param_names()[4], "joint3.friction.v_coulomb");
+  expect_gradient_matrices_match(k, Z1, Z2, "friction");
+  expect_contractions_match(k, Z1, "friction");
+  KernelScratch scratch;
+  Eigen::VectorXd row(Z2.rows()), d;
+  const Eigen::RowVectorXd z4 = Z1.row(4);
+  k.row(z4.data(), Z2, row, scratch);
+  EXPECT_LT((row.transpose() - K.row(4)).cwiseAbs().maxCoeff(), 1e-12);
+  k.diagonal(Z1, d);
+  const Eigen::RowVectorXd z = Z1.row(2);
+  EXPECT_NEAR(k.self(z.data(), fm.feature_dim()), d(2), 1e-12);
+  EXPECT_NEAR(d(2), naive(z(fm.qd(2)), z(fm.qd(2))), 1e-12);
+  // Only the joint's own velocity matters.
+  Eigen::MatrixXd Z3 = Z1;
+  Z3.col(fm.qd(0)).setRandom();
+  Z3.col(fm.qdd(2)).setRandom();
+  Eigen::MatrixXd K3;
+  k.cross(Z3, Z2, K3);
+  EXPECT_EQ((K3.topRows(Z1.rows()) - K).cwiseAbs().maxCoeff(), 0.0);
+}
+
+TEST(FrictionKernel, StartsWithEachTermAtAQuarterOfTheTargetAndSmoothingBelowTheSpeeds) {
+  const FeatureMap fm(JointTypes::parse("RR"));
+  const Eigen::MatrixXd Z = fm.compute(random_inputs(fm.joints(), 200, 24));
+  FrictionKernel k(fm.qd(1));
+  k.initialize(Z, 2.0);
+  Eigen::VectorXd d;
+  k.diagonal(Z, d);
+  EXPECT_NEAR(d.mean(), 2.0, 1e-9);  // four terms, each a quarter on average
+  const double rms = std::sqrt(Z.col(fm.qd(1)).squaredNorm() / 200.0);
+  EXPECT_NEAR(std::exp(k.log_params()(FrictionKernel::kCoulombVelocity)), 0.05 * rms, 1e-12);
+  EXPECT_NEAR(std::exp(k.log_params()(FrictionKernel::kStribeckVelocity)), 0.2 * rms, 1e-12);
 }
 
 // docs/method.md section 2 written out directly from raw inputs, with the parameter layout

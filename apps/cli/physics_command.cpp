@@ -29,7 +29,7 @@ Command add_physics(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   app.description(
-      "Rigid-body terms of a learned model (gip, gip-friction, lip, pp, fe): gravity g(q), the inertia matrix M(q)\n"
+      "Rigid-body terms of a learned model (gip, gip-friction, gip+friction, lip, pp, fe): gravity g(q), the inertia matrix M(q)\n"
       "and, when the states have velocities, the Coriolis/centrifugal torque C(q, qd) qd and the friction\n"
       "torque, all from the model's torque predictions; plus per row how physical M is (asymmetry, smallest\n"
       "eigenvalue of its symmetric part). A lip model also gives its potential energy (up to a constant)\n"

@@ -68,7 +68,7 @@ gipdyn_status check_query(const gipdyn_workspace* ws, int n, const void* out) {
 gipdyn_status check_physics(const gipdyn_workspace* ws) {
   if (!ws->model->physics)
     return fail(GIPDYN_ERROR_UNSUPPORTED,
-                "this model's kernel has no rigid-body structure: gravity and inertia need gip, gip-friction or pp");
+                "this model's kernel has no rigid-body structure: gravity and inertia need gip, gip-friction, gip+friction or pp");
   return GIPDYN_OK;
 }
 

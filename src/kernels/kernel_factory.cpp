@@ -3,6 +3,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
+#include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/parametric_kernel.hpp"
 #include "gipdyn/kernels/rbf_kernel.hpp"
@@ -10,7 +11,8 @@
 namespace gipdyn {
 
 const std::vector<std::string>& kernel_names() {
-  static const std::vector<std::string> names{"gip", "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", "pp", "sp"};
+  static const std::vector<std::string> names{"gip", "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf",
+                                               "gip+friction", "gip+friction+rbf", "pp", "sp"};
   return names;
 }
 
@@ -51,6 +53,17 @@ std::unique_ptr<Kernel> with_rbf(std::unique_ptr<Kernel> structured, const Featu
   return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
 }
 
+// GIP plus the smooth friction and offset of the joint's own motor (90 % / 10 % of the
+// variance at the start), and optionally a local RBF (80 / 10 / 10).
+std::unique_ptr<Kernel> gip_with_friction(const FeatureMap& features, int joint, bool rbf) {
+  std::vector<std::unique_ptr<Kernel>> parts;
+  parts.push_back(std::make_unique<GipKernel>(features));
+  parts.push_back(std::make_unique<FrictionKernel>(features.qd(joint)));
+  if (!rbf) return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
+  parts.push_back(make_rbf(features));
+  return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.8, 0.1, 0.1});
+}
+
 }  // namespace
 
 std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint,
@@ -64,6 +77,8 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
   if (name == "rbf") return make_rbf(features);
   if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
   if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);
+  if (name == "gip+friction") return gip_with_friction(features, joint, false);
+  if (name == "gip+friction+rbf") return gip_with_friction(features, joint, true);
   if (name == "pp") return std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction);
   if (name == "sp") return with_rbf(std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction), features);
   require_known_kernel(name);

@@ -12,6 +12,7 @@
 //   M(q) e_j    = f(q, 0, e_j) - g(q)
 //   C(q, qd) qd = (f(q, qd, 0) + f(q, -qd, 0)) / 2 - g(q)
 //   friction    = (f(q, qd, 0) - f(q, -qd, 0)) / 2
+// gip+friction's torque offset is even in qd and constant: it is counted in g.
 // Models without that structure (rbf, the hybrids and sp, which add an RBF,
 // and nn) cannot give these terms: asking is a gipdyn::Error.
 #include <Eigen/Dense>

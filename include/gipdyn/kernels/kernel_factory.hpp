@@ -38,6 +38,9 @@ void require_matching_robot(const RobotPrior& prior, const JointTypes& joints);
 //   "rbf"               RBF with ARD lengthscales on (q, qd, qdd)
 //   "gip+rbf"           GIP + RBF (a structured part that generalises, a local part for the rest)
 //   "gip-friction+rbf"  GIP-friction + RBF
+//   "gip+friction"      GIP + smooth Coulomb (tanh), viscous and Stribeck friction of the
+//                       joint's own motor and a torque offset (FrictionKernel), scales learned
+//   "gip+friction+rbf"  the same + RBF
 //   "pp"                parametric prior on the rigid-body regressor of prior.robot
 //   "sp"                PP + RBF (semiparametric)
 // Sums start with 90 % of the output variance in the structured part.

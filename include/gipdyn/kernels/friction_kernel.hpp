@@ -1,0 +1,62 @@
+#pragma once
+// Smooth friction and a torque offset of one joint (docs/method.md section 12):
+//
+//   k(v, v') = s_o + s_v v v' + s_c c(v) c(v') + s_s r(v) r(v'),
+//   c(v) = tanh(v / v_c),   r(v) = exp(-(v / v_r)^2) c(v),
+//
+// with v the joint's velocity qd_i. Its functions are exactly
+//   offset + viscous v + Coulomb tanh(v / v_c) + Stribeck exp(-(v / v_r)^2) tanh(v / v_c),
+// i.e. the Stribeck friction curve with the sign smoothed over v_c, each weight
+// with a zero-mean Gaussian prior of variance s_*. v_c and v_r are learned with
+// the rest. Parameters (log): s_offset, s_viscous, s_coulomb, s_stribeck,
+// v_coulomb, v_stribeck, named "<prefix>.<name>".
+#include <string>
+
+#include "gipdyn/kernels/kernel.hpp"
+
+namespace gipdyn {
+
+class FrictionKernel final : public Kernel {
+ public:
+  // column: the velocity's column in the feature matrix Z.
+  explicit FrictionKernel(int column, std::string prefix = "friction");
+
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<FrictionKernel>(*this); }
+  int num_params() const override { return kNumParams; }
+  std::vector<std::string> param_names() const override;
+  Eigen::VectorXd log_params() const override { return log_params_; }
+  void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) override;
+
+  void cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const override;
+  void diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const override;
+  void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
+  void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                KernelScratch& scratch) const override;
+  void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+           KernelScratch& scratch) const override;
+  double self(const double* z, int feature_dim) const override;
+
+  // Each of the four terms starts with a quarter of target_variance (its weight
+  // divided by the mean square of its feature); v_c starts at 5 % and v_r at
+  // 20 % of the velocity's root mean square, so the smoothed sign is nearly a
+  // step at the speeds of the data and the Stribeck bump sits at low speed.
+  void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
+
+  // The four features (1, v, c(v), r(v)) of one velocity.
+  Eigen::Vector4d features(double v) const;
+
+  static constexpr int kNumParams = 6;
+  enum Param { kOffset = 0, kViscous, kCoulomb, kStribeck, kCoulombVelocity, kStribeckVelocity };
+
+ private:
+  // Features (N x 4) and, when wanted, their derivatives in log v_c and log v_r
+  // (N x 4 each; only the c and r columns are non-zero).
+  void feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F, Eigen::MatrixXd* dF_vc = nullptr,
+                      Eigen::MatrixXd* dF_vr = nullptr) const;
+
+  int column_;
+  std::string prefix_;
+  Eigen::VectorXd log_params_;
+};
+
+}  // namespace gipdyn

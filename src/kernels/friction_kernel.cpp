@@ -1,0 +1,129 @@
+#include "gipdyn/kernels/friction_kernel.hpp"
+
+#include <cmath>
+
+#include "gipdyn/error.hpp"
+
+namespace gipdyn {
+
+FrictionKernel::FrictionKernel(int column, std::string prefix) : column_(column), prefix_(std::move(prefix)) {
+  if (column < 0) throw Error("FrictionKernel: the velocity column must be >= 0");
+  log_params_ = Eigen::VectorXd::Zero(kNumParams);
+}
+
+std::vector<std::string> FrictionKernel::param_names() const {
+  return {prefix_ + ".s_offset",  prefix_ + ".s_viscous",  prefix_ + ".s_coulomb",
+          prefix_ + ".s_stribeck", prefix_ + ".v_coulomb", prefix_ + ".v_stribeck"};
+}
+
+void FrictionKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) {
+  if (p.size() != kNumParams) throw Error("FrictionKernel: wrong number of parameters");
+  log_params_ = p;
+}
+
+Eigen::Vector4d FrictionKernel::features(double v) const {
+  const double c = std::tanh(v * std::exp(-log_params_(kCoulombVelocity)));
+  const double u = v * std::exp(-log_params_(kStribeckVelocity));
+  return {1.0, v, c, std::exp(-u * u) * c};
+}
+
+void FrictionKernel::feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F, Eigen::MatrixXd* dF_vc,
+                                    Eigen::MatrixXd* dF_vr) const {
+  const Eigen::Index N = Z.rows();
+  F.resize(N, 4);
+  if (dF_vc) dF_vc->setZero(N, 4);
+  if (dF_vr) dF_vr->setZero(N, 4);
+  const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
+  for (Eigen::Index i = 0; i < N; ++i) {
+    const double v = Z(i, column_), a = v * inv_vc, u = v * inv_vr;
+    const double c = std::tanh(a), e = std::exp(-u * u);
+    F.row(i) << 1.0, v, c, e * c;
+    // d tanh(v / v_c) / d log v_c = -(v / v_c) sech^2; d exp(-(v / v_r)^2) / d log v_r = 2 u^2 e.
+    const double dc = -a * (1.0 - c * c);
+    if (dF_vc) {
+      (*dF_vc)(i, 2) = dc;
+      (*dF_vc)(i, 3) = e * dc;
+    }
+    if (dF_vr) (*dF_vr)(i, 3) = 2.0 * u * u * e * c;
+  }
+}
+
+void FrictionKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
+  const double rms = std::sqrt(Z.col(column_).squaredNorm() / std::max<double>(1.0, static_cast<double>(Z.rows())));
+  const double scale = rms > 1e-12 ? rms : 1.0;
+  log_params_(kCoulombVelocity) = std::log(0.05 * scale);
+  log_params_(kStribeckVelocity) = std::log(0.2 * scale);
+  Eigen::MatrixXd F;
+  feature_matrix(Z, F);
+  const double share = std::max(target_variance, 1e-12) / 4.0;
+  for (int k = 0; k < 4; ++k) {
+    const double ms = F.col(k).squaredNorm() / std::max<double>(1.0, static_cast<double>(F.rows()));
+    log_params_(k) = std::log(share / std::max(ms, 1e-12));
+  }
+}
+
+void FrictionKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
+  Eigen::MatrixXd F1, F2;
+  feature_matrix(Z1, F1);
+  feature_matrix(Z2, F2);
+  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  K.noalias() = F1 * s.asDiagonal() * F2.transpose();
+}
+
+void FrictionKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
+  Eigen::MatrixXd F;
+  feature_matrix(Z, F);
+  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  d = F.array().square().matrix() * s;
+}
+
+double FrictionKernel::self(const double* z, int /*feature_dim*/) const {
+  const Eigen::Vector4d f = features(z[column_]);
+  return f.array().square().matrix().dot(log_params_.head<4>().array().exp().matrix());
+}
+
+void FrictionKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                         KernelScratch& /*scratch*/) const {
+  const Eigen::Vector4d w = features(z[column_]).cwiseProduct(Eigen::Vector4d(log_params_.head<4>().array().exp()));
+  const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
+  for (Eigen::Index i = 0; i < Z.rows(); ++i) {
+    const double v = Z(i, column_), c = std::tanh(v * inv_vc), u = v * inv_vr;
+    out(i) = w(0) + w(1) * v + w(2) * c + w(3) * std::exp(-u * u) * c;
+  }
+}
+
+void FrictionKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
+                                     Eigen::MatrixXd& dK) const {
+  if (p < 0 || p >= kNumParams) throw Error("FrictionKernel: parameter index out of range");
+  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  Eigen::MatrixXd F1, F2, D1, D2;
+  if (p < 4) {
+    feature_matrix(Z1, F1);
+    feature_matrix(Z2, F2);
+    dK.noalias() = s(p) * F1.col(p) * F2.col(p).transpose();
+    return;
+  }
+  const bool vc = p == kCoulombVelocity;
+  feature_matrix(Z1, F1, vc ? &D1 : nullptr, vc ? nullptr : &D1);
+  feature_matrix(Z2, F2, vc ? &D2 : nullptr, vc ? nullptr : &D2);
+  dK.noalias() = D1 * s.asDiagonal() * F2.transpose();
+  dK.noalias() += F1 * s.asDiagonal() * D2.transpose();
+}
+
+void FrictionKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
+                              KernelScratch& scratch) const {
+  // K = F S F^T is rank 4: every contraction is a 4 x 4 product with W F, never an N x N matrix.
+  Eigen::MatrixXd &F = scratch.a, &WF = scratch.b;
+  Eigen::MatrixXd Dc, Dr;
+  feature_matrix(Z, F, &Dc, &Dr);
+  WF.noalias() = W * F;
+  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  for (int k = 0; k < 4; ++k) grad(k) += s(k) * F.col(k).dot(WF.col(k));
+  // sum_ij W_ij (D_i S F_j + F_i S D_j) = 2 sum_k s_k D_k^T W F_k for a symmetric W.
+  for (int k = 2; k < 4; ++k) {
+    grad(kCoulombVelocity) += 2.0 * s(k) * Dc.col(k).dot(WF.col(k));
+    grad(kStribeckVelocity) += 2.0 * s(k) * Dr.col(k).dot(WF.col(k));
+  }
+}
+
+}  // namespace gipdyn
