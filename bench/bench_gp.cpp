@@ -98,6 +98,8 @@ void nll_gradient(benchmark::State& state, const std::string& kernel) {
 void BM_NllGradient(benchmark::State& state) { nll_gradient(state, "gip"); }
 // The smooth friction term on top of GIP (SumKernel, FrictionKernel): what it adds to an evaluation.
 void BM_NllGradientGipFriction(benchmark::State& state) { nll_gradient(state, "gip+friction"); }
+// GIP times the RBF envelope (EnvelopeKernel): two kernel matrices and their product per evaluation.
+void BM_NllGradientGipEnvelope(benchmark::State& state) { nll_gradient(state, "gip-envelope"); }
 
 void BM_PotrfPotri(benchmark::State& state) {
   JointSetup s = joint_setup(state);
@@ -273,6 +275,7 @@ void sizes(benchmark::internal::Benchmark* b) {
 BENCHMARK(BM_KernelBuild)->Apply(sizes);
 BENCHMARK(BM_NllGradient)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipFriction)->Apply(sizes);
+BENCHMARK(BM_NllGradientGipEnvelope)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);

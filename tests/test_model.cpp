@@ -191,6 +191,29 @@ TEST(Training, ConstantStepSubsample) {
   EXPECT_EQ(constant_step_indices(5, 10).size(), 5u);
 }
 
+TEST(InputBox, SaturatesEverythingButRevolutePositionsIntoTheWidenedBox) {
+  const JointTypes joints = JointTypes::parse("RP");
+  Eigen::MatrixXd train(2, 6);
+  train << 0, 0.1, -1, -2, -3, -4,
+           1, 0.3, 1, 2, 3, 4;
+  const InputBox box = InputBox::of(train);
+  Eigen::MatrixXd X(3, 6);
+  X << 5, 0.2, 0, 0, 0, 0,     // revolute q far out: not checked
+       0, 0.5, 1.1, 0, 0, 0,   // prismatic q and qd1 out
+       0, 0.2, 0, 0, 0, -9;    // qdd2 out
+  EXPECT_EQ(box.rows_outside(X, joints, 0.0), 2);
+  EXPECT_EQ(box.rows_outside(X, joints, 0.1), 2);  // qd1 1.1 is inside 1 + 0.1 x 2, the others are not
+  Eigen::MatrixXd Y = X;
+  EXPECT_EQ(box.saturate(Y, joints, 0.1), 2);
+  EXPECT_EQ(Y(0, 0), 5.0);
+  EXPECT_DOUBLE_EQ(Y(1, 1), 0.32);  // 0.3 + 0.1 x 0.2
+  EXPECT_EQ(Y(1, 2), 1.1);
+  EXPECT_DOUBLE_EQ(Y(2, 5), -4.8);
+  EXPECT_EQ(box.rows_outside(Y, joints, 0.1), 0);
+  EXPECT_THROW(box.saturate(Y, joints, -0.1), Error);
+  EXPECT_THROW(box.saturate(Y, JointTypes::parse("R"), 0.1), Error);
+}
+
 TEST(Training, ShiftedConstantStepSubsamplesInterleave) {
   // Three shifts of 4 rows out of 12: disjoint, together every row once, each in range and increasing.
   std::vector<int> seen(12, 0);
@@ -285,6 +308,62 @@ TEST(HybridKernel, BeatsGipAndRbfOnRigidBodyPlusDisturbance) {
   std::printf("mean nMSE: gip %.3g, rbf %.3g, gip+rbf %.3g\n", nmse(0), nmse(1), nmse(2));
   EXPECT_LT(nmse(2), 0.5 * nmse(0));
   EXPECT_LT(nmse(2), 0.5 * nmse(1));
+}
+
+// The envelope (gip-envelope, EnvelopeKernel) bounds what GIP predicts away
+// from its data without costing accuracy near it: on a 2-link arm with a
+// disturbance outside GIP's space, in-range test error stays within 1.5x of
+// GIP's; far outside the training inputs the prediction returns to the prior
+// mean (the scaled output's mean) and its standard deviation to the prior's,
+// where GIP's polynomial keeps growing.
+TEST(EnvelopeKernel, KeepsInRangeAccuracyAndRevertsToThePriorFarAway) {
+  const JointTypes joints = JointTypes::parse("RR");
+  auto torques = [](const Eigen::MatrixXd& X) {
+    Eigen::MatrixXd tau = two_link_torques(X);
+    for (int j = 0; j < 2; ++j) tau.col(j).array() += 0.3 * (4.0 * X.col(2 + j).array()).tanh();
+    return tau;
+  };
+  const Eigen::MatrixXd Xtr = random_inputs(joints, 300, 91), Xte = random_inputs(joints, 500, 92);
+  const Eigen::MatrixXd Ytr = torques(Xtr) + 0.01 * test::random_vector(300, -1, 1, 93).replicate(1, 2);
+  TrainOptions o;
+  o.keep_factor = true;
+  o.kernel = "gip";
+  const TrainResult gip = train_model(Xtr, Ytr, joints, o);
+  o.kernel = "gip-envelope";
+  const TrainResult env = train_model(Xtr, Ytr, joints, o);
+  ASSERT_TRUE(gip.report.ok() && env.report.ok()) << gip.report.message << env.report.message;
+  // Far: every velocity and acceleration 10 of the envelope's learned lengthscales
+  // (the longer of the two joints') out. Maximum likelihood may lengthen a scale
+  // without bound: the envelope then bounds nothing along that input.
+  const FeatureMap& fm = env.model.features();
+  Eigen::RowVectorXd scale = Eigen::RowVectorXd::Zero(6);
+  for (int j = 0; j < 2; ++j)
+    for (const auto& [name, value] : env.model.hyperparameters(j))
+      for (int c = 2; c < 6; ++c)
+        if (name == "envelope.lengthscale_" + fm.name(c)) scale(c) = std::max(scale(c), value);
+  Eigen::MatrixXd far = random_inputs(joints, 50, 94);
+  for (int c = 2; c < 6; ++c) far.col(c) = far.col(c).array().sign() * 10.0 * scale(c);
+  const double longest = scale.maxCoeff();
+  const Eigen::VectorXd near_gip = compute_accuracy(torques(Xte), gip.model.predict(Xte)).nmse;
+  const Eigen::VectorXd near_env = compute_accuracy(torques(Xte), env.model.predict(Xte)).nmse;
+  Eigen::MatrixXd mean, stddev;
+  env.model.predict(far, mean, &stddev);
+  const Eigen::MatrixXd gip_far = gip.model.predict(far);
+  std::printf("in range: nMSE gip %.3g %.3g, gip-envelope %.3g %.3g; longest lengthscale %.3g; 10 lengthscales "
+              "out: max |tau| gip %.3g, gip-envelope %.3g\n",
+              near_gip(0), near_gip(1), near_env(0), near_env(1), longest, gip_far.cwiseAbs().maxCoeff(),
+              mean.cwiseAbs().maxCoeff());
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_LT(near_env(j), 1.5 * near_gip(j) + 1e-4) << "joint " << j + 1;
+    // Scaled outputs are standardised: the prior is the training mean with the training spread.
+    const double y_mean = Ytr.col(j).mean();
+    const double y_std = std::sqrt((Ytr.col(j).array() - y_mean).square().mean());
+    EXPECT_LT((mean.col(j).array() - y_mean).abs().maxCoeff(), 0.05 * y_std) << "joint " << j + 1;
+    const double prior_std = env.model.output_scale()(j) * std::sqrt(env.model.joint_gp(j).kernel().self(
+                                 env.model.features().compute(far.row(0)).data(), env.model.features().feature_dim()));
+    EXPECT_NEAR(stddev(0, j), prior_std, 0.05 * prior_std) << "joint " << j + 1;
+    EXPECT_GT(gip_far.col(j).cwiseAbs().maxCoeff(), 10.0 * Ytr.col(j).cwiseAbs().maxCoeff());  // the polynomial runs away
+  }
 }
 
 // A mean function decides what a GP predicts away from its data: a local (RBF)

@@ -120,6 +120,9 @@ Command add_experiment(CLI::App& app) {
   r->add_option("--repeats", real->config.repeats,
                 "With --sizes: interleaved subsamples per size (shifted by a fraction of the step), for error bars")
       ->capture_default_str();
+  r->add_option("--saturate", real->config.saturate,
+                "Clamp the test inputs (velocities, accelerations, prismatic positions) into each estimator's training "
+                "box widened by MARGIN times each input's range, e.g. 0.1 (default: off)");
   r->add_option("--plot-window", real->config.plot_window, "Test rows in the torque-over-time plot")
       ->capture_default_str();
   r->add_option("--estimators", real->estimators,

@@ -29,6 +29,12 @@ Command add_simulate(CLI::App& app) {
   app.add_option("--noise", a->sim.noise_std, "Standard deviation of the Gaussian torque noise (N m)")
       ->capture_default_str();
   app.add_option("--dt", a->sim.dt, "Sampling period in seconds")->capture_default_str();
+  app.add_option("--max-frequency", a->sim.trajectory.max_angular_frequency,
+                 "Highest angular frequency of the trajectory's sinusoids (rad/s): higher gives faster motions")
+      ->capture_default_str();
+  app.add_option("--velocity-fill", a->sim.trajectory.velocity_fill,
+                 "Fraction (0, 1] of each joint's velocity limit the trajectory may reach")
+      ->capture_default_str();
   app.add_flag("--perturb-kinematics", a->sim.perturb_kinematics,
                "Generate the data with lengths perturbed by up to 0.05 m and angles by up to 5 deg");
   app.add_flag("--friction", a->sim.friction, "Add the robot's viscous and Coulomb friction to the torques");

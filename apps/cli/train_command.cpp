@@ -32,7 +32,7 @@ Command add_train(CLI::App& app) {
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
       ->required();
   app.add_option("--kernel", a->kernel,
-                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, pp, sp), lip (one GP "
+                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, pp, sp), lip (one GP "
                  "over all joints with priors on the energies; train it on a few hundred rows), fe or nn; "
                  "fe, pp, sp need --robot")
       ->capture_default_str();

@@ -43,6 +43,8 @@ void RealRobotConfig::validate() const {
   if (!sizes.empty() && nn_max_train != 0)
     throw Error("--sizes sets the training rows of every estimator, nn included; drop --nn-max-train");
   if (repeats < 1) throw Error("--repeats must be >= 1 (subsamples per training size)");
+  if (saturate != -1.0 && !(saturate >= 0.0))
+    throw Error("--saturate must be >= 0 (a fraction of each input's training range to allow beyond it)");
   validate_estimators(estimators);
   validate_base_options(base);
   for (const auto& e : estimators)
@@ -66,6 +68,7 @@ nlohmann::json RealRobotConfig::to_json() const {
   // Only when set, so folders written before these options existed still resume.
   if (alternate_blocks > 0) j["alternate_blocks"] = alternate_blocks;
   if (nn_max_train > 0) j["nn_max_train"] = nn_max_train;
+  if (saturate >= 0.0) j["saturate"] = saturate;
   if (!sizes.empty()) {
     j["sizes"] = sizes;
     j["repeats"] = repeats;
@@ -126,6 +129,13 @@ RealSplit load_real_split(const RealRobotConfig& c) {
   return s;
 }
 
+Eigen::MatrixXd test_inputs(const RealRobotConfig& c, const RealSplit& s, const Dataset& trained_on,
+                            Eigen::Index& changed) {
+  Eigen::MatrixXd X = s.test.X;
+  changed = c.saturate >= 0.0 ? InputBox::of(trained_on.X).saturate(X, s.joints, c.saturate) : 0;
+  return X;
+}
+
 ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const ProgressCallback& progress) {
   c.validate();
   if (!c.sizes.empty()) return run_real_learning_curve(c, progress);
@@ -162,7 +172,12 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
     const Dataset& d = is_kernel_estimator(e) ? train_gp : e == "nn" ? train_nn : train;
     note(progress, e + ": fitting " + std::to_string(d.rows()) + " rows (elapsed " +
                duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
-    const FitAndPredict f = fit_and_predict(options_for(c.base, e, prior, c.base.gp.seed), d.X, d.tau, joints, test.X);
+    Eigen::Index saturated = 0;
+    const Eigen::MatrixXd Xtest = test_inputs(c, s, d, saturated);
+    if (c.saturate >= 0.0)
+      note(progress, "  " + std::to_string(saturated) + " of " + std::to_string(test.rows()) +
+                         " test rows saturated into the training box");
+    const FitAndPredict f = fit_and_predict(options_for(c.base, e, prior, c.base.gp.seed), d.X, d.tau, joints, Xtest);
     Eigen::VectorXd nmse = Eigen::VectorXd::Constant(n, std::nan(""));
     if (f.ok) {
       nmse = compute_accuracy(test.tau, f.prediction).nmse;
@@ -211,7 +226,15 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
       << " of them, constant step; nn: " << train_nn.rows() << "; fe: all), " << test.rows()
       << " test rows. Test nMSE against the measured torque"
       << (prior.robot ? "; nominal robot " + prior.robot->name() + (prior.friction ? " with friction" : "") : "")
-      << ".\n\n| estimator |";
+      << ".";
+    if (c.saturate >= 0.0) {
+      Eigen::Index gp_rows = 0;
+      test_inputs(c, s, train_gp, gp_rows);
+      o << " Test inputs saturated into each estimator's training box widened by " << c.saturate
+        << " of its range (revolute positions excepted): " << gp_rows << " of " << test.rows()
+        << " rows moved for the GP estimators.";
+    }
+    o << "\n\n| estimator |";
     for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
     o << " mean | fit time |\n|---|";
     for (int j = 0; j <= n + 1; ++j) o << "---|";

@@ -34,6 +34,9 @@ struct RealRobotConfig {
   // nn_max_train are then not used).
   std::vector<int> sizes;
   int repeats = 3;
+  // >= 0: clamp the test inputs (all but revolute positions) into the box of
+  // each estimator's training rows, widened by this fraction of each column's range.
+  double saturate = -1.0;
   std::string robot;         // nominal robot for fe, pp, sp ("" : those are not run)
   bool robot_friction = false;
   EstimatorOptions base;
@@ -56,6 +59,10 @@ struct RealSplit {
   RobotPrior prior;
 };
 RealSplit load_real_split(const RealRobotConfig& config);
+// The test inputs an estimator trained on `trained_on` is asked about: saturated
+// when config.saturate >= 0 (`changed`: the rows that moved).
+Eigen::MatrixXd test_inputs(const RealRobotConfig& config, const RealSplit& split, const Dataset& trained_on,
+                            Eigen::Index& changed);
 // nMSE against training size: learning_curve.csv, learning_curve.md, learning_curve.png.
 ExperimentOutcome run_real_learning_curve(const RealRobotConfig& config, const ProgressCallback& progress = {});
 

@@ -84,7 +84,9 @@ ExperimentOutcome run_real_learning_curve(const RealRobotConfig& c, const Progre
                            duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() +
                            ")");
         const std::uint64_t seed = mix_seed(c.base.gp.seed, static_cast<std::uint64_t>(size), r);
-        const FitAndPredict f = fit_and_predict(options_for(c.base, e, s.prior, seed), d.X, d.tau, s.joints, s.test.X);
+        Eigen::Index saturated = 0;
+        const Eigen::MatrixXd Xtest = test_inputs(c, s, d, saturated);
+        const FitAndPredict f = fit_and_predict(options_for(c.base, e, s.prior, seed), d.X, d.tau, s.joints, Xtest);
         Eigen::VectorXd nmse = Eigen::VectorXd::Constant(n, std::nan(""));
         if (f.ok) nmse = compute_accuracy(s.test.tau, f.prediction).nmse;
         std::vector<std::vector<std::string>> rows;
@@ -107,7 +109,11 @@ ExperimentOutcome run_real_learning_curve(const RealRobotConfig& c, const Progre
     o << "Split: " << s.description << ". Each size is trained on " << c.repeats
       << " interleaved constant-step subsamples of the " << s.train.rows()
       << " training rows and tested on the " << s.test.rows()
-      << " test rows against the measured torque. Entries: median over the subsamples (min–max).\n\n";
+      << " test rows against the measured torque. Entries: median over the subsamples (min–max).";
+    if (c.saturate >= 0.0)
+      o << " Test inputs saturated into each subsample's training box widened by " << c.saturate
+        << " of its range (revolute positions excepted).";
+    o << "\n\n";
     auto table_header = [&](const std::string& first) {
       o << "| " << first << " |";
       for (const auto& e : c.estimators) o << " " << e << " |";

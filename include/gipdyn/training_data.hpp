@@ -27,6 +27,22 @@ std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index 
 // (1 + max |value|). A model cannot learn how the torque depends on them.
 std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tolerance = 1e-12);
 
+// The box the training inputs span: per column of X (q, qd, qdd) its smallest
+// and largest value. Polynomial kernels grow without bound outside it;
+// saturate() clamps queries into it (docs/real-robots.md measures when that pays).
+struct InputBox {
+  Eigen::VectorXd lower, upper;
+  // Throws gipdyn::Error for an empty X.
+  static InputBox of(const Eigen::MatrixXd& X);
+  // Rows of X with a checked column outside the box widened by margin x (upper - lower)
+  // on each side. Revolute positions are not checked: the kernels see them as
+  // cos and sin, which are bounded anyway.
+  Eigen::Index rows_outside(const Eigen::MatrixXd& X, const JointTypes& joints, double margin) const;
+  // Clamps the checked columns into the widened box; returns the rows changed.
+  // Throws gipdyn::Error for a negative margin or X of another width.
+  Eigen::Index saturate(Eigen::MatrixXd& X, const JointTypes& joints, double margin) const;
+};
+
 // How many rows of `test` also occur, bit for bit, as rows of `train`.
 Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::MatrixXd& test);
 

@@ -96,7 +96,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     Parameters mirror `gipdyn train`: joints ("RRPR"), kernel ("gip",
     "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", "gip+friction",
-    "gip+friction+rbf", and the model-based
+    "gip+friction+rbf", "gip-envelope", and the model-based
     "pp", "sp" that need robot), optimizer ("lbfgs", "adam"), max_iter, restarts,
     seed, scaling ("standardize", "center", "none"), min_noise, threads,
     learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",

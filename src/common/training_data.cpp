@@ -2,6 +2,7 @@
 
 #include "gipdyn/error.hpp"
 
+#include <algorithm>
 #include <string>
 #include <unordered_set>
 
@@ -69,6 +70,52 @@ Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::Matrix
   for (Eigen::Index r = 0; r < b.rows(); ++r)
     shared += rows.count(std::string(reinterpret_cast<const char*>(b.row(r).data()), width)) > 0;
   return shared;
+}
+
+InputBox InputBox::of(const Eigen::MatrixXd& X) {
+  if (X.rows() == 0) throw Error("InputBox: no training rows");
+  return {X.colwise().minCoeff().transpose(), X.colwise().maxCoeff().transpose()};
+}
+
+namespace {
+
+// Applies f(row, column, lo, hi) to every checked column; returns the rows where f reported a change.
+template <class F>
+Eigen::Index for_checked_columns(const InputBox& box, const Eigen::MatrixXd& X, const JointTypes& joints,
+                                 double margin, F&& f) {
+  const int n = joints.size();
+  if (X.cols() != 3 * n || box.lower.size() != X.cols())
+    throw Error("InputBox: the inputs have " + std::to_string(X.cols()) + " columns; " + joints.str() +
+                " inputs (q, qd, qdd) need " + std::to_string(3 * n));
+  if (!(margin >= 0.0)) throw Error("InputBox: margin must be >= 0 (a fraction of each column's training range)");
+  Eigen::Index changed = 0;
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    bool any = false;
+    for (Eigen::Index c = 0; c < X.cols(); ++c) {
+      if (c < n && joints.is_revolute(static_cast<int>(c))) continue;
+      const double pad = margin * (box.upper(c) - box.lower(c));
+      any |= f(r, c, box.lower(c) - pad, box.upper(c) + pad);
+    }
+    changed += any ? 1 : 0;
+  }
+  return changed;
+}
+
+}  // namespace
+
+Eigen::Index InputBox::rows_outside(const Eigen::MatrixXd& X, const JointTypes& joints, double margin) const {
+  return for_checked_columns(*this, X, joints, margin, [&](Eigen::Index r, Eigen::Index c, double lo, double hi) {
+    return X(r, c) < lo || X(r, c) > hi;
+  });
+}
+
+Eigen::Index InputBox::saturate(Eigen::MatrixXd& X, const JointTypes& joints, double margin) const {
+  return for_checked_columns(*this, X, joints, margin, [&](Eigen::Index r, Eigen::Index c, double lo, double hi) {
+    const double v = std::clamp(X(r, c), lo, hi);
+    const bool moved = v != X(r, c);
+    X(r, c) = v;
+    return moved;
+  });
 }
 
 }  // namespace gipdyn

@@ -1,5 +1,7 @@
 #include "gipdyn/kernels/composite_kernels.hpp"
 
+#include <cmath>
+
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
 
@@ -104,6 +106,27 @@ void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W,
       if (o != c) WR.array() *= parts[o].array();
     children_[c]->contract(Z, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
   }
+}
+
+namespace {
+std::vector<std::unique_ptr<Kernel>> pair_of(std::unique_ptr<Kernel> a, std::unique_ptr<Kernel> b) {
+  std::vector<std::unique_ptr<Kernel>> v;
+  v.push_back(std::move(a));
+  v.push_back(std::move(b));
+  return v;
+}
+}  // namespace
+
+EnvelopeKernel::EnvelopeKernel(std::unique_ptr<Kernel> structured, std::unique_ptr<Kernel> envelope_rbf)
+    : ProductKernel(pair_of(std::move(structured), std::move(envelope_rbf))) {}
+
+void EnvelopeKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
+  children_[0]->initialize(Z, target_variance);
+  children_[1]->initialize(Z, 1.0);
+  // The RBF starts at one standard deviation per column; the envelope should vary slowly.
+  Eigen::VectorXd p = children_[1]->log_params();
+  p.tail(p.size() - 1).array() += std::log(kStartLengthscales);
+  children_[1]->set_log_params(p);
 }
 
 SumKernel::SumKernel(std::vector<std::unique_ptr<Kernel>> children, std::vector<double> shares)

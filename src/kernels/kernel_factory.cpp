@@ -12,7 +12,7 @@ namespace gipdyn {
 
 const std::vector<std::string>& kernel_names() {
   static const std::vector<std::string> names{"gip", "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf",
-                                               "gip+friction", "gip+friction+rbf", "pp", "sp"};
+                                               "gip+friction", "gip+friction+rbf", "gip-envelope", "pp", "sp"};
   return names;
 }
 
@@ -35,14 +35,14 @@ void require_matching_robot(const RobotPrior& prior, const JointTypes& joints) {
 
 namespace {
 
-std::unique_ptr<Kernel> make_rbf(const FeatureMap& features) {
+std::unique_ptr<Kernel> make_rbf(const FeatureMap& features, const std::string& prefix = "rbf") {
   std::vector<int> cols;
   std::vector<std::string> labels;
   for (int c = 0; c < features.input_dim(); ++c) {
     cols.push_back(c);
     labels.push_back(features.name(c));
   }
-  return std::make_unique<RbfKernel>(cols, labels);
+  return std::make_unique<RbfKernel>(cols, labels, prefix);
 }
 
 // Structured part plus a local RBF that starts with a tenth of the variance.
@@ -77,6 +77,8 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
   if (name == "rbf") return make_rbf(features);
   if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
   if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);
+  if (name == "gip-envelope")
+    return std::make_unique<EnvelopeKernel>(std::make_unique<GipKernel>(features), make_rbf(features, "envelope"));
   if (name == "gip+friction") return gip_with_friction(features, joint, false);
   if (name == "gip+friction+rbf") return gip_with_friction(features, joint, true);
   if (name == "pp") return std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction);

@@ -199,6 +199,22 @@ def test_real_learning_curve_writes_every_size_and_repeat_and_resumes(tmp_path, 
         assert not (tmp_path / "bad").exists()
 
 
+def test_real_saturates_test_inputs_into_the_training_box(tmp_path, gipdyn_bin):
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 300)
+    out = tmp_path / "sat"
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-100",
+            "--test-rows", "101-300", "--saturate", "0", "--estimators", "gip", "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    summary = (out / "summary.md").read_text()
+    assert "saturated into each estimator's training box widened by 0 " in summary
+    moved = int(summary.split("(revolute positions excepted): ")[1].split(" of ")[0])
+    assert 0 < moved < 200  # another stretch of the same random motion: some rows leave the box
+    bad = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-100",
+              "--test-rows", "101-300", "--saturate", "-0.5", "--out", str(tmp_path / "bad"))
+    assert bad.returncode != 0 and "--saturate must be >= 0" in bad.stderr and not (tmp_path / "bad").exists()
+
+
 def test_real_reads_a_mat_file(tmp_path, gipdyn_bin):
     scipy_io = pytest.importorskip("scipy.io")
     log = tmp_path / "log.csv"

@@ -32,7 +32,7 @@ class CompositeKernel : public Kernel {
 
 // k = prod_c k_c. The gradient w.r.t. a parameter of child c is the other
 // children's product times that child's gradient.
-class ProductKernel final : public CompositeKernel {
+class ProductKernel : public CompositeKernel {
  public:
   using CompositeKernel::CompositeKernel;
   std::unique_ptr<Kernel> clone() const override { return std::make_unique<ProductKernel>(*this); }
@@ -41,6 +41,22 @@ class ProductKernel final : public CompositeKernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+};
+
+// k = structured(x, x') * envelope(x, x') with an RBF envelope of long
+// lengthscales (docs/method.md section 13): near the data the structured
+// kernel's functions, modulated slowly; far from every training input the
+// prediction reverts to the prior mean instead of following a polynomial.
+// Maximum likelihood can lengthen the envelope until it is the structured
+// kernel alone when the data are that structured.
+class EnvelopeKernel final : public ProductKernel {
+ public:
+  // Lengthscales at the start, in standard deviations of each input column.
+  static constexpr double kStartLengthscales = 3.0;
+  EnvelopeKernel(std::unique_ptr<Kernel> structured, std::unique_ptr<Kernel> envelope_rbf);
+  std::unique_ptr<Kernel> clone() const override { return std::make_unique<EnvelopeKernel>(*this); }
+  // The structured kernel starts as alone; the envelope at variance 1 and kStartLengthscales.
+  void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
 };
 
 // k = sum_c k_c.
