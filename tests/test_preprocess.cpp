@@ -140,6 +140,7 @@ TEST(PreprocessLog, RecoversDerivativesFiltersNoiseAndDropsRest) {
   PreprocessOptions o;
   o.dt = 2e-3;
   o.cutoff_hz = 10.0;
+  o.filter_torque = true;
   o.drop_rest = true;
   const PreprocessedLog p = preprocess_log(in.string(), o);
   ASSERT_EQ(p.joints(), 2);

@@ -33,6 +33,7 @@ const FieldNames& cli_field_names() {
       {"PreprocessOptions::log_period", "--log-period"},
       {"PreprocessOptions::time_column", "--time-column"},
       {"PreprocessOptions::drop_rest", "--drop-rest"},
+      {"PreprocessOptions::segment_starts", "--segment-starts"},
   };
   return names;
 }

@@ -18,10 +18,11 @@ Command add_preprocess(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   app.description(
-      "Turn a raw robot log into a training dataset: resample onto a uniform grid, zero-phase Butterworth\n"
-      "low-pass of q, qd and tau, qd from q when the log has none, qdd from the filtered qd, optionally drop\n"
-      "stretches at rest. The log needs a time column (or --log-period), q1..qn and tau1..taun (qd1..qn optional). Writes\n"
-      "t, q, qd, qdd, tau columns and OUT.json, which records every step.");
+      "Turn a raw robot log into a training dataset: resample onto a uniform grid, Butterworth low-pass of q\n"
+      "and qd (zero phase, or --causal as a controller runs it online; tau only with --filter-torque), qd from q\n"
+      "when the log has none, qdd from the filtered qd, optionally drop stretches at rest; --segment-starts\n"
+      "processes train and test stretches separately. The log needs a time column (or --log-period), q1..qn and\n"
+      "tau1..taun (qd1..qn optional). Writes t, q, qd, qdd, tau columns and OUT.json, which records every step.");
   app.add_option("--in", a->in, "Raw log (CSV with a header row)")->required()->check(CLI::ExistingFile);
   app.add_option("--out", a->out, "Output dataset CSV (+ OUT.json)")->required();
   app.add_option("--time-column", a->options.time_column, "Name of the time column in seconds (default: t, else time)");
@@ -29,7 +30,7 @@ Command add_preprocess(CLI::App& app) {
                  "The log has no time column: its rows are this many seconds apart (e.g. 0.008 for 125 Hz)");
   app.add_option("--dt", a->options.dt, "Resampling period in seconds (default: the log's mean step, which keeps its number of samples)");
   app.add_option("--cutoff", a->options.cutoff_hz, "Low-pass cutoff in Hz (default: no filtering)");
-  app.add_option("--order", a->options.filter_order, "Butterworth order of each of the two passes")
+  app.add_option("--order", a->options.filter_order, "Butterworth order of one pass (zero phase runs two)")
       ->capture_default_str();
   app.add_flag("--drop-rest", a->options.drop_rest,
                "Drop the stretches where every joint velocity stays below --rest-velocity for --rest-duration");
@@ -38,6 +39,15 @@ Command add_preprocess(CLI::App& app) {
   app.add_option("--rest-duration", a->options.rest_duration,
                  "Shortest stretch at rest that is dropped, in seconds (turning points are shorter)")
       ->capture_default_str();
+  app.add_flag("--causal", a->options.causal,
+               "Forward-only filter and backward differences, as a 1 kHz controller can compute them online; the "
+               "delay of q, qd and qdd is reported in OUT.json");
+  app.add_flag("--filter-torque", a->options.filter_torque,
+               "Low-pass the torques too (default: the targets are left as measured)");
+  app.add_option("--segment-starts", a->options.segment_starts,
+                 "Data rows (1-based) where a new segment starts, e.g. 6341: each segment is resampled, filtered "
+                 "and differentiated on its own, so no filter carries test rows into training rows")
+      ->delimiter(',');
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
     refuse_overwriting_inputs({{"--in", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});

@@ -30,6 +30,9 @@ void PreprocessOptions::validate() const {
   if (!(rest_velocity > 0.0)) throw Error("PreprocessOptions::rest_velocity must be > 0");
   if (!(rest_duration >= 0.0)) throw Error("PreprocessOptions::rest_duration must be >= 0");
   if (log_period < 0.0 || !std::isfinite(log_period)) throw Error("PreprocessOptions::log_period must be > 0 seconds");
+  for (size_t k = 0; k < segment_starts.size(); ++k)
+    if (segment_starts[k] < 2 || (k > 0 && segment_starts[k] <= segment_starts[k - 1]))
+      throw Error("PreprocessOptions::segment_starts must be increasing data rows > 1 (where a new segment begins)");
   if (log_period > 0.0 && !time_column.empty())
     throw Error("PreprocessOptions::log_period is for logs without a time column; drop it or PreprocessOptions::time_column");
 }
@@ -108,92 +111,162 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                             {"median", median_step},
                             {"min", *std::min_element(steps.begin(), steps.end())},
                             {"max", *std::max_element(steps.begin(), steps.end())}};
-  nlohmann::json steps_done = nlohmann::json::array();
 
-  // 1. Uniform grid t0 + k dt within the log's span.
-  // The tolerance keeps the last sample of an already uniform log despite rounding.
-  const Eigen::Index m = static_cast<Eigen::Index>(std::floor((t(rows - 1) - t(0)) / dt + 1e-9)) + 1;
-  if (m < 3) throw Error("PreprocessOptions::dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the log's span");
-  const Eigen::VectorXd grid =
-      (t(0) + dt * Eigen::VectorXd::LinSpaced(m, 0.0, static_cast<double>(m - 1)).array()).cwiseMin(t(rows - 1));
-  const Eigen::MatrixXd data = resample_linear(t, raw.rightCols(raw.cols() - 1), grid);
+  // 0. Segments: [first, end) data rows, 0-based.
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> segments;
+  Eigen::Index first = 0;
+  for (long start : o.segment_starts) {
+    if (start > rows)
+      throw Error("PreprocessOptions::segment_starts: row " + std::to_string(start) + " is past the log's " +
+                  std::to_string(rows) + " data rows");
+    segments.emplace_back(first, start - 1);
+    first = start - 1;
+  }
+  segments.emplace_back(first, rows);
+
+  nlohmann::json steps_done = nlohmann::json::array(), segment_report = nlohmann::json::array();
+  std::vector<Biquad> sections;
+  if (o.cutoff_hz > 0.0) sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);
+  std::vector<PreprocessedLog> parts;
+  Eigen::Index resampled_rows = 0, dropped_rows = 0, rest_stretches = 0;
+  for (const auto& [a, b] : segments) {
+    const std::string where = segments.size() > 1 ? " (segment of data rows " + std::to_string(a + 1) + "-" +
+                                                        std::to_string(b) + ")"
+                                                  : "";
+    PreprocessedLog part;
+    try {
+      // 1. Uniform grid t0 + k dt within the segment's span.
+      // The tolerance keeps the last sample of an already uniform log despite rounding.
+      const Eigen::VectorXd ts = t.segment(a, b - a);
+      const Eigen::Index m = static_cast<Eigen::Index>(std::floor((ts(ts.size() - 1) - ts(0)) / dt + 1e-9)) + 1;
+      if (m < 3)
+        throw Error("PreprocessOptions::dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the span" + where);
+      const Eigen::VectorXd grid =
+          (ts(0) + dt * Eigen::VectorXd::LinSpaced(m, 0.0, static_cast<double>(m - 1)).array()).cwiseMin(ts(ts.size() - 1));
+      const Eigen::MatrixXd data = resample_linear(ts, raw.block(a, 1, b - a, raw.cols() - 1), grid);
+      resampled_rows += m;
+      part.t = grid;
+      part.q = data.leftCols(n);
+      if (has_qd) part.qd = data.middleCols(n, n);
+      part.tau = data.rightCols(n);
+      // 2. Low-pass.
+      if (o.cutoff_hz > 0.0) {
+        auto filter = [&](const Eigen::MatrixXd& x) {
+          return o.causal ? causal_filter(sections, x) : filtfilt(sections, x);
+        };
+        part.q = filter(part.q);
+        if (has_qd) part.qd = filter(part.qd);
+        if (o.filter_torque) part.tau = filter(part.tau);
+      }
+      // 3. Derivatives.
+      auto derive = [&](const Eigen::MatrixXd& x) {
+        return o.causal ? backward_derivative(x, dt) : time_derivative(x, dt);
+      };
+      if (!has_qd) part.qd = derive(part.q);
+      part.qdd = derive(part.qd);
+      // 4. Stretches at rest carry no information about inertia and make friction
+      // ambiguous. A turning point also has qd = 0, but only for an instant: only
+      // runs lasting at least rest_duration count as rest.
+      if (o.drop_rest) {
+        const Eigen::Index rows_now = part.t.size();
+        std::vector<bool> still(static_cast<size_t>(rows_now));
+        for (Eigen::Index i = 0; i < rows_now; ++i)
+          still[static_cast<size_t>(i)] = part.qd.row(i).cwiseAbs().maxCoeff() < o.rest_velocity;
+        std::vector<Eigen::Index> keep;
+        for (Eigen::Index i = 0; i < rows_now;) {
+          Eigen::Index end_run = i;
+          while (end_run < rows_now && still[static_cast<size_t>(end_run)]) ++end_run;
+          if (end_run == i) {
+            keep.push_back(i++);
+            continue;
+          }
+          const bool long_enough = static_cast<double>(end_run - i) * dt >= o.rest_duration - 1e-12;
+          rest_stretches += long_enough;
+          for (; i < end_run; ++i)
+            if (!long_enough) keep.push_back(i);
+        }
+        dropped_rows += rows_now - static_cast<Eigen::Index>(keep.size());
+        part.t = part.t(keep).eval();
+        part.q = part.q(keep, Eigen::all).eval();
+        part.qd = part.qd(keep, Eigen::all).eval();
+        part.qdd = part.qdd(keep, Eigen::all).eval();
+        part.tau = part.tau(keep, Eigen::all).eval();
+      }
+    } catch (const Error& e) {
+      if (where.empty()) throw;
+      throw Error(std::string(e.what()) + where);
+    }
+    segment_report.push_back({{"input_rows", {a + 1, b}}, {"output_rows", part.t.size()}});
+    parts.push_back(std::move(part));
+  }
+  PreprocessedLog out;
+  Eigen::Index total = 0;
+  for (const auto& part : parts) total += part.t.size();
+  if (o.drop_rest && total < 3)
+    throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(total) + " samples: every |qd| is below " +
+                std::to_string(o.rest_velocity) + "; lower PreprocessOptions::rest_velocity");
+  out.t.resize(total);
+  for (Eigen::MatrixXd* m : {&out.q, &out.qd, &out.qdd, &out.tau}) m->resize(total, n);
+  Eigen::Index row = 0;
+  for (const auto& part : parts) {
+    const Eigen::Index k = part.t.size();
+    out.t.segment(row, k) = part.t;
+    out.q.middleRows(row, k) = part.q;
+    out.qd.middleRows(row, k) = part.qd;
+    out.qdd.middleRows(row, k) = part.qdd;
+    out.tau.middleRows(row, k) = part.tau;
+    row += k;
+  }
+
   steps_done.push_back({{"step", "resample"},
                         {"method", "linear interpolation onto t0 + k dt"},
                         {"dt_s", dt},
                         {"dt_source", o.dt > 0.0 ? "dt option" : "mean step of the log"},
-                        {"rows", m}});
-
-  PreprocessedLog out;
-  out.t = grid;
-  out.q = data.leftCols(n);
-  if (has_qd) out.qd = data.middleCols(n, n);
-  out.tau = data.rightCols(n);
-
-  // 2. Zero-phase low-pass.
+                        {"rows", resampled_rows}});
+  const double delay = o.cutoff_hz > 0.0 && o.causal ? dc_group_delay_samples(sections) : 0.0;
   if (o.cutoff_hz > 0.0) {
-    const auto sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);
-    out.q = filtfilt(sections, out.q);
-    if (has_qd) out.qd = filtfilt(sections, out.qd);
-    out.tau = filtfilt(sections, out.tau);
-    steps_done.push_back({{"step", "low-pass"},
-                          {"filter", "Butterworth, forward and backward (zero phase)"},
-                          {"order_per_pass", o.filter_order},
-                          {"cutoff_hz", o.cutoff_hz},
-                          {"gain_at_cutoff", 0.5},
-                          {"edges", "odd extension by " + std::to_string(filtfilt_padding(sections)) +
-                                        " samples, steady-state initial conditions"},
-                          {"applied_to", has_qd ? nlohmann::json{"q", "qd", "tau"} : nlohmann::json{"q", "tau"}}});
-  }
-
-  // 3. Derivatives.
-  const std::string filtered = o.cutoff_hz > 0.0 ? "filtered " : "";
-  if (!has_qd) out.qd = time_derivative(out.q, dt);
-  out.qdd = time_derivative(out.qd, dt);
-  steps_done.push_back(
-      {{"step", "derivatives"},
-       {"method", "second-order central differences (one-sided at the ends)"},
-       {"qd", has_qd ? "from the log" + std::string(o.cutoff_hz > 0.0 ? ", filtered" : "")
-                     : "d/dt of the " + filtered + "q"},
-       {"qdd", "d/dt of the " + filtered + "qd" + std::string(header.has("qdd1") ? " (the log's qdd columns are ignored)" : "")}});
-
-  // 4. Stretches at rest carry no information about inertia and make friction
-  // ambiguous. A turning point also has qd = 0, but only for an instant: only
-  // runs lasting at least rest_duration count as rest.
-  if (o.drop_rest) {
-    const Eigen::Index rows_now = out.t.size();
-    std::vector<bool> still(static_cast<size_t>(rows_now));
-    for (Eigen::Index i = 0; i < rows_now; ++i)
-      still[static_cast<size_t>(i)] = out.qd.row(i).cwiseAbs().maxCoeff() < o.rest_velocity;
-    std::vector<Eigen::Index> keep;
-    Eigen::Index stretches = 0;
-    for (Eigen::Index i = 0; i < rows_now;) {
-      Eigen::Index end = i;
-      while (end < rows_now && still[static_cast<size_t>(end)]) ++end;
-      if (end == i) {
-        keep.push_back(i++);
-        continue;
-      }
-      const bool long_enough = static_cast<double>(end - i) * dt >= o.rest_duration - 1e-12;
-      stretches += long_enough;
-      for (; i < end; ++i)
-        if (!long_enough) keep.push_back(i);
+    nlohmann::json applied = has_qd ? nlohmann::json{"q", "qd"} : nlohmann::json{"q"};
+    if (o.filter_torque) applied.push_back("tau");
+    nlohmann::json step = {{"step", "low-pass"},
+                           {"order_per_pass", o.filter_order},
+                           {"cutoff_hz", o.cutoff_hz},
+                           {"applied_to", applied}};
+    if (o.causal) {
+      step["filter"] = "Butterworth, forward only (causal)";
+      step["gain_at_cutoff"] = std::sqrt(0.5);
+      step["delay_s"] = delay * dt;
+      step["delay_note"] = "group delay at low frequency; tau is " +
+                           std::string(o.filter_torque ? "delayed alike" : "not filtered, so q and qd lag it by this much");
+      step["start"] = "steady state of the first sample";
+    } else {
+      step["filter"] = "Butterworth, forward and backward (zero phase)";
+      step["gain_at_cutoff"] = 0.5;
+      step["edges"] = "odd extension by " + std::to_string(filtfilt_padding(sections)) +
+                      " samples, steady-state initial conditions";
     }
-    const Eigen::Index dropped = rows_now - static_cast<Eigen::Index>(keep.size());
-    if (keep.size() < 3)
-      throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(keep.size()) + " samples: every |qd| is below " +
-                  std::to_string(o.rest_velocity) + "; lower PreprocessOptions::rest_velocity");
-    out.t = out.t(keep).eval();
-    out.q = out.q(keep, Eigen::all).eval();
-    out.qd = out.qd(keep, Eigen::all).eval();
-    out.qdd = out.qdd(keep, Eigen::all).eval();
-    out.tau = out.tau(keep, Eigen::all).eval();
+    steps_done.push_back(step);
+  }
+  const std::string filtered = o.cutoff_hz > 0.0 ? "filtered " : "";
+  nlohmann::json derivatives = {
+      {"step", "derivatives"},
+      {"method", o.causal ? "backward differences (causal, half a sample of delay each; the first row is 0)"
+                          : "second-order central differences (one-sided at the ends)"},
+      {"qd", has_qd ? "from the log" + std::string(o.cutoff_hz > 0.0 ? ", filtered" : "") : "d/dt of the " + filtered + "q"},
+      {"qdd", "d/dt of the " + filtered + "qd" +
+                  std::string(header.has("qdd1") ? " (the log's qdd columns are ignored)" : "")}};
+  if (o.causal)
+    derivatives["delay_s"] = {{"q", delay * dt},
+                              {"qd", (delay + (has_qd ? 0.0 : 0.5)) * dt},
+                              {"qdd", (delay + (has_qd ? 0.5 : 1.0)) * dt}};
+  steps_done.push_back(derivatives);
+  if (o.drop_rest)
     steps_done.push_back({{"step", "drop-rest"},
                           {"rule", "drop every stretch of at least rest_duration_s where all |qd_j| < rest_velocity"},
                           {"rest_velocity", o.rest_velocity},
                           {"rest_duration_s", o.rest_duration},
-                          {"stretches_dropped", stretches},
-                          {"dropped_rows", dropped}});
-  }
+                          {"stretches_dropped", rest_stretches},
+                          {"dropped_rows", dropped_rows}});
+  if (segments.size() > 1) report["segments"] = segment_report;
   report["steps"] = steps_done;
   report["output_rows"] = out.t.size();
   out.report = report;

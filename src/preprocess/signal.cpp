@@ -98,6 +98,32 @@ Eigen::MatrixXd filtfilt(const std::vector<Biquad>& sections, const Eigen::Matri
   return y;
 }
 
+Eigen::MatrixXd causal_filter(const std::vector<Biquad>& sections, const Eigen::MatrixXd& x) {
+  if (x.rows() == 0) throw Error("causal filtering needs at least 1 sample");
+  Eigen::MatrixXd y = x;
+  for (Eigen::Index c = 0; c < y.cols(); ++c) {
+    Eigen::VectorXd col = y.col(c);
+    cascade_in_place(sections, col);
+    y.col(c) = col;
+  }
+  return y;
+}
+
+double dc_group_delay_samples(const std::vector<Biquad>& sections) {
+  // For H = B / A at z = 1: delay = sum k b_k / sum b_k - sum k a_k / sum a_k.
+  double delay = 0.0;
+  for (const auto& s : sections)
+    delay += (s.b1 + 2.0 * s.b2) / (s.b0 + s.b1 + s.b2) - (s.a1 + 2.0 * s.a2) / (1.0 + s.a1 + s.a2);
+  return delay;
+}
+
+Eigen::MatrixXd backward_derivative(const Eigen::MatrixXd& x, double dt) {
+  if (!(dt > 0.0)) throw Error("the sampling period must be > 0");
+  Eigen::MatrixXd d = Eigen::MatrixXd::Zero(x.rows(), x.cols());
+  if (x.rows() > 1) d.bottomRows(x.rows() - 1) = (x.bottomRows(x.rows() - 1) - x.topRows(x.rows() - 1)) / dt;
+  return d;
+}
+
 Eigen::MatrixXd time_derivative(const Eigen::MatrixXd& x, double dt) {
   const Eigen::Index n = x.rows();
   if (n < 3) throw Error("numerical derivatives need at least 3 samples, the log has " + std::to_string(n));

@@ -32,7 +32,7 @@ def test_matches_scipy_filter_numpy_gradient_and_interp(tmp_path, gipdyn_bin):
     write_log(log, {"time": t, "q1": q[:, 0], "q2": q[:, 1], "tau1": tau[:, 0], "tau2": tau[:, 1]})
     out = tmp_path / "data.csv"
     r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--dt", "0.002", "--cutoff", "15",
-            "--order", "3")
+            "--order", "3", "--filter-torque")
     assert r.returncode == 0, r.stderr
 
     # The same steps with NumPy/SciPy.
@@ -104,3 +104,73 @@ def test_logged_velocities_drop_rest_and_errors(tmp_path, gipdyn_bin):
     smooth = np.abs(t - 0.5) > 1.5e-3  # qd jumps at t = 0.5 s
     np.testing.assert_allclose(z["qd1"][smooth], qd[smooth], atol=1e-4)  # from q by central differences
     assert z.size == 2000
+
+
+def test_causal_mode_matches_scipy_forward_filter_and_reports_its_delay(tmp_path, gipdyn_bin):
+    signal = pytest.importorskip("scipy.signal")
+    rng = np.random.default_rng(5)
+    dt = 0.002
+    t = dt * np.arange(2000)
+    q = np.column_stack([np.sin(2.0 * t) + 1e-3 * rng.standard_normal(t.size)])
+    tau = 3.0 * q[:, 0] + 0.2 * rng.standard_normal(t.size)
+    log = tmp_path / "log.csv"
+    write_log(log, {"t": t, "q1": q[:, 0], "tau1": tau})
+    out = tmp_path / "causal.csv"
+    r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--cutoff", "10", "--causal")
+    assert r.returncode == 0, r.stderr
+    sos = signal.butter(2, 10.0, fs=1.0 / dt, output="sos")
+    zi = signal.sosfilt_zi(sos) * q[0, 0]
+    qf, _ = signal.sosfilt(sos, q[:, 0], zi=zi)
+    qd = np.concatenate([[0.0], np.diff(qf) / dt])
+    qdd = np.concatenate([[0.0], np.diff(qd) / dt])
+    d = read(out)
+    np.testing.assert_allclose(d["q1"], qf, rtol=0, atol=1e-12)
+    np.testing.assert_allclose(d["qd1"], qd, rtol=0, atol=1e-9)
+    np.testing.assert_allclose(d["qdd1"], qdd, rtol=0, atol=1e-6)
+    np.testing.assert_array_equal(d["tau1"], tau)  # targets left as measured by default
+    report = json.loads((tmp_path / "causal.csv.json").read_text())
+    b, a = signal.sos2tf(sos)
+    _, delay = signal.group_delay((b, a), w=[1e-6])
+    lowpass = report["steps"][1]
+    assert lowpass["filter"].endswith("(causal)") and lowpass["applied_to"] == ["q"]
+    assert lowpass["delay_s"] == pytest.approx(delay[0] * dt, rel=1e-6)
+    assert report["steps"][2]["delay_s"]["qdd"] == pytest.approx((delay[0] + 1.0) * dt, rel=1e-6)
+    # Causal: a change of the input after row k does not change output rows up to k.
+    q2 = q[:, 0].copy()
+    q2[1500:] += 1.0
+    write_log(tmp_path / "log2.csv", {"t": t, "q1": q2, "tau1": tau})
+    r = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "log2.csv"), "--out", str(tmp_path / "c2.csv"),
+            "--cutoff", "10", "--causal")
+    d2 = read(tmp_path / "c2.csv")
+    for c in ("q1", "qd1", "qdd1"):
+        np.testing.assert_array_equal(d2[c][:1500], d[c][:1500])
+
+
+def test_segments_are_processed_apart(tmp_path, gipdyn_bin):
+    dt = 0.01
+    t = dt * np.arange(600)
+    q = np.where(t < 3.0, np.sin(t), 5.0 + np.cos(t))  # a jump at the segment boundary, row 301
+    log = tmp_path / "log.csv"
+    write_log(log, {"t": t, "q1": q, "tau1": q})
+    whole, split = tmp_path / "whole.csv", tmp_path / "split.csv"
+    for path, extra in ((whole, []), (split, ["--segment-starts", "301"])):
+        r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(path), "--cutoff", "5", *extra)
+        assert r.returncode == 0, r.stderr
+    first = tmp_path / "first.csv"
+    write_log(tmp_path / "first_log.csv", {"t": t[:300], "q1": q[:300], "tau1": q[:300]})
+    run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "first_log.csv"), "--out", str(first), "--cutoff", "5")
+    a, w, f = read(split), read(whole), read(first)
+    assert a.size == 600
+    # The first segment is exactly what its rows alone give; the whole log's filter smears the jump into them.
+    np.testing.assert_allclose(a["q1"][:300], f["q1"], rtol=0, atol=1e-12)
+    assert np.abs(w["q1"][290:300] - f["q1"][290:300]).max() > 0.1
+    report = json.loads((tmp_path / "split.csv.json").read_text())
+    assert report["segments"] == [{"input_rows": [1, 300], "output_rows": 300},
+                                  {"input_rows": [301, 600], "output_rows": 300}]
+    for bad_rows, message in (("700", "past the log's 600 data rows"), ("1", "increasing data rows > 1"),
+                              ("599", "fewer than 3 samples")):
+        bad = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(tmp_path / "bad.csv"),
+                  "--segment-starts", bad_rows)
+        assert bad.returncode != 0 and message in bad.stderr, bad.stderr
+        assert "--segment-starts" in bad.stderr or "segment" in bad.stderr
+        assert not (tmp_path / "bad.csv").exists()

@@ -1,9 +1,14 @@
 #pragma once
 // From a raw robot log to a training dataset (`gipdyn preprocess`):
+//   0. optionally cut the log into segments (e.g. train / test rows), each
+//      processed on its own so that no filter carries one into the other;
 //   1. resample onto a uniform time grid (linear interpolation);
-//   2. zero-phase Butterworth low-pass of q, qd (when logged) and tau;
+//   2. Butterworth low-pass of q and qd (when logged), and of tau only if asked:
+//      zero phase (forward and backward), or causal (forward only, as a
+//      controller can run it online, with its delay reported);
 //   3. qd = d/dt of the filtered q when the log has no velocities, and always
-//      qdd = d/dt of the filtered qd (a logged qdd is ignored);
+//      qdd = d/dt of the filtered qd (a logged qdd is ignored): central
+//      differences, or backward differences when causal;
 //   4. optionally drop the stretches at rest.
 // Every step and its effect goes into a report (the sidecar JSON).
 #include <Eigen/Dense>
@@ -19,6 +24,10 @@ struct PreprocessOptions {
   double dt = 0.0;             // resampling period (s); 0: the log's mean step
   double cutoff_hz = 0.0;      // low-pass cutoff (Hz); 0: no filtering
   int filter_order = 2;        // Butterworth order of one pass (the zero-phase filter doubles it)
+  bool causal = false;         // forward-only filter and backward differences (online use)
+  bool filter_torque = false;  // low-pass tau too (the targets are left as measured otherwise)
+  // 1-based data rows of the log at which a new segment starts (increasing, > 1).
+  std::vector<long> segment_starts;
   bool drop_rest = false;
   double rest_velocity = 0.01; // at rest: every |qd_j| below this (rad/s or m/s) ...
   double rest_duration = 0.1;  // ... for at least this long (s), unlike a turning point

@@ -26,6 +26,17 @@ std::vector<Biquad> butterworth_lowpass(int order, double cutoff_hz, double samp
 Eigen::MatrixXd filtfilt(const std::vector<Biquad>& sections, const Eigen::MatrixXd& x);
 int filtfilt_padding(const std::vector<Biquad>& sections);
 
+// Causal filtering (forward only, what a controller can run online): each
+// section starts in the steady state of the first sample. Delays the signal.
+Eigen::MatrixXd causal_filter(const std::vector<Biquad>& sections, const Eigen::MatrixXd& x);
+// The cascade's group delay at zero frequency, in samples: how far a slow
+// signal lags after causal_filter.
+double dc_group_delay_samples(const std::vector<Biquad>& sections);
+
+// Causal d/dt: (x_i - x_{i-1}) / dt, a lag of half a sample; the first row,
+// with no past, is 0.
+Eigen::MatrixXd backward_derivative(const Eigen::MatrixXd& x, double dt);
+
 // d/dt of each column sampled every dt: second-order central differences
 // inside, second-order one-sided differences at the two ends (numpy.gradient
 // with edge_order=2). Needs at least 3 rows.
