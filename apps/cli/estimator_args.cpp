@@ -67,23 +67,43 @@ RobotPrior EstimatorArgs::robot_prior() const {
 EstimatorOptions EstimatorArgs::build(const std::string& name) const {
   EstimatorOptions o;
   o.name = name;
-  o.gp.optimizer.kind = parse_optimizer(optimizer);
-  o.gp.optimizer.max_iterations = max_iter;
-  o.gp.optimizer.adam_learning_rate = learning_rate;
-  o.gp.restarts = restarts;
-  o.gp.warm_start_rows = warm_start_rows;
-  o.gp.gradient_tolerance_per_row = gradient_tolerance;
-  o.gp.seed = seed;
-  o.gp.scaling = parse_output_scaling(scaling);
-  o.gp.mean = parse_mean_kind(mean);
-  o.gp.min_noise_fraction = min_noise;
-  o.gp.threads = threads;
   o.gp.keep_factor = false;
-  o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
-  o.nn = nn;
-  o.nn.seed = seed;
+  return overlay(o, nullptr);
+}
+
+EstimatorOptions EstimatorArgs::build_over(const EstimatorOptions& base, const CLI::App& app,
+                                           const std::string& name, bool given_name) const {
+  EstimatorOptions o = base;
+  if (given_name) o.name = name;
+  o.gp.keep_factor = false;
+  return overlay(o, &app);
+}
+
+EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app) const {
+  // Without an app every option is taken; with one, only those given on its command line.
+  auto given = [app](const char* flag) {
+    return !app || (app->get_option_no_throw(flag) != nullptr && app->count(flag) > 0);
+  };
+  if (given("--optimizer")) o.gp.optimizer.kind = parse_optimizer(optimizer);
+  if (given("--max-iter")) o.gp.optimizer.max_iterations = max_iter;
+  if (given("--lr")) o.gp.optimizer.adam_learning_rate = learning_rate;
+  if (given("--restarts")) o.gp.restarts = restarts;
+  if (given("--warm-start-rows")) o.gp.warm_start_rows = warm_start_rows;
+  if (given("--gradient-tolerance")) o.gp.gradient_tolerance_per_row = gradient_tolerance;
+  if (given("--seed")) {
+    o.gp.seed = seed;
+    o.nn.seed = seed;
+  }
+  if (given("--scaling")) o.gp.scaling = parse_output_scaling(scaling);
+  if (given("--mean")) o.gp.mean = parse_mean_kind(mean);
+  if (given("--min-noise")) o.gp.min_noise_fraction = min_noise;
+  if (given("--threads")) o.gp.threads = threads;
+  if (given("--prior") || given("--prior-width")) o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
+  if (given("--nn-epochs")) o.nn.epochs = nn.epochs;
+  if (given("--nn-batch")) o.nn.batch_size = nn.batch_size;
+  if (given("--nn-lr")) o.nn.learning_rate = nn.learning_rate;
   if (!nn_hidden.empty()) o.nn.hidden = parse_int_list(nn_hidden, "--nn-hidden", "400,400");
-  if (estimator_needs_robot(name)) o.robot_prior = robot_prior();
+  if (estimator_needs_robot(o.name)) o.robot_prior = robot_prior();
   return o;
 }
 

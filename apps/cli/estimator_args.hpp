@@ -26,7 +26,14 @@ struct EstimatorArgs {
   // Options for estimator `name`; loads --robot when given. Throws gipdyn::Error
   // for text it cannot parse; the values are checked where they are used.
   EstimatorOptions build(const std::string& name) const;
+  // The same on top of `base` (a preset): only the options given on `app`'s
+  // command line replace base's values (the estimator name when given_name).
+  EstimatorOptions build_over(const EstimatorOptions& base, const CLI::App& app, const std::string& name,
+                              bool given_name) const;
   RobotPrior robot_prior() const;
+
+ private:
+  EstimatorOptions overlay(EstimatorOptions o, const CLI::App* app) const;
 };
 
 std::string estimator_list();  // "gip, gip-friction, ..., fe, nn"

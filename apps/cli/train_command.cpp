@@ -10,6 +10,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/training_data.hpp"
 
@@ -17,7 +18,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, joints, kernel = "gip", out;
+  std::string data, joints, kernel = "gip", out, preset;
   long subsample = 0;
   bool quiet = false;
   EstimatorArgs estimator;
@@ -36,16 +37,23 @@ Command add_train(CLI::App& app) {
                  "over all joints with priors on the energies; train it on a few hundred rows), fe or nn; "
                  "fe, pp, sp need --robot")
       ->capture_default_str();
-  app.add_option("--subsample", a->subsample, "Keep this many training rows, taken with a constant step (0: all)")
+  app.add_option("--subsample", a->subsample,
+                 "Keep this many training rows, taken with a constant step (0: all; --preset real: at most 1000)")
       ->capture_default_str();
+  app.add_option("--preset", a->preset,
+                 "Start from a named set of options; options given explicitly override it. default, or real: for "
+                 "logs of real robots (kernel gip-envelope, at most 1000 rows; docs/real-robots.md)");
   a->estimator.add_to(app, true);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
-  return [a]() -> int {
+  return [a, &app]() -> int {
     refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}}, {{"--out", a->out}});
     const JointTypes joints = JointTypes::parse(a->joints);
-    const EstimatorOptions o = a->estimator.build(a->kernel);
+    const EstimatorOptions o =
+        a->preset.empty() ? a->estimator.build(a->kernel)
+                          : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
     if (a->subsample < 0) throw Error("--subsample must be >= 0");
+    if (!a->preset.empty() && app.count("--subsample") == 0) a->subsample = preset_max_training_rows(a->preset);
 
     Dataset data = read_dataset(a->data, joints, true);
     // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
@@ -59,6 +67,7 @@ Command add_train(CLI::App& app) {
     if (!a->quiet) {
       std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
                   static_cast<long>(total), a->data.c_str(), joints.str().c_str(), o.name.c_str());
+      if (!a->preset.empty()) std::printf(" (preset %s)", a->preset.c_str());
       if (is_kernel_estimator(o.name))
         std::printf(", optimizer %s (max %d), %d restart(s)", a->estimator.optimizer.c_str(),
                     o.gp.optimizer.max_iterations, o.gp.restarts);

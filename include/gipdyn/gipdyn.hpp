@@ -13,6 +13,7 @@
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"

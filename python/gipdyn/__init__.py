@@ -7,6 +7,7 @@
 
 Inputs X are (N, 3n) arrays of [q, qd, qdd]; torques Y are (N, n).
 """
+import inspect
 import json
 import warnings
 
@@ -24,7 +25,7 @@ try:  # scikit-learn's estimator protocol when it is installed; our own otherwis
     from sklearn.exceptions import ConvergenceWarning
     _ESTIMATOR_BASES = (_RegressorMixin, _BaseEstimator)
 except ImportError:  # pragma: no cover - exercised only without scikit-learn
-    import inspect
+
 
     class _BaseEstimator:
         """get_params / set_params / repr from the __init__ signature, as scikit-learn's."""
@@ -108,15 +109,22 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     gradient per training row). They fill in the library's TrainOptions
     (train_options()). The non-GP estimators fe and nn are available from the CLI.
 
+    preset ("default", "real"; see gipdyn/estimators/presets.hpp) starts from a
+    named set of options; kernel and subsample given explicitly override it.
+    preset="real" (logs of real robots) uses the kernel "gip-envelope" and
+    trains on a constant-step subsample of at most 1000 rows. kernel=None: the
+    preset's kernel, else "gip". subsample (None: the preset's limit, else
+    every row) keeps that many training rows, as `gipdyn train --subsample`.
+
     score() follows scikit-learn (higher is better): the mean over joints of
     1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
     """
 
-    def __init__(self, joints="RRPR", kernel="gip", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
+    def __init__(self, joints="RRPR", kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
                  restarts=_DEFAULTS.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
-                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row):
+                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -135,6 +143,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.prior_width = prior_width
         self.warm_start_rows = warm_start_rows
         self.gradient_tolerance = gradient_tolerance
+        self.preset = preset
+        self.subsample = subsample
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -151,7 +161,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     def train_options(self):
         """The library's TrainOptions for these parameters (checked when fitting)."""
         o = self._optimizer_options()
-        o.kernel = str(self.kernel)
+        # kernel=None: the preset's kernel, or the library's default without one.
+        base = _core.preset_train_options(str(self.preset)) if self.preset is not None else TrainOptions()
+        o.kernel = str(self.kernel) if self.kernel is not None else base.kernel
         o.scaling = str(self.scaling)
         o.mean = str(self.mean)
         o.threads = int(self.threads)
@@ -161,6 +173,19 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))
         o.robot_friction = bool(self.robot_friction)
         return o
+
+    def _training_rows(self, rows):
+        """Row indices to train on: a constant-step subsample of `subsample` rows
+        (None: the preset's limit, every row without a preset)."""
+        limit = self.subsample
+        if limit is None:
+            limit = _core.preset_max_training_rows(str(self.preset)) if self.preset is not None else 0
+        limit = int(limit)
+        if limit < 0:
+            raise ValueError(f"subsample must be >= 0 (0: every row), got {limit}")
+        if limit == 0 or limit >= rows:
+            return None
+        return (np.arange(limit) * rows) // limit  # as the CLI's --subsample
 
     # fitting ---------------------------------------------------------------
     @property
@@ -178,6 +203,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     def fit(self, X, Y):
         X, Y = self._training_arrays(X, Y)
+        rows = self._training_rows(X.shape[0])
+        if rows is not None:
+            X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
         self.model_ = _core.train(X, Y, str(self.joints), self.train_options(), bool(self.verbose))
         self._set_fitted_attributes()
         capped = [r["joint"] for r in self.training_report_ if r["status"] != "converged"]

@@ -17,6 +17,7 @@
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/model_file.hpp"
@@ -259,6 +260,8 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("width", &HyperparameterPrior::width)
       .def("validate", &HyperparameterPrior::validate);
   m.def("parse_hyperparameter_prior", &parse_hyperparameter_prior, py::arg("name"), py::arg("width"));
+  m.def("preset_names", &preset_names);
+  m.def("preset_max_training_rows", &preset_max_training_rows, py::arg("name"));
 
   py::class_<TrainOptions> train_options(m, "TrainOptions");
   train_options.def(py::init<>())
@@ -281,6 +284,9 @@ PYBIND11_MODULE(_core, m) {
           "robot_friction", [](const TrainOptions& o) { return o.robot_prior.friction; },
           [](TrainOptions& o, bool f) { o.robot_prior.friction = f; })
       .def("validate", &TrainOptions::validate);
+  m.def(
+      "preset_train_options", [](const std::string& name) { return preset_options(name).train_options(); },
+      py::arg("name"), "The GP TrainOptions of a named preset (gipdyn/estimators/presets.hpp)");
   string_property(train_options, "scaling", &TrainOptions::scaling, &parse_output_scaling, &to_string);
   string_property(train_options, "mean", &TrainOptions::mean, &parse_mean_kind, &to_string);
 

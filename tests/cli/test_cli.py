@@ -336,3 +336,20 @@ def test_physics_refuses_models_without_the_structure(tmp_path, gipdyn_bin):
     assert r.returncode == 1 and not (tmp_path / "p.csv").exists()
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "a 'rbf' model cannot give gravity" in lines[0], r.stderr
+
+
+def test_train_preset_real_and_explicit_options_over_it(tmp_path, gipdyn_bin):
+    data = tmp_path / "d.csv"
+    write_dataset(data, 1200, seed=8)
+    r = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "real", "--max-iter", "5",
+            "--out", str(tmp_path / "real.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "1000 of 1200 rows" in r.stdout and "estimator gip-envelope (preset real)" in r.stdout
+    r = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "real", "--kernel", "gip",
+            "--subsample", "300", "--max-iter", "5", "--out", str(tmp_path / "over.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "300 of 1200 rows" in r.stdout and "estimator gip (preset real)" in r.stdout
+    bad = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "fancy",
+              "--out", str(tmp_path / "bad.gipdyn"))
+    assert bad.returncode != 0 and "unknown preset 'fancy'; choose one of: default, real" in bad.stderr
+    assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "bad.gipdyn").exists()
