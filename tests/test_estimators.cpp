@@ -105,6 +105,7 @@ const std::map<std::string, std::array<double, 4>>& reached_nmse_bounds() {
       {"gip+friction", {4e-4, 3e-5, 2.5e-5, 0.7}},
       {"gip+friction+rbf", {6e-3, 3e-5, 1.5e-4, 0.7}},
       {"gip-envelope", {3e-3, 4e-5, 1.5e-4, 0.7}},
+      {"gip-envelope+friction", {4e-3, 6e-4, 2e-4, 0.7}},
       {"rbf", {0.3, 0.12, 6e-5, 2.3}},
       {"nn", {0.5, 0.6, 0.12, 4.5}},
   };
@@ -144,7 +145,8 @@ TEST_P(EveryEstimator, ModelFileRoundTripGivesIdenticalPredictions) {
 
 INSTANTIATE_TEST_SUITE_P(Names, EveryEstimator,
                          ::testing::Values("fe", "pp", "sp", "gip", "gip-friction", "rbf", "gip+rbf",
-                                           "gip-friction+rbf", "gip+friction", "gip+friction+rbf", "gip-envelope", "nn"),
+                                           "gip-friction+rbf", "gip+friction", "gip+friction+rbf", "gip-envelope",
+                                           "gip-envelope+friction", "nn"),
                          [](const ::testing::TestParamInfo<std::string>& info) { return test::test_name(info.param); });
 
 TEST(Estimators, NeuralNetworkIsReproducibleForASeed) {

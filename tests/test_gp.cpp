@@ -69,6 +69,7 @@ INSTANTIATE_TEST_SUITE_P(
                       Case{"RRPR", "gip+rbf"}, Case{"PRPRRR", "gip+rbf"}, Case{"RRPR", "gip-friction+rbf"},
                       Case{"RRRRRR", "gip-friction+rbf"}, Case{"R", "gip+friction"}, Case{"RRPR", "gip+friction"},
                       Case{"PRPRRR", "gip+friction+rbf"}, Case{"RRPR", "gip-envelope"}, Case{"RRRRRR", "gip-envelope"},
+                      Case{"RRPR", "gip-envelope+friction"},
                       Case{"RRPR", "pp"}, Case{"RRRRRR", "pp"},
                       Case{"RRPR", "sp"}, Case{"RRRRRR", "sp"}),
     [](const ::testing::TestParamInfo<Case>& info) {

@@ -33,7 +33,7 @@ Command add_train(CLI::App& app) {
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
       ->required();
   app.add_option("--kernel", a->kernel,
-                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, pp, sp), lip (one GP "
+                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp), lip (one GP "
                  "over all joints with priors on the energies; train it on a few hundred rows), fe or nn; "
                  "fe, pp, sp need --robot")
       ->capture_default_str();
@@ -42,7 +42,7 @@ Command add_train(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--preset", a->preset,
                  "Start from a named set of options; options given explicitly override it. default, or real: for "
-                 "logs of real robots (kernel gip-envelope, at most 1000 rows; docs/real-robots.md)");
+                 "logs of real robots (kernel gip-envelope+friction, at most 1000 rows; docs/real-robots.md)");
   a->estimator.add_to(app, true);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");

@@ -97,7 +97,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     Parameters mirror `gipdyn train`: joints ("RRPR"), kernel ("gip",
     "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", "gip+friction",
-    "gip+friction+rbf", "gip-envelope", and the model-based
+    "gip+friction+rbf", "gip-envelope", "gip-envelope+friction", and the model-based
     "pp", "sp" that need robot), optimizer ("lbfgs", "adam"), max_iter, restarts,
     seed, scaling ("standardize", "center", "none"), min_noise, threads,
     learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",
@@ -111,7 +111,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     preset ("default", "real"; see gipdyn/estimators/presets.hpp) starts from a
     named set of options; kernel and subsample given explicitly override it.
-    preset="real" (logs of real robots) uses the kernel "gip-envelope" and
+    preset="real" (logs of real robots) uses the kernel "gip-envelope+friction" and
     trains on a constant-step subsample of at most 1000 rows. kernel=None: the
     preset's kernel, else "gip". subsample (None: the preset's limit, else
     every row) keeps that many training rows, as `gipdyn train --subsample`.

@@ -361,12 +361,12 @@ def _gip_model_file(train, tmp_path):
 
 def test_preset_real_sets_the_kernel_and_subsample_and_explicit_parameters_override_it():
     assert gipdyn._core.preset_names() == ["default", "real"]
-    assert gipdyn.InverseDynamicsGP(preset="real").train_options().kernel == "gip-envelope"
+    assert gipdyn.InverseDynamicsGP(preset="real").train_options().kernel == "gip-envelope+friction"
     assert gipdyn.InverseDynamicsGP(preset="real", kernel="gip").train_options().kernel == "gip"
     assert gipdyn.InverseDynamicsGP(preset="default").train_options().kernel == "gip"
     d = gipdyn.simulate("scara", samples=1200, seed=3, dt=0.05)
     m = gipdyn.InverseDynamicsGP(preset="real", max_iter=5).fit(d["X"], d["tau"])
-    assert m.model_.num_training_samples == 1000 and m.model_.kernel == "gip-envelope"
+    assert m.model_.num_training_samples == 1000 and m.model_.kernel == "gip-envelope+friction"
     m = gipdyn.InverseDynamicsGP(preset="real", subsample=150, max_iter=5).fit(d["X"], d["tau"])
     assert m.model_.num_training_samples == 150
     with pytest.raises(ValueError, match="unknown preset 'fancy'"):

@@ -12,7 +12,7 @@ const std::vector<std::string>& preset_names() {
 EstimatorOptions preset_options(const std::string& name) {
   require_one_of(name, preset_names(), "preset");
   EstimatorOptions o;
-  if (name == "real") o.name = "gip-envelope";
+  if (name == "real") o.name = "gip-envelope+friction";
   return o;
 }
 

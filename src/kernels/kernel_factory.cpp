@@ -12,7 +12,8 @@ namespace gipdyn {
 
 const std::vector<std::string>& kernel_names() {
   static const std::vector<std::string> names{"gip", "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf",
-                                               "gip+friction", "gip+friction+rbf", "gip-envelope", "pp", "sp"};
+                                               "gip+friction", "gip+friction+rbf", "gip-envelope",
+                                               "gip-envelope+friction", "pp", "sp"};
   return names;
 }
 
@@ -64,6 +65,10 @@ std::unique_ptr<Kernel> gip_with_friction(const FeatureMap& features, int joint,
   return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.8, 0.1, 0.1});
 }
 
+std::unique_ptr<Kernel> make_envelope(const FeatureMap& features) {
+  return std::make_unique<EnvelopeKernel>(std::make_unique<GipKernel>(features), make_rbf(features, "envelope"));
+}
+
 }  // namespace
 
 std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint,
@@ -77,8 +82,13 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
   if (name == "rbf") return make_rbf(features);
   if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
   if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);
-  if (name == "gip-envelope")
-    return std::make_unique<EnvelopeKernel>(std::make_unique<GipKernel>(features), make_rbf(features, "envelope"));
+  if (name == "gip-envelope") return make_envelope(features);
+  if (name == "gip-envelope+friction") {
+    std::vector<std::unique_ptr<Kernel>> parts;
+    parts.push_back(make_envelope(features));
+    parts.push_back(std::make_unique<FrictionKernel>(features.qd(joint)));
+    return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
+  }
   if (name == "gip+friction") return gip_with_friction(features, joint, false);
   if (name == "gip+friction+rbf") return gip_with_friction(features, joint, true);
   if (name == "pp") return std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction);

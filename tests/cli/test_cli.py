@@ -344,7 +344,7 @@ def test_train_preset_real_and_explicit_options_over_it(tmp_path, gipdyn_bin):
     r = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "real", "--max-iter", "5",
             "--out", str(tmp_path / "real.gipdyn"))
     assert r.returncode == 0, r.stderr
-    assert "1000 of 1200 rows" in r.stdout and "estimator gip-envelope (preset real)" in r.stdout
+    assert "1000 of 1200 rows" in r.stdout and "estimator gip-envelope+friction (preset real)" in r.stdout
     r = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "real", "--kernel", "gip",
             "--subsample", "300", "--max-iter", "5", "--out", str(tmp_path / "over.gipdyn"))
     assert r.returncode == 0, r.stderr

@@ -1,6 +1,6 @@
 #pragma once
 // The estimators by name:
-//   GP kernels  gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, pp, sp
+//   GP kernels  gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp
 //   lip         one GP over all joints with the Lagrangian kernel (energies)
 //   fe          least squares on the rigid-body regressor (base parameters)
 //   nn          fully connected network (docs/method.md)

@@ -3,9 +3,11 @@
 // not tune. Explicit options given on top of a preset override it.
 //   "default"  the library's defaults: gip, maximum likelihood, no restarts.
 //   "real"     for logs of real robots (docs/real-robots.md): the kernel
-//              gip-envelope, which keeps GIP's accuracy inside the training
-//              motions and returns to the prior mean far outside them, on a
-//              constant-step subsample of at most preset_max_training_rows rows.
+//              gip-envelope+friction (GIP bounded by an RBF envelope, which
+//              keeps GIP's accuracy inside the training motions and returns to
+//              the prior mean far outside them, plus each joint's smooth
+//              friction and torque offset), on a constant-step subsample of at
+//              most preset_max_training_rows rows.
 #include <string>
 #include <vector>
 

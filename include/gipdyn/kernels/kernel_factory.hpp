@@ -43,6 +43,8 @@ void require_matching_robot(const RobotPrior& prior, const JointTypes& joints);
 //   "gip+friction+rbf"  the same + RBF
 //   "gip-envelope"      GIP x a long-lengthscale RBF envelope (EnvelopeKernel): reverts to the
 //                       prior mean far from the training inputs instead of extrapolating a polynomial
+//   "gip-envelope+friction"  gip-envelope + the joint's smooth friction and offset (FrictionKernel);
+//                       the kernel of the "real" preset
 //   "pp"                parametric prior on the rigid-body regressor of prior.robot
 //   "sp"                PP + RBF (semiparametric)
 // Sums start with 90 % of the output variance in the structured part.
