@@ -34,6 +34,7 @@ const FieldNames& cli_field_names() {
       {"PreprocessOptions::time_column", "--time-column"},
       {"PreprocessOptions::drop_rest", "--drop-rest"},
       {"PreprocessOptions::segment_starts", "--segment-starts"},
+      {"PreprocessOptions::max_gap_steps", "--max-gap"},
   };
   return names;
 }

@@ -48,6 +48,9 @@ Command add_preprocess(CLI::App& app) {
                  "Data rows (1-based) where a new segment starts, e.g. 6341: each segment is resampled, filtered "
                  "and differentiated on its own, so no filter carries test rows into training rows")
       ->delimiter(',');
+  app.add_option("--max-gap", a->options.max_gap_steps,
+                 "A step longer than this many median steps is a gap in the log: an error, unless a segment starts there")
+      ->capture_default_str();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
     refuse_overwriting_inputs({{"--in", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});

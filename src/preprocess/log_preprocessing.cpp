@@ -30,6 +30,7 @@ void PreprocessOptions::validate() const {
   if (!(rest_velocity > 0.0)) throw Error("PreprocessOptions::rest_velocity must be > 0");
   if (!(rest_duration >= 0.0)) throw Error("PreprocessOptions::rest_duration must be >= 0");
   if (log_period < 0.0 || !std::isfinite(log_period)) throw Error("PreprocessOptions::log_period must be > 0 seconds");
+  if (!(max_gap_steps > 1.0)) throw Error("PreprocessOptions::max_gap_steps must be > 1 (median steps)");
   for (size_t k = 0; k < segment_starts.size(); ++k)
     if (segment_starts[k] < 2 || (k > 0 && segment_starts[k] <= segment_starts[k - 1]))
       throw Error("PreprocessOptions::segment_starts must be increasing data rows > 1 (where a new segment begins)");
@@ -98,7 +99,15 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   const double median_step = median(steps);
   // Default: the mean step, so that a log already on a uniform grid keeps its
   // samples (the median step, off by rounding, could lose the last one).
-  const double mean_step = (t(rows - 1) - t(0)) / static_cast<double>(rows - 1);
+  // Within segments only: the pause between two segments is not a sampling step.
+  double span = t(rows - 1) - t(0);
+  Eigen::Index spanned_steps = rows - 1;
+  for (long start : o.segment_starts)
+    if (start >= 2 && start <= rows) {
+      span -= t(start - 1) - t(start - 2);
+      --spanned_steps;
+    }
+  const double mean_step = spanned_steps > 0 ? span / static_cast<double>(spanned_steps) : median_step;
   const double dt = o.dt > 0.0 ? o.dt : mean_step;
   nlohmann::json report;
   report["input"] = path;
@@ -124,6 +133,13 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   }
   segments.emplace_back(first, rows);
 
+  for (const auto& [a, b] : segments)
+    for (Eigen::Index i = a + 1; i < b; ++i)
+      if (t(i) - t(i - 1) > o.max_gap_steps * median_step)
+        throw Error("'" + path + "' has a gap of " + std::to_string(t(i) - t(i - 1)) + " s before data row " +
+                    std::to_string(i + 1) + " (the median step is " + std::to_string(median_step) +
+                    " s); start a segment there (PreprocessOptions::segment_starts " + std::to_string(i + 1) +
+                    ") or raise PreprocessOptions::max_gap_steps");
   nlohmann::json steps_done = nlohmann::json::array(), segment_report = nlohmann::json::array();
   std::vector<Biquad> sections;
   if (o.cutoff_hz > 0.0) sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);

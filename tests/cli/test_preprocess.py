@@ -174,3 +174,17 @@ def test_segments_are_processed_apart(tmp_path, gipdyn_bin):
         assert bad.returncode != 0 and message in bad.stderr, bad.stderr
         assert "--segment-starts" in bad.stderr or "segment" in bad.stderr
         assert not (tmp_path / "bad.csv").exists()
+
+
+def test_a_gap_in_the_log_is_refused_unless_a_segment_starts_there(tmp_path, gipdyn_bin):
+    t = np.concatenate([0.01 * np.arange(300), 10.0 + 0.01 * np.arange(300)])  # 7 s pause before row 301
+    q = np.sin(t)
+    write_log(tmp_path / "gap.csv", {"t": t, "q1": q, "tau1": q})
+    bad = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "bad.csv"))
+    assert bad.returncode != 0 and "gap of 7.01" in bad.stderr and "before data row 301" in bad.stderr
+    assert "--segment-starts 301" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
+    assert not (tmp_path / "bad.csv").exists()
+    ok = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "ok.csv"),
+             "--segment-starts", "301")
+    assert ok.returncode == 0, ok.stderr
+    assert read(tmp_path / "ok.csv").size == 600

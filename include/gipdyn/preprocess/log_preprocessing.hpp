@@ -28,6 +28,10 @@ struct PreprocessOptions {
   bool filter_torque = false;  // low-pass tau too (the targets are left as measured otherwise)
   // 1-based data rows of the log at which a new segment starts (increasing, > 1).
   std::vector<long> segment_starts;
+  // A step between two rows of one segment longer than this many median steps
+  // is a gap (a pause in logging): interpolating across it would invent data,
+  // so it is an error naming the row where a segment should start.
+  double max_gap_steps = 10.0;
   bool drop_rest = false;
   double rest_velocity = 0.01; // at rest: every |qd_j| below this (rad/s or m/s) ...
   double rest_duration = 0.1;  // ... for at least this long (s), unlike a turning point
