@@ -265,7 +265,7 @@ def test_ur10_real_example_runs(tmp_path):
                         "--train-rows", "150", "--max-iter", "5", "--out", str(out)],
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
-    assert "joint 6  nMSE" in r.stdout
+    assert "joint 6  nMSE" in r.stdout and "gip-envelope+friction, 150 training rows" in r.stdout
     assert out.stat().st_size > 10000 and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
