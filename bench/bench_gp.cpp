@@ -12,6 +12,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <tuple>
 #include <string>
 
 #include "gipdyn/features.hpp"
@@ -119,15 +120,16 @@ void BM_PotrfPotri(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " floor");
 }
 
-const InverseDynamicsModel& quick_model(int robot, int N) {
-  static std::map<std::pair<int, int>, InverseDynamicsModel> cache;
-  auto it = cache.find({robot, N});
+const InverseDynamicsModel& quick_model(int robot, int N, const std::string& kernel = "gip") {
+  static std::map<std::tuple<int, int, std::string>, InverseDynamicsModel> cache;
+  auto it = cache.find({robot, N, kernel});
   if (it != cache.end()) return it->second;
   const Problem& p = problem(robot, N);
   TrainOptions o;
+  o.kernel = kernel;
   o.optimizer.max_iterations = 3;  // latency does not depend on the hyperparameter values
   TrainResult r = train_model(p.X, p.Y, p.joints, o);
-  return cache.emplace(std::make_pair(robot, N), std::move(r.model)).first->second;
+  return cache.emplace(std::make_tuple(robot, N, kernel), std::move(r.model)).first->second;
 }
 
 void BM_PredictOneMean(benchmark::State& state) {
@@ -141,6 +143,22 @@ void BM_PredictOneMean(benchmark::State& state) {
     benchmark::DoNotOptimize(tau.data());
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean");
+}
+
+// The real preset's kernel (gip-envelope+friction) goes through the generic
+// composite-kernel rows, not GIP's fused all-joints pass.
+void BM_PredictOneMeanPresetReal(benchmark::State& state) {
+  use_single_threaded_blas();
+  const InverseDynamicsModel& m =
+      quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), "gip-envelope+friction");
+  PredictionWorkspace ws(m);
+  const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
+  Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints());
+  for (auto _ : state) {
+    ws.predict(x.data(), tau.data());
+    benchmark::DoNotOptimize(tau.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean, gip-envelope+friction");
 }
 
 void BM_PredictOneMeanVariance(benchmark::State& state) {
@@ -278,6 +296,7 @@ BENCHMARK(BM_NllGradientGipFriction)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipEnvelope)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_PredictOneMeanPresetReal)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanCApi)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_UpdateOneSample)->Apply(sizes)->Unit(benchmark::kMillisecond);

@@ -235,7 +235,8 @@ TEST(Training, ShiftedConstantStepSubsamplesInterleave) {
 TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
   for (const auto& [kernel, mean] : {std::pair{"gip", MeanKind::Zero}, std::pair{"gip-friction", MeanKind::Zero},
                                      std::pair{"rbf", MeanKind::Zero}, std::pair{"gip", MeanKind::Linear},
-                                     std::pair{"rbf", MeanKind::Constant}}) {
+                                     std::pair{"rbf", MeanKind::Constant}, std::pair{"gip+rbf", MeanKind::Zero},
+                                     std::pair{"gip-envelope+friction", MeanKind::Zero}}) {
     InverseDynamicsModel m = small_model(kernel, 40, 46, 40, mean);
     const fs::path path = temp_dir() / (std::string(kernel) + "_" + to_string(mean) + ".gipdyn");
     save_model(m, path.string());

@@ -129,6 +129,38 @@ void EnvelopeKernel::initialize(const Eigen::MatrixXd& Z, double target_variance
   children_[1]->set_log_params(p);
 }
 
+void ProductKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                        KernelScratch& scratch) const {
+  children_[0]->row(z, Z, out, scratch);
+  Eigen::VectorXd part(Z.rows());
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->row(z, Z, part, scratch);
+    out.array() *= part.array();
+  }
+}
+
+double ProductKernel::self(const double* z, int feature_dim) const {
+  double k = 1.0;
+  for (const auto& c : children_) k *= c->self(z, feature_dim);
+  return k;
+}
+
+void SumKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                    KernelScratch& scratch) const {
+  children_[0]->row(z, Z, out, scratch);
+  Eigen::VectorXd part(Z.rows());
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->row(z, Z, part, scratch);
+    out += part;
+  }
+}
+
+double SumKernel::self(const double* z, int feature_dim) const {
+  double k = 0.0;
+  for (const auto& c : children_) k += c->self(z, feature_dim);
+  return k;
+}
+
 SumKernel::SumKernel(std::vector<std::unique_ptr<Kernel>> children, std::vector<double> shares)
     : CompositeKernel(std::move(children)), shares_(std::move(shares)) {
   if (shares_.size() != children_.size()) throw Error("sum kernel: one initial share per child is needed");

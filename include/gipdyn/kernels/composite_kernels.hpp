@@ -41,6 +41,11 @@ class ProductKernel : public CompositeKernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+  // One query through each child's own row(): the children's fast paths, one
+  // N-vector allocated per further child.
+  void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+           KernelScratch& scratch) const override;
+  double self(const double* z, int feature_dim) const override;
 };
 
 // k = structured(x, x') * envelope(x, x') with an RBF envelope of long
@@ -76,6 +81,10 @@ class SumKernel final : public CompositeKernel {
   void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
   void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+  // As ProductKernel::row, summing.
+  void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+           KernelScratch& scratch) const override;
+  double self(const double* z, int feature_dim) const override;
 
  private:
   std::vector<double> shares_;
