@@ -132,9 +132,9 @@ const InverseDynamicsModel& quick_model(int robot, int N, const std::string& ker
   return cache.emplace(std::make_tuple(robot, N, kernel), std::move(r.model)).first->second;
 }
 
-void BM_PredictOneMean(benchmark::State& state) {
+void predict_one_mean(benchmark::State& state, const std::string& kernel) {
   use_single_threaded_blas();
-  const InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const InverseDynamicsModel& m = quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), kernel);
   PredictionWorkspace ws(m);
   const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
   Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints());
@@ -142,24 +142,13 @@ void BM_PredictOneMean(benchmark::State& state) {
     ws.predict(x.data(), tau.data());
     benchmark::DoNotOptimize(tau.data());
   }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean");
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean" + (kernel == "gip" ? "" : ", " + kernel));
 }
 
-// The real preset's kernel (gip-envelope+friction) goes through the generic
-// composite-kernel rows, not GIP's fused all-joints pass.
-void BM_PredictOneMeanPresetReal(benchmark::State& state) {
-  use_single_threaded_blas();
-  const InverseDynamicsModel& m =
-      quick_model(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)), "gip-envelope+friction");
-  PredictionWorkspace ws(m);
-  const Problem& p = problem(static_cast<int>(state.range(0)), 1000);
-  Eigen::VectorXd x = p.X.row(17).transpose(), tau(m.num_joints());
-  for (auto _ : state) {
-    ws.predict(x.data(), tau.data());
-    benchmark::DoNotOptimize(tau.data());
-  }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, mean, gip-envelope+friction");
-}
+void BM_PredictOneMean(benchmark::State& state) { predict_one_mean(state, "gip"); }
+// The real preset's kernel (gip-envelope+friction) goes through the composite
+// kernels' rows, not GIP's fused all-joints pass.
+void BM_PredictOneMeanPresetReal(benchmark::State& state) { predict_one_mean(state, "gip-envelope+friction"); }
 
 void BM_PredictOneMeanVariance(benchmark::State& state) {
   use_single_threaded_blas();
