@@ -27,6 +27,7 @@
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
+#include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/kernel.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
