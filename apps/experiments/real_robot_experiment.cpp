@@ -129,10 +129,9 @@ RealSplit load_real_split(const RealRobotConfig& c) {
   return s;
 }
 
-Eigen::MatrixXd test_inputs(const RealRobotConfig& c, const RealSplit& s, const Dataset& trained_on,
-                            Eigen::Index& changed) {
+Eigen::MatrixXd test_inputs(const RealRobotConfig& c, const RealSplit& s, const Dataset& trained_on) {
   Eigen::MatrixXd X = s.test.X;
-  changed = c.saturate >= 0.0 ? InputBox::of(trained_on.X).saturate(X, s.joints, c.saturate) : 0;
+  if (c.saturate >= 0.0) InputBox::of(trained_on.X).saturate(X, s.joints, c.saturate);
   return X;
 }
 
@@ -172,11 +171,10 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
     const Dataset& d = is_kernel_estimator(e) ? train_gp : e == "nn" ? train_nn : train;
     note(progress, e + ": fitting " + std::to_string(d.rows()) + " rows (elapsed " +
                duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
-    Eigen::Index saturated = 0;
-    const Eigen::MatrixXd Xtest = test_inputs(c, s, d, saturated);
+    const Eigen::MatrixXd Xtest = test_inputs(c, s, d);
     if (c.saturate >= 0.0)
-      note(progress, "  " + std::to_string(saturated) + " of " + std::to_string(test.rows()) +
-                         " test rows saturated into the training box");
+      note(progress, "  " + std::to_string(InputBox::of(d.X).rows_outside(test.X, joints, c.saturate)) + " of " +
+                         std::to_string(test.rows()) + " test rows saturated into the training box");
     const FitAndPredict f = fit_and_predict(options_for(c.base, e, prior, c.base.gp.seed), d.X, d.tau, joints, Xtest);
     Eigen::VectorXd nmse = Eigen::VectorXd::Constant(n, std::nan(""));
     if (f.ok) {
@@ -227,13 +225,11 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
       << " test rows. Test nMSE against the measured torque"
       << (prior.robot ? "; nominal robot " + prior.robot->name() + (prior.friction ? " with friction" : "") : "")
       << ".";
-    if (c.saturate >= 0.0) {
-      Eigen::Index gp_rows = 0;
-      test_inputs(c, s, train_gp, gp_rows);
+    if (c.saturate >= 0.0)
       o << " Test inputs saturated into each estimator's training box widened by " << c.saturate
-        << " of its range (revolute positions excepted): " << gp_rows << " of " << test.rows()
+        << " of its range (revolute positions excepted): "
+        << InputBox::of(train_gp.X).rows_outside(test.X, joints, c.saturate) << " of " << test.rows()
         << " rows moved for the GP estimators.";
-    }
     o << "\n\n| estimator |";
     for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
     o << " mean | fit time |\n|---|";

@@ -60,9 +60,8 @@ struct RealSplit {
 };
 RealSplit load_real_split(const RealRobotConfig& config);
 // The test inputs an estimator trained on `trained_on` is asked about: saturated
-// when config.saturate >= 0 (`changed`: the rows that moved).
-Eigen::MatrixXd test_inputs(const RealRobotConfig& config, const RealSplit& split, const Dataset& trained_on,
-                            Eigen::Index& changed);
+// into its training box when config.saturate >= 0.
+Eigen::MatrixXd test_inputs(const RealRobotConfig& config, const RealSplit& split, const Dataset& trained_on);
 // nMSE against training size: learning_curve.csv, learning_curve.md, learning_curve.png.
 ExperimentOutcome run_real_learning_curve(const RealRobotConfig& config, const ProgressCallback& progress = {});
 

@@ -129,14 +129,23 @@ void EnvelopeKernel::initialize(const Eigen::MatrixXd& Z, double target_variance
   children_[1]->set_log_params(p);
 }
 
+// The first child's row into out, each further child's combined into it by `combine(out, part)`.
+template <class Combine>
+void combine_child_rows(const std::vector<std::unique_ptr<Kernel>>& children, const double* z,
+                        const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out, KernelScratch& scratch,
+                        Combine&& combine) {
+  children[0]->row(z, Z, out, scratch);
+  Eigen::VectorXd part(Z.rows());
+  for (size_t c = 1; c < children.size(); ++c) {
+    children[c]->row(z, Z, part, scratch);
+    combine(out, part);
+  }
+}
+
 void ProductKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                         KernelScratch& scratch) const {
-  children_[0]->row(z, Z, out, scratch);
-  Eigen::VectorXd part(Z.rows());
-  for (size_t c = 1; c < children_.size(); ++c) {
-    children_[c]->row(z, Z, part, scratch);
-    out.array() *= part.array();
-  }
+  combine_child_rows(children_, z, Z, out, scratch,
+                     [](Eigen::Ref<Eigen::VectorXd> acc, const Eigen::VectorXd& part) { acc.array() *= part.array(); });
 }
 
 double ProductKernel::self(const double* z, int feature_dim) const {
@@ -147,12 +156,8 @@ double ProductKernel::self(const double* z, int feature_dim) const {
 
 void SumKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                     KernelScratch& scratch) const {
-  children_[0]->row(z, Z, out, scratch);
-  Eigen::VectorXd part(Z.rows());
-  for (size_t c = 1; c < children_.size(); ++c) {
-    children_[c]->row(z, Z, part, scratch);
-    out += part;
-  }
+  combine_child_rows(children_, z, Z, out, scratch,
+                     [](Eigen::Ref<Eigen::VectorXd> acc, const Eigen::VectorXd& part) { acc += part; });
 }
 
 double SumKernel::self(const double* z, int feature_dim) const {

@@ -21,10 +21,18 @@ void FrictionKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) 
   log_params_ = p;
 }
 
-Eigen::Vector4d FrictionKernel::features(double v) const {
-  const double c = std::tanh(v * std::exp(-log_params_(kCoulombVelocity)));
-  const double u = v * std::exp(-log_params_(kStribeckVelocity));
+namespace {
+
+// (1, v, tanh(v / v_c), exp(-(v / v_r)^2) tanh(v / v_c)) from the inverse velocities.
+Eigen::Vector4d friction_features(double v, double inv_vc, double inv_vr) {
+  const double c = std::tanh(v * inv_vc), u = v * inv_vr;
   return {1.0, v, c, std::exp(-u * u) * c};
+}
+
+}  // namespace
+
+Eigen::Vector4d FrictionKernel::features(double v) const {
+  return friction_features(v, std::exp(-log_params_(kCoulombVelocity)), std::exp(-log_params_(kStribeckVelocity)));
 }
 
 void FrictionKernel::feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F, Eigen::MatrixXd* dF_vc,
@@ -86,10 +94,7 @@ void FrictionKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<E
                          KernelScratch& /*scratch*/) const {
   const Eigen::Vector4d w = features(z[column_]).cwiseProduct(Eigen::Vector4d(log_params_.head<4>().array().exp()));
   const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
-  for (Eigen::Index i = 0; i < Z.rows(); ++i) {
-    const double v = Z(i, column_), c = std::tanh(v * inv_vc), u = v * inv_vr;
-    out(i) = w(0) + w(1) * v + w(2) * c + w(3) * std::exp(-u * u) * c;
-  }
+  for (Eigen::Index i = 0; i < Z.rows(); ++i) out(i) = w.dot(friction_features(Z(i, column_), inv_vc, inv_vr));
 }
 
 void FrictionKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,

@@ -54,11 +54,12 @@ std::unique_ptr<Kernel> with_rbf(std::unique_ptr<Kernel> structured, const Featu
   return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
 }
 
-// GIP plus the smooth friction and offset of the joint's own motor (90 % / 10 % of the
-// variance at the start), and optionally a local RBF (80 / 10 / 10).
-std::unique_ptr<Kernel> gip_with_friction(const FeatureMap& features, int joint, bool rbf) {
+// A structured part plus the smooth friction and offset of the joint's own motor
+// (90 % / 10 % of the variance at the start), and optionally a local RBF (80 / 10 / 10).
+std::unique_ptr<Kernel> with_friction(std::unique_ptr<Kernel> structured, const FeatureMap& features, int joint,
+                                      bool rbf) {
   std::vector<std::unique_ptr<Kernel>> parts;
-  parts.push_back(std::make_unique<GipKernel>(features));
+  parts.push_back(std::move(structured));
   parts.push_back(std::make_unique<FrictionKernel>(features.qd(joint)));
   if (!rbf) return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
   parts.push_back(make_rbf(features));
@@ -83,14 +84,9 @@ std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& f
   if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
   if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);
   if (name == "gip-envelope") return make_envelope(features);
-  if (name == "gip-envelope+friction") {
-    std::vector<std::unique_ptr<Kernel>> parts;
-    parts.push_back(make_envelope(features));
-    parts.push_back(std::make_unique<FrictionKernel>(features.qd(joint)));
-    return std::make_unique<SumKernel>(std::move(parts), std::vector<double>{0.9, 0.1});
-  }
-  if (name == "gip+friction") return gip_with_friction(features, joint, false);
-  if (name == "gip+friction+rbf") return gip_with_friction(features, joint, true);
+  if (name == "gip-envelope+friction") return with_friction(make_envelope(features), features, joint, false);
+  if (name == "gip+friction") return with_friction(std::make_unique<GipKernel>(features), features, joint, false);
+  if (name == "gip+friction+rbf") return with_friction(std::make_unique<GipKernel>(features), features, joint, true);
   if (name == "pp") return std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction);
   if (name == "sp") return with_rbf(std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction), features);
   require_known_kernel(name);

@@ -21,6 +21,92 @@ double median(std::vector<double> v) {
   return v[v.size() / 2];
 }
 
+// What the segments did, summed for the report.
+struct SegmentCounts {
+  Eigen::Index resampled = 0, dropped = 0, rest_stretches = 0;
+};
+
+// 4. Stretches at rest carry no information about inertia and make friction
+// ambiguous. A turning point also has qd = 0, but only for an instant: only
+// runs lasting at least rest_duration count as rest.
+void drop_rest_stretches(PreprocessedLog& part, const PreprocessOptions& o, double dt, SegmentCounts& counts) {
+  const Eigen::Index rows_now = part.t.size();
+  std::vector<bool> still(static_cast<size_t>(rows_now));
+  for (Eigen::Index i = 0; i < rows_now; ++i)
+    still[static_cast<size_t>(i)] = part.qd.row(i).cwiseAbs().maxCoeff() < o.rest_velocity;
+  std::vector<Eigen::Index> keep;
+  for (Eigen::Index i = 0; i < rows_now;) {
+    Eigen::Index end_run = i;
+    while (end_run < rows_now && still[static_cast<size_t>(end_run)]) ++end_run;
+    if (end_run == i) {
+      keep.push_back(i++);
+      continue;
+    }
+    const bool long_enough = static_cast<double>(end_run - i) * dt >= o.rest_duration - 1e-12;
+    counts.rest_stretches += long_enough;
+    for (; i < end_run; ++i)
+      if (!long_enough) keep.push_back(i);
+  }
+  counts.dropped += rows_now - static_cast<Eigen::Index>(keep.size());
+  part.t = part.t(keep).eval();
+  part.q = part.q(keep, Eigen::all).eval();
+  part.qd = part.qd(keep, Eigen::all).eval();
+  part.qdd = part.qdd(keep, Eigen::all).eval();
+  part.tau = part.tau(keep, Eigen::all).eval();
+}
+
+// Steps 1-4 on one segment: times ts and the log's value columns (q, [qd,] tau).
+PreprocessedLog process_segment(const Eigen::VectorXd& ts, const Eigen::MatrixXd& values, int n, bool has_qd,
+                                double dt, const std::vector<Biquad>& sections, const PreprocessOptions& o,
+                                SegmentCounts& counts) {
+  // 1. Uniform grid t0 + k dt within the segment's span.
+  // The tolerance keeps the last sample of an already uniform log despite rounding.
+  const Eigen::Index m = static_cast<Eigen::Index>(std::floor((ts(ts.size() - 1) - ts(0)) / dt + 1e-9)) + 1;
+  if (m < 3) throw Error("PreprocessOptions::dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the span");
+  const Eigen::VectorXd grid =
+      (ts(0) + dt * Eigen::VectorXd::LinSpaced(m, 0.0, static_cast<double>(m - 1)).array()).cwiseMin(ts(ts.size() - 1));
+  const Eigen::MatrixXd data = resample_linear(ts, values, grid);
+  counts.resampled += m;
+  PreprocessedLog part;
+  part.t = grid;
+  part.q = data.leftCols(n);
+  if (has_qd) part.qd = data.middleCols(n, n);
+  part.tau = data.rightCols(n);
+  // 2. Low-pass.
+  if (o.cutoff_hz > 0.0) {
+    auto filter = [&](const Eigen::MatrixXd& x) { return o.causal ? causal_filter(sections, x) : filtfilt(sections, x); };
+    part.q = filter(part.q);
+    if (has_qd) part.qd = filter(part.qd);
+    if (o.filter_torque) part.tau = filter(part.tau);
+  }
+  // 3. Derivatives.
+  auto derive = [&](const Eigen::MatrixXd& x) { return o.causal ? backward_derivative(x, dt) : time_derivative(x, dt); };
+  if (!has_qd) part.qd = derive(part.q);
+  part.qdd = derive(part.qd);
+  if (o.drop_rest) drop_rest_stretches(part, o, dt, counts);
+  return part;
+}
+
+// The segments one after the other.
+PreprocessedLog concatenate(const std::vector<PreprocessedLog>& parts, int n) {
+  Eigen::Index total = 0;
+  for (const auto& part : parts) total += part.t.size();
+  PreprocessedLog out;
+  out.t.resize(total);
+  for (Eigen::MatrixXd* m : {&out.q, &out.qd, &out.qdd, &out.tau}) m->resize(total, n);
+  Eigen::Index row = 0;
+  for (const auto& part : parts) {
+    const Eigen::Index k = part.t.size();
+    out.t.segment(row, k) = part.t;
+    out.q.middleRows(row, k) = part.q;
+    out.qd.middleRows(row, k) = part.qd;
+    out.qdd.middleRows(row, k) = part.qdd;
+    out.tau.middleRows(row, k) = part.tau;
+    row += k;
+  }
+  return out;
+}
+
 }  // namespace
 
 void PreprocessOptions::validate() const {
@@ -97,16 +183,26 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
     steps.push_back(t(i) - t(i - 1));
   }
   const double median_step = median(steps);
-  // Default: the mean step, so that a log already on a uniform grid keeps its
-  // samples (the median step, off by rounding, could lose the last one).
-  // Within segments only: the pause between two segments is not a sampling step.
-  double span = t(rows - 1) - t(0);
-  Eigen::Index spanned_steps = rows - 1;
-  for (long start : o.segment_starts)
-    if (start >= 2 && start <= rows) {
-      span -= t(start - 1) - t(start - 2);
-      --spanned_steps;
-    }
+  // 0. Segments: [first, end) data rows, 0-based.
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> segments;
+  Eigen::Index first = 0;
+  for (long start : o.segment_starts) {
+    if (start > rows)
+      throw Error("PreprocessOptions::segment_starts: row " + std::to_string(start) + " is past the log's " +
+                  std::to_string(rows) + " data rows");
+    segments.emplace_back(first, start - 1);
+    first = start - 1;
+  }
+  segments.emplace_back(first, rows);
+  // Default: the mean step within segments (the pause between two segments is not
+  // a sampling step), so that a log already on a uniform grid keeps its samples
+  // (the median step, off by rounding, could lose the last one).
+  double span = 0.0;
+  Eigen::Index spanned_steps = 0;
+  for (const auto& [a, b] : segments) {
+    span += t(b - 1) - t(a);
+    spanned_steps += b - 1 - a;
+  }
   const double mean_step = spanned_steps > 0 ? span / static_cast<double>(spanned_steps) : median_step;
   const double dt = o.dt > 0.0 ? o.dt : mean_step;
   nlohmann::json report;
@@ -121,17 +217,6 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                             {"min", *std::min_element(steps.begin(), steps.end())},
                             {"max", *std::max_element(steps.begin(), steps.end())}};
 
-  // 0. Segments: [first, end) data rows, 0-based.
-  std::vector<std::pair<Eigen::Index, Eigen::Index>> segments;
-  Eigen::Index first = 0;
-  for (long start : o.segment_starts) {
-    if (start > rows)
-      throw Error("PreprocessOptions::segment_starts: row " + std::to_string(start) + " is past the log's " +
-                  std::to_string(rows) + " data rows");
-    segments.emplace_back(first, start - 1);
-    first = start - 1;
-  }
-  segments.emplace_back(first, rows);
 
   for (const auto& [a, b] : segments)
     for (Eigen::Index i = a + 1; i < b; ++i)
@@ -144,101 +229,31 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   std::vector<Biquad> sections;
   if (o.cutoff_hz > 0.0) sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);
   std::vector<PreprocessedLog> parts;
-  Eigen::Index resampled_rows = 0, dropped_rows = 0, rest_stretches = 0;
+  SegmentCounts counts;
   for (const auto& [a, b] : segments) {
     const std::string where = segments.size() > 1 ? " (segment of data rows " + std::to_string(a + 1) + "-" +
                                                         std::to_string(b) + ")"
                                                   : "";
-    PreprocessedLog part;
     try {
-      // 1. Uniform grid t0 + k dt within the segment's span.
-      // The tolerance keeps the last sample of an already uniform log despite rounding.
-      const Eigen::VectorXd ts = t.segment(a, b - a);
-      const Eigen::Index m = static_cast<Eigen::Index>(std::floor((ts(ts.size() - 1) - ts(0)) / dt + 1e-9)) + 1;
-      if (m < 3)
-        throw Error("PreprocessOptions::dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the span" + where);
-      const Eigen::VectorXd grid =
-          (ts(0) + dt * Eigen::VectorXd::LinSpaced(m, 0.0, static_cast<double>(m - 1)).array()).cwiseMin(ts(ts.size() - 1));
-      const Eigen::MatrixXd data = resample_linear(ts, raw.block(a, 1, b - a, raw.cols() - 1), grid);
-      resampled_rows += m;
-      part.t = grid;
-      part.q = data.leftCols(n);
-      if (has_qd) part.qd = data.middleCols(n, n);
-      part.tau = data.rightCols(n);
-      // 2. Low-pass.
-      if (o.cutoff_hz > 0.0) {
-        auto filter = [&](const Eigen::MatrixXd& x) {
-          return o.causal ? causal_filter(sections, x) : filtfilt(sections, x);
-        };
-        part.q = filter(part.q);
-        if (has_qd) part.qd = filter(part.qd);
-        if (o.filter_torque) part.tau = filter(part.tau);
-      }
-      // 3. Derivatives.
-      auto derive = [&](const Eigen::MatrixXd& x) {
-        return o.causal ? backward_derivative(x, dt) : time_derivative(x, dt);
-      };
-      if (!has_qd) part.qd = derive(part.q);
-      part.qdd = derive(part.qd);
-      // 4. Stretches at rest carry no information about inertia and make friction
-      // ambiguous. A turning point also has qd = 0, but only for an instant: only
-      // runs lasting at least rest_duration count as rest.
-      if (o.drop_rest) {
-        const Eigen::Index rows_now = part.t.size();
-        std::vector<bool> still(static_cast<size_t>(rows_now));
-        for (Eigen::Index i = 0; i < rows_now; ++i)
-          still[static_cast<size_t>(i)] = part.qd.row(i).cwiseAbs().maxCoeff() < o.rest_velocity;
-        std::vector<Eigen::Index> keep;
-        for (Eigen::Index i = 0; i < rows_now;) {
-          Eigen::Index end_run = i;
-          while (end_run < rows_now && still[static_cast<size_t>(end_run)]) ++end_run;
-          if (end_run == i) {
-            keep.push_back(i++);
-            continue;
-          }
-          const bool long_enough = static_cast<double>(end_run - i) * dt >= o.rest_duration - 1e-12;
-          rest_stretches += long_enough;
-          for (; i < end_run; ++i)
-            if (!long_enough) keep.push_back(i);
-        }
-        dropped_rows += rows_now - static_cast<Eigen::Index>(keep.size());
-        part.t = part.t(keep).eval();
-        part.q = part.q(keep, Eigen::all).eval();
-        part.qd = part.qd(keep, Eigen::all).eval();
-        part.qdd = part.qdd(keep, Eigen::all).eval();
-        part.tau = part.tau(keep, Eigen::all).eval();
-      }
+      parts.push_back(process_segment(t.segment(a, b - a), raw.block(a, 1, b - a, raw.cols() - 1), n, has_qd, dt,
+                                      sections, o, counts));
     } catch (const Error& e) {
       if (where.empty()) throw;
       throw Error(std::string(e.what()) + where);
     }
-    segment_report.push_back({{"input_rows", {a + 1, b}}, {"output_rows", part.t.size()}});
-    parts.push_back(std::move(part));
+    segment_report.push_back({{"input_rows", {a + 1, b}}, {"output_rows", parts.back().t.size()}});
   }
-  PreprocessedLog out;
-  Eigen::Index total = 0;
-  for (const auto& part : parts) total += part.t.size();
-  if (o.drop_rest && total < 3)
-    throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(total) + " samples: every |qd| is below " +
-                std::to_string(o.rest_velocity) + "; lower PreprocessOptions::rest_velocity");
-  out.t.resize(total);
-  for (Eigen::MatrixXd* m : {&out.q, &out.qd, &out.qdd, &out.tau}) m->resize(total, n);
-  Eigen::Index row = 0;
-  for (const auto& part : parts) {
-    const Eigen::Index k = part.t.size();
-    out.t.segment(row, k) = part.t;
-    out.q.middleRows(row, k) = part.q;
-    out.qd.middleRows(row, k) = part.qd;
-    out.qdd.middleRows(row, k) = part.qdd;
-    out.tau.middleRows(row, k) = part.tau;
-    row += k;
-  }
+  PreprocessedLog out = concatenate(parts, n);
+  if (o.drop_rest && out.t.size() < 3)
+    throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(out.t.size()) +
+                " samples: every |qd| is below " + std::to_string(o.rest_velocity) +
+                "; lower PreprocessOptions::rest_velocity");
 
   steps_done.push_back({{"step", "resample"},
                         {"method", "linear interpolation onto t0 + k dt"},
                         {"dt_s", dt},
                         {"dt_source", o.dt > 0.0 ? "dt option" : "mean step of the log"},
-                        {"rows", resampled_rows}});
+                        {"rows", counts.resampled}});
   const double delay = o.cutoff_hz > 0.0 && o.causal ? dc_group_delay_samples(sections) : 0.0;
   if (o.cutoff_hz > 0.0) {
     nlohmann::json applied = has_qd ? nlohmann::json{"q", "qd"} : nlohmann::json{"q"};
@@ -280,8 +295,8 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                           {"rule", "drop every stretch of at least rest_duration_s where all |qd_j| < rest_velocity"},
                           {"rest_velocity", o.rest_velocity},
                           {"rest_duration_s", o.rest_duration},
-                          {"stretches_dropped", rest_stretches},
-                          {"dropped_rows", dropped_rows}});
+                          {"stretches_dropped", counts.rest_stretches},
+                          {"dropped_rows", counts.dropped}});
   if (segments.size() > 1) report["segments"] = segment_report;
   report["steps"] = steps_done;
   report["output_rows"] = out.t.size();
