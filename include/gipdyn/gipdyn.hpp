@@ -17,6 +17,7 @@
 #include "gipdyn/features.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/gp/mean_function.hpp"
 #include "gipdyn/io/atomic_file.hpp"

@@ -123,6 +123,7 @@ GpRegressor::GpRegressor(const GpRegressor& other)
       alpha_(other.alpha_),
       y_(other.y_),
       L_(other.L_),
+      La_(other.La_),
       jitter_(other.jitter_),
       nll_(other.nll_) {}
 
@@ -137,6 +138,7 @@ CholeskyResult GpRegressor::fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd&
   if (!chol.ok()) return chol;
   nll_ = solve_and_nll(ws.K, y, alpha_);
   y_ = y;
+  La_.resize(0, 0);
   jitter_ = chol.jitter;
   if (keep_factor) {
     L_ = ws.K.triangularView<Eigen::Lower>();
@@ -152,16 +154,30 @@ void GpRegressor::set_state(const Eigen::VectorXd& alpha, double jitter, double 
   jitter_ = jitter;
   nll_ = nll;
   L_.resize(0, 0);
+  La_.resize(0, 0);
+}
+
+void GpRegressor::set_sparse_state(const Eigen::VectorXd& alpha, double jitter, double objective,
+                                   Eigen::MatrixXd inducing_factor, Eigen::MatrixXd posterior_factor) {
+  if (posterior_factor.rows() != alpha.size() || posterior_factor.cols() != alpha.size() ||
+      (inducing_factor.size() > 0 && inducing_factor.rows() != alpha.size()))
+    throw Error("GpRegressor::set_sparse_state: factors and alpha disagree in size");
+  set_state(alpha, jitter, objective);
+  L_ = std::move(inducing_factor);
+  La_ = std::move(posterior_factor);
 }
 
 CholeskyResult GpRegressor::compute_factor(const Eigen::MatrixXd& Z, GpWorkspace& ws) {
-  // Reproduce the stored fit's matrix exactly: same noise, same jitter.
-  const CholeskyResult chol = factorize_covariance(*kernel_, std::exp(log_noise_) + jitter_, Z, ws, JitterPolicy{});
+  // Reproduce the stored fit's matrix exactly: same noise, same jitter (a sparse
+  // GP's Kmm has no noise).
+  const double diag_add = (is_sparse() ? 0.0 : std::exp(log_noise_)) + jitter_;
+  const CholeskyResult chol = factorize_covariance(*kernel_, diag_add, Z, ws, JitterPolicy{});
   if (chol.ok()) L_ = ws.K.triangularView<Eigen::Lower>();
   return chol;
 }
 
 Eigen::VectorXd GpRegressor::fitted_targets() const {
+  if (is_sparse()) throw Error("a sparse GP does not keep its training targets");
   if (y_.size() == alpha_.size()) return y_;
   if (!has_factor()) throw Error("the fitted targets need the Cholesky factor; call compute_factor first");
   const auto L = L_.triangularView<Eigen::Lower>();
@@ -171,6 +187,8 @@ Eigen::VectorXd GpRegressor::fitted_targets() const {
 
 CholeskyResult GpRegressor::update(Eigen::Index drop, const Eigen::MatrixXd& Z, Eigen::Index added,
                                    const Eigen::VectorXd& y) {
+  if (is_sparse())
+    throw Error("online updates need an exact GP; this one is sparse (inducing points): retrain it with the new rows");
   if (!has_factor()) throw Error("an online update needs the Cholesky factor; call compute_factor first");
   const Eigen::Index old_rows = L_.rows(), kept = old_rows - drop, rows = kept + added;
   if (drop < 0 || added < 0 || kept < 0 || Z.rows() != rows || y.size() != rows)
@@ -256,6 +274,11 @@ void GpRegressor::predict_variance(const Eigen::MatrixXd& Zstar, const Eigen::Ma
   L_.triangularView<Eigen::Lower>().solveInPlace(V);
   kernel_->diagonal(Zstar, var);
   var -= V.colwise().squaredNorm().transpose();
+  if (is_sparse()) {
+    kernel_->cross(Z, Zstar, V);
+    La_.triangularView<Eigen::Lower>().solveInPlace(V);
+    var += V.colwise().squaredNorm().transpose();
+  }
   var = var.cwiseMax(0.0);
 }
 
@@ -270,7 +293,13 @@ double GpRegressor::predict_variance_one(const double* z, int feature_dim,
                                          Eigen::Ref<Eigen::VectorXd> v) const {
   v = krow;
   L_.triangularView<Eigen::Lower>().solveInPlace(v);  // dtrsv
-  return std::max(0.0, kernel_->self(z, feature_dim) - v.squaredNorm());
+  double var = kernel_->self(z, feature_dim) - v.squaredNorm();
+  if (is_sparse()) {
+    v = krow;
+    La_.triangularView<Eigen::Lower>().solveInPlace(v);
+    var += v.squaredNorm();
+  }
+  return std::max(0.0, var);
 }
 
 }  // namespace gipdyn

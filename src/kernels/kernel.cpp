@@ -1,5 +1,7 @@
 #include "gipdyn/kernels/kernel.hpp"
 
+#include <algorithm>
+
 namespace gipdyn {
 
 void Kernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& /*scratch*/) const {
@@ -22,6 +24,30 @@ void Kernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::Ve
   Eigen::MatrixXd K;
   cross(zq, Z, K);
   out = K.row(0).transpose();
+}
+
+void Kernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                            Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  const Eigen::Index n1 = Z1.rows(), n2 = Z2.rows();
+  Eigen::MatrixXd stacked(n1 + n2, Z1.cols());
+  stacked << Z1, Z2;
+  Eigen::MatrixXd& S = scratch.c;
+  S.setZero(n1 + n2, n1 + n2);
+  S.topRightCorner(n1, n2) = 0.5 * W;
+  S.bottomLeftCorner(n2, n1) = 0.5 * W.transpose();
+  contract(stacked, S, grad, scratch);
+}
+
+void Kernel::contract_diagonal(const Eigen::MatrixXd& Z, const Eigen::VectorXd& w, Eigen::Ref<Eigen::VectorXd> grad,
+                               KernelScratch& scratch) const {
+  constexpr Eigen::Index kBlock = 16;  // the off-diagonal entries of a block are wasted work
+  Eigen::MatrixXd& D = scratch.c;
+  for (Eigen::Index i0 = 0; i0 < Z.rows(); i0 += kBlock) {
+    const Eigen::Index m = std::min(kBlock, Z.rows() - i0);
+    D.setZero(m, m);
+    D.diagonal() = w.segment(i0, m);
+    contract(Z.middleRows(i0, m), D, grad, scratch);
+  }
 }
 
 double Kernel::self(const double* z, int feature_dim) const {

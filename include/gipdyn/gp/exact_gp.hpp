@@ -74,7 +74,16 @@ class GpRegressor {
                      const JitterPolicy& jitter = {});
   // Restores a fitted state from stored alpha (the factor is recomputed on demand).
   void set_state(const Eigen::VectorXd& alpha, double jitter, double nll);
-  // Recomputes the Cholesky factor from Z for predictive variances.
+  // A sparse GP (gp/sparse_gp.hpp), conditioned through its inducing rows Zm,
+  // which then take the place of Z everywhere: alpha, the factor of Kmm (the
+  // jitter includes its eps) and that of A, which only the training data can
+  // give. Its variance adds |A^-1/2 k*|^2; it cannot be updated online.
+  void set_sparse_state(const Eigen::VectorXd& alpha, double jitter, double objective,
+                        Eigen::MatrixXd inducing_factor, Eigen::MatrixXd posterior_factor);
+  bool is_sparse() const { return La_.size() > 0; }
+  const Eigen::MatrixXd& posterior_factor() const { return La_; }
+  // Recomputes the Cholesky factor from Z for predictive variances (for a sparse
+  // GP, that of Kmm from its inducing rows).
   CholeskyResult compute_factor(const Eigen::MatrixXd& Z, GpWorkspace& ws);
   // The targets the GP was fitted to (N-vector): kept since fit() or update(),
   // else K alpha from the factor.
@@ -115,6 +124,7 @@ class GpRegressor {
   // (empty after set_state: a loaded GP recovers them once from the factor).
   Eigen::VectorXd y_;
   Eigen::MatrixXd L_;  // lower Cholesky factor of K (empty until needed)
+  Eigen::MatrixXd La_;  // sparse GPs only: lower Cholesky factor of A
   double jitter_ = 0.0;
   double nll_ = 0.0;
 };

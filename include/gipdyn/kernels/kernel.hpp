@@ -44,6 +44,15 @@ class Kernel {
   // never forms one N x N matrix per parameter.
   virtual void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                         KernelScratch& scratch) const = 0;
+  // grad(p) += sum_ij W(i,j) dk(Z1.row(i), Z2.row(j))/d log(theta_p) for a W of
+  // k(Z1, Z2)'s shape, and grad(p) += sum_i w(i) dk(z_i, z_i)/d log(theta_p):
+  // the sparse GP's gradients (gp/sparse_gp.hpp). The defaults reduce both to
+  // contract(): the first on [Z1; Z2] with the symmetric [[0, W/2], [W^T/2, 0]],
+  // the second on diagonal blocks of a few rows. They use scratch.c.
+  virtual void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                              Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const;
+  virtual void contract_diagonal(const Eigen::MatrixXd& Z, const Eigen::VectorXd& w, Eigen::Ref<Eigen::VectorXd> grad,
+                                 KernelScratch& scratch) const;
 
   // Data-driven starting values for the optimiser: k(z, z) of about target_variance
   // on the training features Z. The default leaves the parameters as they are.

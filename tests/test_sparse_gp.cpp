@@ -1,0 +1,207 @@
+// Sparse GP (VFE): the bound and its gradient against finite differences, the
+// exact GP it must equal when every row is an inducing row, the cross and
+// diagonal contractions against gradient_matrix, and inducing-row selection.
+#include <gtest/gtest.h>
+
+#include <cmath>
+#include <set>
+
+#include "gipdyn/features.hpp"
+#include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/gp/sparse_gp.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+using test::error_of;
+using test::finite_difference;
+using test::random_inputs;
+using test::random_vector;
+
+struct Problem {
+  FeatureMap fm;
+  Eigen::MatrixXd Z;
+  Eigen::VectorXd y;
+  std::unique_ptr<Kernel> kernel;
+};
+
+// A smooth target plus noise, so that the bound has a meaningful optimum nearby.
+Problem make_problem(const char* joints_str, const char* kernel_name, int rows, unsigned seed) {
+  const JointTypes joints = JointTypes::parse(joints_str);
+  Problem p{FeatureMap(joints), {}, {}, nullptr};
+  const Eigen::MatrixXd X = random_inputs(joints, rows, seed);
+  p.Z = p.fm.compute(X);
+  p.y = (X.col(0).array().sin() + 0.3 * X.col(X.cols() - 1).array()).matrix() +
+        0.1 * random_vector(rows, -1, 1, seed + 1);
+  p.kernel = make_kernel(kernel_name, p.fm, 0, {});
+  p.kernel->initialize(p.Z, 1.0);
+  return p;
+}
+
+Eigen::MatrixXd rows_of(const Eigen::MatrixXd& Z, Eigen::Index step) {
+  std::vector<Eigen::Index> idx;
+  for (Eigen::Index i = 0; i < Z.rows(); i += step) idx.push_back(i);
+  return Z(idx, Eigen::all);
+}
+
+class VfeGradientTest : public ::testing::TestWithParam<std::pair<const char*, const char*>> {};
+
+TEST_P(VfeGradientTest, MatchesFiniteDifferences) {
+  Problem p = make_problem(GetParam().first, GetParam().second, 60, 31);
+  const Eigen::MatrixXd Zm = rows_of(p.Z, 4);
+  const int P = p.kernel->num_params();
+  Eigen::VectorXd x(P + 1);
+  x.head(P) = p.kernel->log_params() + random_vector(P, -0.3, 0.3, 33);
+  x(P) = std::log(0.05);
+  SparseGpWorkspace ws;
+  auto bound = [&](const Eigen::VectorXd& v) {
+    p.kernel->set_log_params(v.head(P));
+    const NllEvaluation e = evaluate_vfe(*p.kernel, v(P), p.Z, p.y, Zm, false, ws);
+    EXPECT_TRUE(e.ok()) << e.message;
+    return e.nll;
+  };
+  const Eigen::VectorXd fd = finite_difference(bound, x, 1e-3);
+  p.kernel->set_log_params(x.head(P));
+  const NllEvaluation e = evaluate_vfe(*p.kernel, x(P), p.Z, p.y, Zm, true, ws);
+  ASSERT_TRUE(e.ok()) << e.message;
+  EXPECT_NEAR(e.nll, bound(x), 1e-12 * std::abs(e.nll));
+  EXPECT_LT((e.gradient - fd).norm() / fd.norm(), 1e-6) << GetParam().first << " " << GetParam().second;
+  for (Eigen::Index k = 0; k < fd.size(); ++k)
+    EXPECT_LT(std::abs(e.gradient(k) - fd(k)), 1e-5 * fd.cwiseAbs().maxCoeff()) << "parameter " << k;
+}
+
+INSTANTIATE_TEST_SUITE_P(Kernels, VfeGradientTest,
+                         ::testing::Values(std::make_pair("RR", "gip"), std::make_pair("RP", "gip-friction"),
+                                           std::make_pair("RR", "rbf"), std::make_pair("RR", "gip+rbf"),
+                                           std::make_pair("RR", "gip-envelope+friction")),
+                         [](const auto& info) {
+                           return std::string(info.param.first) + "_" + test::test_name(info.param.second);
+                         });
+
+// More rows than one block of the passes: the blocks must add up.
+TEST(SparseGp, GradientIsRightAcrossRowBlocks) {
+  Problem p = make_problem("R", "rbf", 2500, 41);
+  const Eigen::MatrixXd Zm = rows_of(p.Z, 250);
+  const int P = p.kernel->num_params();
+  Eigen::VectorXd x(P + 1);
+  x.head(P) = p.kernel->log_params();
+  x(P) = std::log(0.02);
+  SparseGpWorkspace ws;
+  auto bound = [&](const Eigen::VectorXd& v) {
+    p.kernel->set_log_params(v.head(P));
+    return evaluate_vfe(*p.kernel, v(P), p.Z, p.y, Zm, false, ws).nll;
+  };
+  const Eigen::VectorXd fd = finite_difference(bound, x, 1e-3);
+  p.kernel->set_log_params(x.head(P));
+  const NllEvaluation e = evaluate_vfe(*p.kernel, x(P), p.Z, p.y, Zm, true, ws);
+  ASSERT_TRUE(e.ok()) << e.message;
+  EXPECT_LT((e.gradient - fd).norm() / fd.norm(), 1e-6);
+}
+
+// The default contractions reduce to contract(); check them against the
+// per-parameter gradient matrices they avoid forming.
+TEST(SparseGp, CrossAndDiagonalContractionsMatchGradientMatrices) {
+  for (const char* name : {"gip", "rbf", "gip-envelope+friction"}) {
+    Problem p = make_problem("RP", name, 23, 51);
+    const Eigen::MatrixXd Z1 = p.Z.topRows(17), Z2 = p.Z.bottomRows(6);
+    const Eigen::MatrixXd W = Eigen::MatrixXd::NullaryExpr(17, 6, [](Eigen::Index i, Eigen::Index j) {
+      return std::sin(1.0 + 3.0 * static_cast<double>(i) + 7.0 * static_cast<double>(j));
+    });
+    const Eigen::VectorXd w = random_vector(17, -1, 1, 52);
+    const int P = p.kernel->num_params();
+    Eigen::VectorXd cross = Eigen::VectorXd::Zero(P), diag = Eigen::VectorXd::Zero(P);
+    KernelScratch scratch;
+    p.kernel->contract_cross(Z1, Z2, W, cross, scratch);
+    p.kernel->contract_diagonal(Z1, w, diag, scratch);
+    for (int k = 0; k < P; ++k) {
+      Eigen::MatrixXd dK, dD;
+      p.kernel->gradient_matrix(Z1, Z2, k, dK);
+      p.kernel->gradient_matrix(Z1, Z1, k, dD);
+      const double scale = 1.0 + dK.cwiseAbs().maxCoeff() * W.cwiseAbs().sum();
+      EXPECT_NEAR(cross(k), W.cwiseProduct(dK).sum(), 1e-10 * scale) << name << " parameter " << k;
+      EXPECT_NEAR(diag(k), w.dot(dD.diagonal()), 1e-10 * (1.0 + dD.cwiseAbs().maxCoeff() * 17)) << name << " " << k;
+    }
+  }
+}
+
+// Every row an inducing row: Q = K, the trace term vanishes and the bound is
+// the exact NLL; the posterior is the exact one.
+TEST(SparseGp, EqualsTheExactGpWhenEveryRowIsInducing) {
+  Problem p = make_problem("RR", "rbf", 50, 61);
+  const double log_noise = std::log(0.05);
+  SparseGpWorkspace sws;
+  GpWorkspace ews;
+  const NllEvaluation sparse = evaluate_vfe(*p.kernel, log_noise, p.Z, p.y, p.Z, false, sws);
+  const NllEvaluation exact = evaluate_nll(*p.kernel, log_noise, p.Z, p.y, false, ews);
+  ASSERT_TRUE(sparse.ok() && exact.ok());
+  EXPECT_NEAR(sparse.nll, exact.nll, 1e-5 * std::abs(exact.nll));
+
+  const SparsePosterior post = fit_sparse(*p.kernel, log_noise, p.Z, p.y, p.Z, sws);
+  ASSERT_TRUE(post.status.ok()) << post.status.message;
+  GpRegressor sgp(p.kernel->clone(), log_noise), egp(p.kernel->clone(), log_noise);
+  sgp.set_sparse_state(post.alpha, post.jitter, post.objective, post.inducing_factor, post.posterior_factor);
+  ASSERT_TRUE(egp.fit(p.Z, p.y, true, ews).ok());
+  const Eigen::MatrixXd Zs = p.fm.compute(random_inputs(JointTypes::parse("RR"), 20, 62));
+  Eigen::VectorXd ms, me, vs, ve;
+  sgp.predict_mean(Zs, p.Z, ms);
+  egp.predict_mean(Zs, p.Z, me);
+  sgp.predict_variance(Zs, p.Z, vs);
+  egp.predict_variance(Zs, p.Z, ve);
+  EXPECT_LT((ms - me).cwiseAbs().maxCoeff(), 1e-5 * me.cwiseAbs().maxCoeff());
+  EXPECT_LT((vs - ve).cwiseAbs().maxCoeff(), 1e-5);
+  // The single-query path agrees with the batch one.
+  Eigen::VectorXd krow(p.Z.rows()), v(p.Z.rows());
+  KernelScratch scratch;
+  const Eigen::VectorXd z0 = Zs.row(3).transpose();
+  EXPECT_NEAR(sgp.predict_mean_one(z0.data(), p.Z, krow, scratch), ms(3), 1e-12);
+  EXPECT_NEAR(sgp.predict_variance_one(z0.data(), static_cast<int>(Zs.cols()), krow, v), vs(3), 1e-10);
+}
+
+// Fewer inducing rows: F bounds the exact NLL from above, and the bound tightens as rows are added.
+TEST(SparseGp, BoundsTheExactNllFromAboveAndTightensWithMoreInducingRows) {
+  Problem p = make_problem("RR", "gip", 120, 71);
+  const double log_noise = std::log(0.05);
+  GpWorkspace ews;
+  SparseGpWorkspace sws;
+  const double exact = evaluate_nll(*p.kernel, log_noise, p.Z, p.y, false, ews).nll;
+  double previous = std::numeric_limits<double>::infinity();
+  for (Eigen::Index count : {5, 20, 60}) {
+    const auto rows = select_inducing_rows(*p.kernel, p.Z, count);
+    const NllEvaluation e = evaluate_vfe(*p.kernel, log_noise, p.Z, p.y, p.Z(rows, Eigen::all), false, sws);
+    ASSERT_TRUE(e.ok()) << e.message;
+    EXPECT_GE(e.nll, exact - 1e-6 * std::abs(exact)) << count;
+    EXPECT_LT(e.nll, previous) << count;
+    previous = e.nll;
+  }
+}
+
+TEST(SparseGp, GreedySelectionIsDeterministicDistinctAndStopsAtTheFeatureSpaceRank) {
+  // One revolute joint: GIP's features span 5 position monomials (cos^2 + sin^2 = 1)
+  // times 3 of the acceleration group (bias, qdd, qd^2): 15 directions.
+  Problem p = make_problem("R", "gip", 200, 81);
+  const auto rows = select_inducing_rows(*p.kernel, p.Z, 40);
+  EXPECT_EQ(rows, select_inducing_rows(*p.kernel, p.Z, 40));
+  EXPECT_EQ(std::set<Eigen::Index>(rows.begin(), rows.end()).size(), rows.size());
+  EXPECT_EQ(rows.size(), 15u);
+  // A smooth kernel has no such rank: every requested row is found.
+  Problem q = make_problem("R", "rbf", 200, 82);
+  EXPECT_EQ(select_inducing_rows(*q.kernel, q.Z, 40).size(), 40u);
+  EXPECT_NE(error_of([&] { select_inducing_rows(*q.kernel, q.Z, 201); }).find("between 1 and the number"),
+            std::string::npos);
+}
+
+TEST(SparseGp, ASparseGpRefusesOnlineUpdates) {
+  Problem p = make_problem("R", "rbf", 30, 91);
+  SparseGpWorkspace ws;
+  const Eigen::MatrixXd Zm = rows_of(p.Z, 3);
+  const SparsePosterior post = fit_sparse(*p.kernel, std::log(0.05), p.Z, p.y, Zm, ws);
+  ASSERT_TRUE(post.status.ok());
+  GpRegressor gp(p.kernel->clone(), std::log(0.05));
+  gp.set_sparse_state(post.alpha, post.jitter, post.objective, post.inducing_factor, post.posterior_factor);
+  EXPECT_NE(error_of([&] { gp.update(0, Zm, 0, Eigen::VectorXd::Zero(Zm.rows())); }).find("sparse"), std::string::npos);
+}
+
+}  // namespace
+}  // namespace gipdyn
