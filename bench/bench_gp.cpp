@@ -6,6 +6,7 @@
 //
 //   build/bench/bench_gp                          # everything except full training
 //   build/bench/bench_gp --benchmark_filter=Train # full training (minutes)
+//   build/bench/bench_gp --benchmark_filter=Vfe   # sparse GP evaluations, N up to 100000
 #include <benchmark/benchmark.h>
 #include <lapacke.h>
 
@@ -20,6 +21,7 @@
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -101,6 +103,21 @@ void BM_NllGradient(benchmark::State& state) { nll_gradient(state, "gip"); }
 void BM_NllGradientGipFriction(benchmark::State& state) { nll_gradient(state, "gip+friction"); }
 // GIP times the RBF envelope (EnvelopeKernel): two kernel matrices and their product per evaluation.
 void BM_NllGradientGipEnvelope(benchmark::State& state) { nll_gradient(state, "gip-envelope"); }
+
+// One sparse (VFE) bound + gradient evaluation with M inducing rows (range 2)
+// chosen by greedy variance: O(N M^2), against the exact GP's O(N^3).
+void BM_VfeGradient(benchmark::State& state) {
+  JointSetup s = joint_setup(state);
+  const Problem& p = s.p;
+  const Eigen::MatrixXd Zm = p.Z(select_inducing_rows(*s.kernel, p.Z, state.range(2)), Eigen::all);
+  SparseGpWorkspace ws;
+  for (auto _ : state) {
+    const NllEvaluation e = evaluate_vfe(*s.kernel, s.log_noise, p.Z, s.y, Zm, true, ws);
+    if (!e.ok()) state.SkipWithError(e.message.c_str());
+    benchmark::DoNotOptimize(e.gradient.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, M = " + std::to_string(Zm.rows()));
+}
 
 void BM_PotrfPotri(benchmark::State& state) {
   JointSetup s = joint_setup(state);
@@ -279,7 +296,15 @@ void sizes(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond);
 }
 
+void sparse_sizes(benchmark::internal::Benchmark* b) {
+  for (int robot : {4, 6})
+    for (int N : {2000, 20000, 100000})
+      for (int M : {100, 300, 1000}) b->Args({robot, N, M});
+  b->Unit(benchmark::kMillisecond);
+}
+
 BENCHMARK(BM_KernelBuild)->Apply(sizes);
+BENCHMARK(BM_VfeGradient)->Apply(sparse_sizes);
 BENCHMARK(BM_NllGradient)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipFriction)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipEnvelope)->Apply(sizes);

@@ -7,6 +7,7 @@
 #include <cmath>
 
 #include "gipdyn/metrics.hpp"
+#include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "test_util.hpp"
 
@@ -137,6 +138,66 @@ TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {
     EXPECT_NEAR(w.nll, c.nll, 1e-3 * std::abs(c.nll) + 0.5) << "joint " << j + 1;
   }
   EXPECT_LT(warm.accuracy.nmse.maxCoeff(), 2.0 * cold.accuracy.nmse.maxCoeff() + 1e-6);
+}
+
+// A sparse GP on an eighth of the rows as inducing points: as accurate as the
+// exact GP here (the 2R arm's GIP features span 150 directions, the motion is
+// smooth), a bound above the exact optimum, a model file that restores it, and
+// no online updates.
+TEST(TrainingQuality, SparseGpMatchesTheExactGpAndSurvivesItsModelFile) {
+  TrainOptions o;
+  o.threads = 1;
+  const Eigen::MatrixXd X = two_link_trajectory(800, 0.15, 5);
+  const Fit exact = fit_and_test(X, o, test_states());
+  o.inducing_points = 100;
+  const Fit sparse = fit_and_test(X, o, test_states());
+  ASSERT_TRUE(sparse.result.report.ok());
+  const InverseDynamicsModel& m = sparse.result.model;
+  EXPECT_TRUE(m.is_sparse());
+  EXPECT_EQ(m.num_training_samples(), 100);
+  EXPECT_EQ(m.num_data_rows(), 800);
+  for (int j = 0; j < 2; ++j) {
+    const JointReport& e = exact.result.report.joints[static_cast<size_t>(j)];
+    const JointReport& s = sparse.result.report.joints[static_cast<size_t>(j)];
+    EXPECT_GE(s.nll, e.nll - 1e-6 * std::abs(e.nll)) << "joint " << j + 1 << ": the bound is below the exact optimum";
+    EXPECT_LT(sparse.accuracy.nmse(j), std::max(3.0 * exact.accuracy.nmse(j), 1e-4)) << "joint " << j + 1;
+  }
+  EXPECT_LT(sparse.accuracy.nmse.maxCoeff(), 1e-3);
+
+  const Eigen::MatrixXd Xtest = test_states();
+  Eigen::MatrixXd mean, sd, mean2, sd2;
+  m.predict(Xtest, mean, &sd);
+  const InverseDynamicsModel loaded = deserialize_model(serialize_model(m), "test model").with_variance();
+  EXPECT_TRUE(loaded.is_sparse());
+  EXPECT_EQ(loaded.num_data_rows(), 800);
+  loaded.predict(Xtest, mean2, &sd2);
+  EXPECT_LT((mean - mean2).cwiseAbs().maxCoeff(), 1e-10 * mean.cwiseAbs().maxCoeff());
+  EXPECT_LT((sd - sd2).cwiseAbs().maxCoeff(), 1e-6 * sd.cwiseAbs().maxCoeff() + 1e-12);
+  // The single-query path gives the batch path's answer.
+  PredictionWorkspace ws(loaded);
+  Eigen::VectorXd tau(2), stddev(2);
+  const Eigen::VectorXd x0 = Xtest.row(7).transpose();
+  ws.predict(x0.data(), tau.data(), stddev.data());
+  EXPECT_LT((tau - mean2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-10 * mean2.cwiseAbs().maxCoeff());
+  EXPECT_LT((stddev - sd2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-8 * sd2.cwiseAbs().maxCoeff() + 1e-12);
+
+  EXPECT_NE(test::error_of([&] { (void)m.updated(Xtest.topRows(3), mean.topRows(3)); }).find("sparse"),
+            std::string::npos);
+  EXPECT_NE(test::error_of([&] { (void)m.training_targets(); }).find("sparse"), std::string::npos);
+}
+
+TEST(TrainingQuality, BadSparseOptionsAreNamed) {
+  TrainOptions o;
+  o.inducing_points = -1;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::inducing_points"), std::string::npos);
+  o.inducing_points = 10;
+  o.mean = MeanKind::Constant;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::mean"), std::string::npos);
+  o.mean = MeanKind::Zero;
+  o.inducing_points = 61;
+  const Eigen::MatrixXd X = two_link_trajectory(60, 0.1, 6);
+  const std::string e = test::error_of([&] { train_model(X, two_link_torques(X), JointTypes::parse("RR"), o); });
+  EXPECT_NE(e.find("TrainOptions::inducing_points (61) exceeds the 60 training rows"), std::string::npos) << e;
 }
 
 TEST(TrainingQuality, BadConvergenceOptionsAreNamed) {

@@ -11,6 +11,7 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::min_noise_fraction", "--min-noise"},
       {"TrainOptions::threads", "--threads"},
       {"TrainOptions::warm_start_rows", "--warm-start-rows"},
+      {"TrainOptions::inducing_points", "--inducing"},
       {"TrainOptions::gradient_tolerance_per_row", "--gradient-tolerance"},
       {"TrainOptions::scaling", "--scaling"},
       {"TrainOptions::mean", "--mean"},

@@ -71,6 +71,8 @@ Command add_train(CLI::App& app) {
       if (is_kernel_estimator(o.name))
         std::printf(", optimizer %s (max %d), %d restart(s)", a->estimator.optimizer.c_str(),
                     o.gp.optimizer.max_iterations, o.gp.restarts);
+      if (is_kernel_estimator(o.name) && o.gp.inducing_points > 0)
+        std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
       if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
       std::printf("\n");
       std::fflush(stdout);

@@ -105,8 +105,10 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     the regressor), mean (prior mean of each joint's GP: "zero", "constant", or
     "linear" in (q, qd, qdd)), prior ("none" for maximum likelihood, "lognormal"
     for MAP), prior_width, warm_start_rows (optimise first on a subsample of this
-    many rows, 0: off) and gradient_tolerance (convergence: projected NLL
-    gradient per training row). They fill in the library's TrainOptions
+    many rows, 0: off), gradient_tolerance (convergence: projected NLL
+    gradient per training row) and inducing (a sparse GP conditioned on this
+    many inducing rows chosen among the training rows, hyperparameters by
+    Titsias' variational bound: for data too long for the exact GP; 0: exact). They fill in the library's TrainOptions
     (train_options()). The non-GP estimators fe and nn are available from the CLI.
 
     preset ("default", "real"; see gipdyn/estimators/presets.hpp) starts from a
@@ -124,7 +126,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  restarts=_DEFAULTS.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
-                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None):
+                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
+                 inducing=_DEFAULTS.inducing_points):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -145,6 +148,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.gradient_tolerance = gradient_tolerance
         self.preset = preset
         self.subsample = subsample
+        self.inducing = inducing
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -168,6 +172,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.mean = str(self.mean)
         o.threads = int(self.threads)
         o.warm_start_rows = int(self.warm_start_rows)
+        o.inducing_points = int(self.inducing)
         o.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
         if self.robot is not None:
             o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))

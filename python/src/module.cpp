@@ -43,6 +43,7 @@ const FieldNames& python_field_names() {
       {"TrainOptions::initial_noise_fraction", "initial_noise_fraction"},
       {"TrainOptions::threads", "threads"},
       {"TrainOptions::warm_start_rows", "warm_start_rows"},
+      {"TrainOptions::inducing_points", "inducing"},
       {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
       {"TrainOptions::scaling", "scaling"},
       {"TrainOptions::mean", "mean"},
@@ -274,6 +275,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
       .def_readwrite("threads", &TrainOptions::threads)
       .def_readwrite("warm_start_rows", &TrainOptions::warm_start_rows)
+      .def_readwrite("inducing_points", &TrainOptions::inducing_points)
       .def_readwrite("gradient_tolerance_per_row", &TrainOptions::gradient_tolerance_per_row)
       .def_readwrite("prior", &TrainOptions::prior)
       .def_readwrite("keep_factor", &TrainOptions::keep_factor)
@@ -296,6 +298,8 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly("joints", [](const Model& s) { return s.model->joints().str(); })
       .def_property_readonly("kernel", [](const Model& s) { return s.model->kernel_name(); })
       .def_property_readonly("num_training_samples", [](const Model& s) { return s.model->num_training_samples(); })
+      .def_property_readonly("num_data_rows", [](const Model& s) { return static_cast<long>(s.model->num_data_rows()); })
+      .def_property_readonly("is_sparse", [](const Model& s) { return s.model->is_sparse(); })
       .def_property_readonly("has_variance", [](const Model& s) { return s.model->has_variance(); })
       .def("hyperparameters", [](const Model& s, int j) { return s.model->hyperparameters(j); })
       .def("nll", [](const Model& s, int j) { return s.model->joint_gp(j).nll(); })

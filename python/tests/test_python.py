@@ -55,6 +55,23 @@ def test_fit_predict_and_attributes(scara, fitted):
     assert np.allclose(fitted.predict_one(test["X"][5]), pred[5], rtol=1e-7, atol=1e-9)
 
 
+def test_sparse_gp_from_python(scara, tmp_path):
+    train, test = scara
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, max_iter=40).fit(train["X"], train["tau"])
+    assert est.train_options().inducing_points == 60
+    assert est.model_.is_sparse and est.model_.num_training_samples == 60 and est.model_.num_data_rows == 200
+    pred, std = est.predict(test["X"], return_std=True)
+    assert (std >= 0).all()
+    # The same order of accuracy as the exact fit of the fixture above (its bounds).
+    assert (est.nmse(test["X"], test["tau_true"]) < [2e-2, 8e-2, 4e-4, 0.4]).all()
+    again = pickle.loads(pickle.dumps(est))
+    assert np.allclose(again.predict(test["X"]), pred, rtol=1e-10, atol=1e-12)
+    with pytest.raises(ValueError, match="sparse"):
+        est.partial_fit(test["X"][:5], test["tau"][:5])
+    with pytest.raises(ValueError, match="inducing"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", inducing=-1).fit(train["X"], train["tau"])
+
+
 def test_fit_trajectory_equals_fit(scara):
     train, test = scara
     a = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10).fit(train["X"], train["tau"])

@@ -22,6 +22,7 @@ void check_options(const TrainOptions& o) {
   if (o.mean != MeanKind::Zero) throw Error("lip: TrainOptions::mean must be zero (the energies have zero prior mean)");
   if (o.prior.enabled) throw Error("lip: TrainOptions::prior is not supported; leave it off");
   if (o.warm_start_rows > 0) throw Error("lip: TrainOptions::warm_start_rows is not supported; leave it at 0");
+  if (o.inducing_points > 0) throw Error("lip: TrainOptions::inducing_points is not supported (exact GP only); leave it at 0");
 }
 
 // Sample-major stacking: entry r n + i is Y(r, i).

@@ -33,14 +33,16 @@ CholeskyResult factor_inducing(const Kernel& kernel, const Eigen::MatrixXd& Zm, 
   return r;
 }
 
-// For each block of rows [i0, i0 + m): ws.Zb = its features, ws.Kb = k(Zb, Zm).
+// For each block of rows [i0, i0 + m): ws.Zb = its features and
+// ws.Vb = Lm^-1 k(Zm, Zb), its columns of V (ws.Lm must hold the factor).
 template <class Visit>
 void for_each_block(const Kernel& kernel, const Eigen::MatrixXd& Z, const Eigen::MatrixXd& Zm, SparseGpWorkspace& ws,
                     Visit&& visit) {
   for (Eigen::Index i0 = 0; i0 < Z.rows(); i0 += kRowBlock) {
     const Eigen::Index m = std::min(kRowBlock, Z.rows() - i0);
     ws.Zb = Z.middleRows(i0, m);
-    kernel.cross(ws.Zb, Zm, ws.Kb);
+    kernel.cross(Zm, ws.Zb, ws.Vb);
+    ws.Lm.triangularView<Eigen::Lower>().solveInPlace(ws.Vb);
     visit(i0, m);
   }
 }
@@ -50,8 +52,10 @@ Eigen::MatrixXd full_from_lower(const Eigen::MatrixXd& lower) {
   return full;
 }
 
-// The pass every evaluation needs: S = Kmn Knm, r = Kmn y, sum of k(z_i, z_i),
-// then A = Kmm + S / s factorised into ws.La and beta = A^-1 r.
+// The pass every evaluation needs, in the whitened basis V = Lm^-1 Kmn (which
+// keeps an ill-conditioned Kmm out of every subtraction): ws.VVt = V V^T,
+// ws.Vy = V y, the sum of k(z_i, z_i); then B = I + V V^T / s = Lm^-1 A Lm^-T
+// factorised into ws.LB and c = B^-1 V y (beta = A^-1 Kmn y = Lm^-T c).
 struct FirstPass {
   CholeskyResult status;
   double diag_sum = 0.0;
@@ -63,30 +67,30 @@ FirstPass first_pass(const Kernel& kernel, double s, const Eigen::MatrixXd& Z, c
   const Eigen::Index M = Zm.rows();
   out.status = factor_inducing(kernel, Zm, ws, jitter, out.eps);
   if (!out.status.ok()) return out;
-  ws.S.setZero(M, M);
-  ws.r.setZero(M);
+  ws.Lm.triangularView<Eigen::StrictlyUpper>().setZero();
+  ws.VVt.setZero(M, M);
+  ws.Vy.setZero(M);
   for_each_block(kernel, Z, Zm, ws, [&](Eigen::Index i0, Eigen::Index m) {
-    ws.S.selfadjointView<Eigen::Lower>().rankUpdate(ws.Kb.transpose());
-    ws.r.noalias() += ws.Kb.transpose() * y.segment(i0, m);
+    ws.VVt.selfadjointView<Eigen::Lower>().rankUpdate(ws.Vb);
+    ws.Vy.noalias() += ws.Vb * y.segment(i0, m);
     kernel.diagonal(ws.Zb, ws.d);
     out.diag_sum += ws.d.sum();
   });
-  ws.S = full_from_lower(ws.S);
-  auto build_a = [&](Eigen::MatrixXd& A) {
-    A = ws.Lm * ws.Lm.transpose();  // Kmm + eps (+ jitter), from its factor
-    A += ws.S / s;
+  ws.VVt = full_from_lower(ws.VVt);
+  auto build_b = [&](Eigen::MatrixXd& B) {
+    B = ws.VVt / s;
+    B.diagonal().array() += 1.0;
   };
-  ws.Lm.triangularView<Eigen::StrictlyUpper>().setZero();
-  build_a(ws.La);
-  const CholeskyResult a = cholesky_with_jitter(ws.La, build_a, JitterPolicy{});
-  if (!a.ok()) {
-    out.status = a;
-    out.status.message = "sparse posterior matrix: " + a.message;
+  build_b(ws.LB);
+  const CholeskyResult b = cholesky_with_jitter(ws.LB, build_b, JitterPolicy{});
+  if (!b.ok()) {
+    out.status = b;
+    out.status.message = "sparse posterior matrix: " + b.message;
     return out;
   }
-  ws.La.triangularView<Eigen::StrictlyUpper>().setZero();
-  ws.beta = ws.r;
-  cholesky_solve(ws.La, ws.beta);
+  ws.LB.triangularView<Eigen::StrictlyUpper>().setZero();
+  ws.c = ws.Vy;
+  cholesky_solve(ws.LB, ws.c);
   return out;
 }
 
@@ -103,25 +107,18 @@ NllEvaluation evaluate_vfe(const Kernel& kernel, double log_noise_variance, cons
                            SparseGpWorkspace& ws, const JitterPolicy& jitter) {
   NllEvaluation out;
   const double s = std::exp(log_noise_variance);
-  const double N = static_cast<double>(Z.rows());
+  const double N = static_cast<double>(Z.rows()), M = static_cast<double>(Zm.rows());
   const FirstPass pass = first_pass(kernel, s, Z, y, Zm, ws, jitter);
-  out.jitter = pass.status.jitter;
+  out.jitter = pass.status.jitter - pass.eps;  // eps is part of the model, not a repair
   if (!pass.status.ok()) {
     out.status = to_nll_status(pass.status);
     out.message = pass.status.message;
     return out;
   }
-  ws.Kinv = inverse_from_factor(ws.Lm);
-  if (ws.Kinv.size() == 0) {
-    out.status = NllEvaluation::Status::InversionFailed;
-    out.message = "could not invert the inducing kernel matrix (LAPACK potri failed)";
-    return out;
-  }
-  const double yy = y.squaredNorm(), r_beta = ws.r.dot(ws.beta);
-  const double log_det = 2.0 * (ws.La.diagonal().array().log().sum() - ws.Lm.diagonal().array().log().sum());
-  const double trace_q = ws.Kinv.cwiseProduct(ws.S).sum();
-  const double trace_term = (pass.diag_sum - trace_q) / (2.0 * s);
-  out.nll = 0.5 * (N * kLog2Pi + N * std::log(s) + log_det + (yy - r_beta / s) / s) + trace_term;
+  const double yy = y.squaredNorm(), vy_c = ws.Vy.dot(ws.c);
+  const double log_det_b = 2.0 * ws.LB.diagonal().array().log().sum();
+  const double trace_term = (pass.diag_sum - ws.VVt.trace()) / (2.0 * s);  // tr(Knn - Q) / (2 s)
+  out.nll = 0.5 * (N * kLog2Pi + N * std::log(s) + log_det_b + (yy - vy_c / s) / s) + trace_term;
   if (!std::isfinite(out.nll)) {
     out.message = "sparse marginal likelihood bound is not finite at these hyperparameters";
     return out;
@@ -129,31 +126,39 @@ NllEvaluation evaluate_vfe(const Kernel& kernel, double log_noise_variance, cons
   out.status = NllEvaluation::Status::Ok;
   if (!with_gradient) return out;
 
-  ws.Ainv = inverse_from_factor(ws.La);
-  if (ws.Ainv.size() == 0) {
+  ws.Binv = inverse_from_factor(ws.LB);
+  if (ws.Binv.size() == 0) {
     out.status = NllEvaluation::Status::InversionFailed;
     out.message = "could not invert the sparse posterior matrix (LAPACK potri failed)";
     return out;
   }
-  // dF = sum W_nm o dKnm + sum W_mm o dKmm + sum_i dk(z_i, z_i) / (2 s), with
-  // W_nm = Knm (A^-1 - Kmm^-1) / s - alpha beta^T / s, alpha = (y - Knm beta / s) / s.
+  // dF = sum W_nm o dKnm + sum W_mm o dKmm + sum_i dk(z_i, z_i) / (2 s) with, for
+  // alpha = (y - V^T c / s) / s,
+  //   W_nm = [V^T (B^-1 - I) - alpha c^T] Lm^-1 / s,
+  //   W_mm = Lm^-T [(B + B^-1 + c c^T / s^2) / 2 - I] Lm^-1.
   const int P = kernel.num_params();
   out.gradient = Eigen::VectorXd::Zero(P + 1);
-  ws.C = (ws.Ainv - ws.Kinv) / s;
+  ws.C = ws.Binv;
+  ws.C.diagonal().array() -= 1.0;
   const Eigen::VectorXd half_over_s = Eigen::VectorXd::Constant(std::min<Eigen::Index>(kRowBlock, Z.rows()), 0.5 / s);
   for_each_block(kernel, Z, Zm, ws, [&](Eigen::Index i0, Eigen::Index m) {
-    ws.alpha_b = (y.segment(i0, m) - ws.Kb * ws.beta / s) / s;
-    ws.Wb.noalias() = ws.Kb * ws.C;
-    ws.Wb.noalias() -= ws.alpha_b * (ws.beta.transpose() / s);
+    ws.alpha_b = (y.segment(i0, m) - ws.Vb.transpose() * ws.c / s) / s;
+    ws.Wb.noalias() = ws.Vb.transpose() * ws.C;
+    ws.Wb.noalias() -= ws.alpha_b * ws.c.transpose();
+    ws.Lm.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(ws.Wb);  // (...) Lm^-1
+    ws.Wb /= s;
     kernel.contract_cross(ws.Zb, Zm, ws.Wb, out.gradient.head(P), ws.scratch);
-    kernel.contract_diagonal(ws.Zb, half_over_s.head(m), out.gradient.head(P), ws.scratch);
+    kernel.contract_diagonal(ws.Zb, half_over_s.head(m), out.gradient.head(P), ws.diagonal_scratch);
   });
-  ws.Wmm = -0.5 * (ws.Kinv - ws.Ainv - ws.beta * ws.beta.transpose() / (s * s));
-  ws.Wmm.noalias() += ws.Kinv * ws.S * ws.Kinv / (2.0 * s);
-  kernel.contract(Zm, ws.Wmm, out.gradient.head(P), ws.scratch);
-  // d/dlog s: s/2 (tr Sigma^-1 - alpha^T alpha) - trace_term.
-  const double trace_sigma_inv = N / s - ws.Ainv.cwiseProduct(ws.S).sum() / (s * s);
-  const double alpha_sq = (yy - 2.0 * r_beta / s + ws.beta.dot(ws.S * ws.beta) / (s * s)) / (s * s);
+  ws.H = 0.5 * (ws.VVt / s + ws.Binv + ws.c * ws.c.transpose() / (s * s));
+  ws.H.diagonal().array() -= 0.5;  // B = I + V V^T / s: (B + B^-1) / 2 - I = (V V^T / s + B^-1 - I) / 2
+  ws.Lm.triangularView<Eigen::Lower>().transpose().solveInPlace(ws.H);                           // Lm^-T H
+  ws.Lm.triangularView<Eigen::Lower>().solveInPlace<Eigen::OnTheRight>(ws.H);        // ... Lm^-1
+  kernel.contract(Zm, ws.H, out.gradient.head(P), ws.scratch);
+  // d/dlog s: s/2 (tr Sigma^-1 - alpha^T alpha) - trace_term, with
+  // tr Sigma^-1 = (N - M + tr B^-1) / s and alpha^T alpha = (y^T y - 2 c^T V y / s + c^T V V^T c / s^2) / s^2.
+  const double trace_sigma_inv = (N - M + ws.Binv.trace()) / s;
+  const double alpha_sq = (yy - 2.0 * vy_c / s + ws.c.dot(ws.VVt * ws.c) / (s * s)) / (s * s);
   out.gradient(P) = 0.5 * s * (trace_sigma_inv - alpha_sq) - trace_term;
   return out;
 }
@@ -163,7 +168,6 @@ SparsePosterior fit_sparse(const Kernel& kernel, double log_noise_variance, cons
                            const JitterPolicy& jitter) {
   SparsePosterior out;
   const NllEvaluation e = evaluate_vfe(kernel, log_noise_variance, Z, y, Zm, false, ws, jitter);
-  out.jitter = e.jitter;
   if (!e.ok()) {
     out.status.status = e.status == NllEvaluation::Status::NonFinite ? CholeskyResult::Status::NonFinite
                                                                       : CholeskyResult::Status::NotPositiveDefinite;
@@ -172,9 +176,12 @@ SparsePosterior fit_sparse(const Kernel& kernel, double log_noise_variance, cons
   }
   out.status.jitter = e.jitter;
   out.objective = e.nll;
-  out.alpha = ws.beta / std::exp(log_noise_variance);
+  // Kmm's diagonal addition, for compute_factor to rebuild Lm: eps plus any repair.
+  kernel.diagonal(Zm, ws.d);
+  out.jitter = kInducingJitter * std::abs(ws.d.mean()) + e.jitter;
+  out.alpha = ws.Lm.triangularView<Eigen::Lower>().transpose().solve(ws.c) / std::exp(log_noise_variance);  // beta / s, beta = Lm^-T c
   out.inducing_factor = ws.Lm;
-  out.posterior_factor = ws.La;
+  out.posterior_factor = ws.Lm * ws.LB;  // A = Lm B Lm^T; both strict upper triangles are zero
   return out;
 }
 

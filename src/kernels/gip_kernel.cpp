@@ -231,18 +231,27 @@ void GipKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd
 // Fused gradient contraction: grad(p) += sum_ij W_ij dK_ij/dlog(theta_p).
 // For a factor f of the product, dK/dtheta = R_f o dF_f with R_f the product of
 // the other factors; R_f comes from prefix and suffix products of the factor values,
-// computed block by block over the lower triangle (W and K are symmetric), so the
-// only N x N buffer is the acceleration factor, which is overwritten by W o R_acc;
-// its weight gradients are then one symm: diag(Za^T (W o R_acc) Za).
+// computed block by block (over the lower triangle when K is symmetric, W and K
+// being symmetric then), so the only large buffer is the acceleration factor,
+// which is overwritten by W o R_acc; its weight gradients are then one product:
+// diag(Za1^T (W o R_acc) Za2).
 template <class WeightColumn>
-void GipKernel::fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_column,
-                               Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  const Eigen::Index N = Z.rows();
+void GipKernel::fused_contract(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, bool symmetric,
+                               WeightColumn&& weight_column, Eigen::Ref<Eigen::VectorXd> grad,
+                               KernelScratch& scratch) const {
+  const Eigen::Index N1 = Z1.rows(), N2 = Z2.rows();
   const int P = static_cast<int>(position_factors_.size());
   const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
   const Eigen::VectorXd& w = weights_;
   Eigen::MatrixXd& A = scratch.a;
-  acceleration_factor_lower(Z, A);
+  if (symmetric) {
+    acceleration_factor_lower(Z1, A);
+  } else {
+    A.resize(N1, N2);
+    A.noalias() = (Z1.middleCols(acc_first_column_, na) * weights_.segment(acceleration_.offset + 1, na).asDiagonal()) *
+                  Z2.middleCols(acc_first_column_, na).transpose();
+    A.array() += weights_(acceleration_.offset);
+  }
 
   Eigen::MatrixXd& B = scratch.b;  // per block: F (P+1 cols), prefix (P+1), suffix (P+1), R, wraw
   B.resize(kChunk, 3 * (P + 1) + 2);
@@ -253,21 +262,23 @@ void GipKernel::fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_c
   auto wraw = B.col(3 * (P + 1) + 1);
   Eigen::VectorXd g = Eigen::VectorXd::Zero(num_params());
 
-  for (Eigen::Index j = 0; j < N; ++j) {
-    for (Eigen::Index i0 = j; i0 < N; i0 += kChunk) {
-      const Eigen::Index m = std::min(kChunk, N - i0);
-      const bool has_diag = (i0 == j);
-      // Sum over the full symmetric matrix from the lower-triangle block.
-      auto wsum = [&](const auto& arr) { return 2.0 * arr.sum() - (has_diag ? arr(0) : 0.0); };
+  for (Eigen::Index j = 0; j < N2; ++j) {
+    for (Eigen::Index i0 = symmetric ? j : 0; i0 < N1; i0 += kChunk) {
+      const Eigen::Index m = std::min(kChunk, N1 - i0);
+      const bool has_diag = symmetric && i0 == j;
+      // Over the full matrix: a symmetric one's lower-triangle block counts twice, less its diagonal.
+      auto wsum = [&](const auto& arr) {
+        return symmetric ? 2.0 * arr.sum() - (has_diag ? arr(0) : 0.0) : arr.sum();
+      };
       weight_column(j, i0, m, wraw.head(m));
       for (int f = 0; f < P; ++f) {
         const Factor& fac = position_factors_[static_cast<size_t>(f)];
         const int c0 = fac.columns[0];
         auto Ff = F(f).head(m).array();
-        Ff = w(fac.offset) + (w(fac.offset + 1) * Z(j, c0)) * Z.col(c0).segment(i0, m).array();
+        Ff = w(fac.offset) + (w(fac.offset + 1) * Z2(j, c0)) * Z1.col(c0).segment(i0, m).array();
         if (fac.columns.size() == 2) {
           const int c1 = fac.columns[1];
-          Ff += (w(fac.offset + 2) * Z(j, c1)) * Z.col(c1).segment(i0, m).array();
+          Ff += (w(fac.offset + 2) * Z2(j, c1)) * Z1.col(c1).segment(i0, m).array();
         }
       }
       F(P).head(m) = A.col(j).segment(i0, m);
@@ -291,35 +302,40 @@ void GipKernel::fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_c
           for (size_t d = 0; d < fac.columns.size(); ++d) {
             const int c = fac.columns[d];
             g(fac.offset + 1 + static_cast<int>(d)) +=
-                w(fac.offset + 1 + static_cast<int>(d)) * Z(j, c) * wsum((r * Z.col(c).segment(i0, m).array()).eval());
+                w(fac.offset + 1 + static_cast<int>(d)) * Z2(j, c) * wsum((r * Z1.col(c).segment(i0, m).array()).eval());
           }
         } else {
           g(acceleration_.offset) += w(acceleration_.offset) * wsum(r);
-          A.col(j).segment(i0, m) = R.head(m);  // W o R_acc, lower triangle
+          A.col(j).segment(i0, m) = R.head(m);  // W o R_acc
         }
       }
       if (has_friction()) {
         const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
         g(friction_offset_) +=
-            w(friction_offset_) * Z(j, cv) * wsum((wraw.head(m).array() * Z.col(cv).segment(i0, m).array()).eval());
+            w(friction_offset_) * Z2(j, cv) * wsum((wraw.head(m).array() * Z1.col(cv).segment(i0, m).array()).eval());
         g(friction_offset_ + 1) +=
-            w(friction_offset_ + 1) * Z(j, cc) * wsum((wraw.head(m).array() * Z.col(cc).segment(i0, m).array()).eval());
+            w(friction_offset_ + 1) * Z2(j, cc) * wsum((wraw.head(m).array() * Z1.col(cc).segment(i0, m).array()).eval());
       }
     }
   }
-  const auto Za = Z.middleCols(acc_first_column_, na);
+  const auto Za1 = Z1.middleCols(acc_first_column_, na);
+  const auto Za2 = Z2.middleCols(acc_first_column_, na);
   Eigen::MatrixXd& M = scratch.d;
-  M.resize(N, na);
-  M.noalias() = A.selfadjointView<Eigen::Lower>() * Za;  // dsymm
+  M.resize(N1, na);
+  if (symmetric) {
+    M.noalias() = A.selfadjointView<Eigen::Lower>() * Za2;  // dsymm
+  } else {
+    M.noalias() = A * Za2;
+  }
   for (Eigen::Index d = 0; d < na; ++d)
-    g(acceleration_.offset + 1 + d) += w(acceleration_.offset + 1 + d) * Za.col(d).dot(M.col(d));
+    g(acceleration_.offset + 1 + d) += w(acceleration_.offset + 1 + d) * Za1.col(d).dot(M.col(d));
   grad += g;
 }
 
 void GipKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                              Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
   fused_contract(
-      Z,
+      Z, Z, true,
       [&](Eigen::Index j, Eigen::Index i0, Eigen::Index m, auto out) {
         out = alpha(j) * alpha.segment(i0, m) - Kinv_lower.col(j).segment(i0, m);
       },
@@ -329,8 +345,15 @@ void GipKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& al
 void GipKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                          KernelScratch& scratch) const {
   fused_contract(
-      Z, [&](Eigen::Index j, Eigen::Index i0, Eigen::Index m, auto out) { out = W.col(j).segment(i0, m); }, grad,
-      scratch);
+      Z, Z, true, [&](Eigen::Index j, Eigen::Index i0, Eigen::Index m, auto out) { out = W.col(j).segment(i0, m); },
+      grad, scratch);
+}
+
+void GipKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                               Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  fused_contract(
+      Z1, Z2, false, [&](Eigen::Index j, Eigen::Index i0, Eigen::Index m, auto out) { out = W.col(j).segment(i0, m); },
+      grad, scratch);
 }
 
 }  // namespace gipdyn

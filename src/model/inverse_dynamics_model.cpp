@@ -28,11 +28,13 @@ std::string to_string(OutputScaling s) {
 InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                                            std::vector<GpRegressor> gps, OutputScaling scaling,
                                            Eigen::VectorXd y_offset, Eigen::VectorXd y_scale, RobotPrior prior,
-                                           std::vector<MeanFunction> means, std::vector<JointReport> training)
+                                           std::vector<MeanFunction> means, std::vector<JointReport> training,
+                                           Eigen::Index data_rows)
     : joints_(joints),
       features_(joints),
       kernel_name_(std::move(kernel_name)),
       X_(std::move(X)),
+      data_rows_(data_rows > 0 ? data_rows : X_.rows()),
       gps_(std::move(gps)),
       means_(std::move(means)),
       scaling_(scaling),
@@ -51,8 +53,11 @@ InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string
   for (const auto& m : means_)
     if (m.kind() != means_.front().kind() || (m.kind() == MeanKind::Linear && m.input_dim() != 3 * n))
       throw Error("model: every joint needs the same kind of mean function on the 3n inputs");
-  for (const auto& gp : gps_)
+  for (const auto& gp : gps_) {
     if (gp.alpha().size() != X_.rows()) throw Error("model: alpha must have one entry per training sample");
+    if (gp.is_sparse() != gps_.front().is_sparse()) throw Error("model: either every joint's GP is sparse or none");
+  }
+  if (data_rows_ < X_.rows()) throw Error("model: fewer data rows than training inputs");
   Z_ = features_.compute(X_);
   // The fused single-query path is chosen here, by kernel name, once.
   if (is_gip_kernel(kernel_name_))
@@ -126,6 +131,7 @@ InverseDynamicsModel InverseDynamicsModel::with_variance() const {
 }
 
 Eigen::MatrixXd InverseDynamicsModel::training_targets() const {
+  if (is_sparse()) throw Error("a sparse model keeps its inducing rows, not its training targets");
   if (!has_variance()) throw Error("training_targets needs the Cholesky factors; use the with_variance() copy");
   Eigen::MatrixXd H;
   if (mean_kind() != MeanKind::Zero) means_.front().basis(X_, H);
@@ -144,6 +150,9 @@ namespace {
 void check_new_samples(const InverseDynamicsModel& m, const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
                        const Eigen::Ref<const Eigen::MatrixXd>& Ynew, Eigen::Index window) {
   const int n = m.num_joints();
+  if (m.is_sparse())
+    throw Error("online updates need an exact GP model; this one is sparse (" + std::to_string(m.num_training_samples()) +
+                " inducing points): train it again on the old and new rows");
   if (Xnew.cols() != 3 * n || Ynew.cols() != n)
     throw Error("new samples need " + std::to_string(3 * n) + " input and " + std::to_string(n) +
                 " torque columns for this " + m.joints().str() + " model; got " + std::to_string(Xnew.cols()) + " and " +

@@ -47,6 +47,10 @@ ModelContainer model_to_container(const InverseDynamicsModel& model) {
   h["joints"] = model.joints().str();
   h["kernel"] = model.kernel_name();
   h["num_training_samples"] = model.num_training_samples();
+  if (model.is_sparse()) {  // X holds the inducing rows; each joint adds the factor of its A
+    h["approximation"] = "vfe";
+    h["num_data_rows"] = model.num_data_rows();
+  }
   h["output_scaling"] = to_string(model.output_scaling());
   if (model.robot_prior().robot) {
     h["robot"] = robot_to_storable_json(*model.robot_prior().robot);
@@ -69,6 +73,7 @@ ModelContainer model_to_container(const InverseDynamicsModel& model) {
     if (!model.training_report().empty())
       joints.back()["training"] = training_to_json(model.training_report()[static_cast<size_t>(j)]);
     c.add("alpha" + std::to_string(j + 1), gp.alpha());
+    if (gp.is_sparse()) c.add("posterior_factor" + std::to_string(j + 1), gp.posterior_factor());
   }
   h["joint_models"] = joints;
   return c;
@@ -87,6 +92,10 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
     const Eigen::MatrixXd& X = c.array("X", what);
     if (X.rows() != N || X.cols() != 3 * n) throw Error(what + " is corrupted (training input shape); re-save the model");
     const std::string kernel_name = h.at("kernel").get<std::string>();
+    const std::string approximation = h.value("approximation", "exact");
+    if (approximation != "exact" && approximation != "vfe")
+      throw Error(what + " uses the unknown GP approximation '" + approximation + "'; re-save the model");
+    const bool sparse = approximation == "vfe";
     RobotPrior prior;
     if (h.contains("robot")) {
       prior.robot = std::make_shared<const RobotModel>(robot_from_storable_json(h.at("robot"), what));
@@ -108,7 +117,13 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
       GpRegressor gp(std::move(k), e.at("log_noise_variance").get<double>());
       const Eigen::MatrixXd& alpha = c.array("alpha" + std::to_string(j + 1), what);
       if (alpha.rows() != N || alpha.cols() != 1) throw Error(what + " is corrupted (alpha shape); re-save the model");
-      gp.set_state(alpha.col(0), e.at("jitter").get<double>(), e.at("nll").get<double>());
+      if (sparse) {
+        const Eigen::MatrixXd& La = c.array("posterior_factor" + std::to_string(j + 1), what);
+        if (La.rows() != N || La.cols() != N) throw Error(what + " is corrupted (posterior factor shape); re-save the model");
+        gp.set_sparse_state(alpha.col(0), e.at("jitter").get<double>(), e.at("nll").get<double>(), Eigen::MatrixXd(), La);
+      } else {
+        gp.set_state(alpha.col(0), e.at("jitter").get<double>(), e.at("nll").get<double>());
+      }
       gps.push_back(std::move(gp));
       MeanFunction mean;  // files written before mean functions existed hold zero means
       if (e.contains("mean")) {
@@ -126,7 +141,8 @@ InverseDynamicsModel model_from_container(const ModelContainer& c, const std::st
     return InverseDynamicsModel(joints, kernel_name, X, std::move(gps),
                                 parse_output_scaling(h.at("output_scaling").get<std::string>()), offset, scale,
                                 prior, std::move(means),
-                                static_cast<int>(training.size()) == n ? std::move(training) : std::vector<JointReport>{});
+                                static_cast<int>(training.size()) == n ? std::move(training) : std::vector<JointReport>{},
+                                sparse ? h.at("num_data_rows").get<Eigen::Index>() : N);
   } catch (const json::exception& e) {
     throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");
   }

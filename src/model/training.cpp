@@ -10,6 +10,7 @@
 #include <thread>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 
@@ -27,6 +28,9 @@ void TrainOptions::validate() const {
   if (warm_start_rows < 0) throw Error("TrainOptions::warm_start_rows must be >= 0 (0: no warm start)");
   if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
     throw Error("TrainOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+  if (inducing_points < 0) throw Error("TrainOptions::inducing_points must be >= 0 (0: exact GP)");
+  if (inducing_points > 0 && mean != MeanKind::Zero)
+    throw Error("TrainOptions::mean must be zero with inducing points (TrainOptions::inducing_points)");
   if (!(gradient_tolerance_per_row >= 0.0)) throw Error("TrainOptions::gradient_tolerance_per_row must be >= 0");
   prior.validate();
   require_known_kernel(kernel);
@@ -43,8 +47,10 @@ struct JointOutcome {
   bool ok = false;
 };
 
+// Zm: the inducing rows' features of a sparse GP, or null for the exact GP.
 JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
-                         const Eigen::VectorXd& y, const TrainOptions& o, const ProgressCallback& progress) {
+                         const Eigen::MatrixXd* Zm, const Eigen::VectorXd& y, const TrainOptions& o,
+                         const ProgressCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
@@ -69,6 +75,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   opt.upper_bounds(P) = std::log(10.0 * target);
 
   GpWorkspace ws;
+  SparseGpWorkspace sparse_ws;
   std::unique_ptr<Kernel> trial = kernel->clone();
   std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -78,7 +85,10 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
                       const Eigen::VectorXd& start, int restart) {
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
-      NllEvaluation e = evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
+      // A warm-start subsample is small: the exact NLL there, the sparse bound on all rows.
+      const bool sparse = Zm && &Zr == &Z;
+      NllEvaluation e = sparse ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
+                               : evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
       if (!e.ok()) return false;
       f = e.nll;
       g = e.gradient;
@@ -168,7 +178,16 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   }
   out.mean = mean;
   out.gp = GpRegressor(std::move(kernel), best_x(P));
-  const CholeskyResult fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
+  CholeskyResult fit;
+  if (Zm) {
+    SparsePosterior post = fit_sparse(out.gp.kernel(), best_x(P), Z, y, *Zm, sparse_ws, o.jitter);
+    fit = post.status;
+    if (fit.ok())
+      out.gp.set_sparse_state(post.alpha, post.jitter, post.objective, std::move(post.inducing_factor),
+                              std::move(post.posterior_factor));
+  } else {
+    fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
+  }
   if (!fit.ok()) {
     out.report.status = OptimizerResult::Status::Failed;
     out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + fit.message;
@@ -195,6 +214,19 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   const int n = joints.size();
   const FeatureMap features(joints);
   const Eigen::MatrixXd Z = features.compute(X);
+  const bool sparse = options.inducing_points > 0;
+  if (sparse && options.inducing_points > X.rows())
+    throw Error("TrainOptions::inducing_points (" + std::to_string(options.inducing_points) + ") exceeds the " +
+                std::to_string(X.rows()) + " training rows; choose at most that many, or 0 for the exact GP");
+  // Shared by every joint (the model keeps one set of inputs). The joints'
+  // initial kernels differ only in scale, so the first one's choice serves all.
+  std::vector<Eigen::Index> inducing_rows;
+  if (sparse) {
+    std::unique_ptr<Kernel> k = make_kernel(options.kernel, features, 0, options.robot_prior);
+    k->initialize(Z, 1.0);
+    inducing_rows = select_inducing_rows(*k, Z, options.inducing_points);
+  }
+  const Eigen::MatrixXd Zm = sparse ? Eigen::MatrixXd(Z(inducing_rows, Eigen::all)) : Eigen::MatrixXd();
 
   Eigen::VectorXd offset = Eigen::VectorXd::Zero(n), scale = Eigen::VectorXd::Ones(n);
   for (int j = 0; j < n; ++j) {
@@ -211,19 +243,24 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
   threads = std::clamp(threads, 1, n);
   // Every joint in flight holds two N x N matrices (the kernel, reused for its
-  // inverse, and the gradient's scratch); kept factors add one per joint. Train
-  // fewer joints at once when memory is short, refuse when even one cannot fit.
-  const double square = 8.0 * static_cast<double>(X.rows()) * static_cast<double>(X.rows());
-  const double kept = options.keep_factor ? n * square : 0.0;
-  require_memory(kept + 2.0 * square, "training on " + std::to_string(X.rows()) + " rows",
+  // inverse, and the gradient's scratch); kept factors add one per joint. A
+  // sparse joint holds about ten M x M matrices and three row blocks, and keeps
+  // two factors. Train fewer joints at once when memory is short, refuse when
+  // even one cannot fit.
+  const double side = static_cast<double>(sparse ? Zm.rows() : X.rows());
+  const double square = 8.0 * side * side;
+  const double per_joint = sparse ? 10.0 * square + 8.0 * 3.0 * 1024.0 * side : 2.0 * square;
+  const double kept = sparse ? 2.0 * n * square : options.keep_factor ? n * square : 0.0;
+  require_memory(kept + per_joint, "training on " + std::to_string(X.rows()) + " rows",
                  "train on fewer rows (a constant-step subsample)" +
-                     std::string(options.keep_factor ? " or without kept factors (TrainOptions::keep_factor)" : ""));
-  threads = std::min<int>(threads, std::max(1.0, (static_cast<double>(available_memory_bytes()) - kept) / (2.0 * square)));
+                     std::string(options.keep_factor && !sparse ? " or without kept factors (TrainOptions::keep_factor)" : "") +
+                     std::string(sparse ? " or with fewer inducing points" : ", or a sparse GP (TrainOptions::inducing_points)"));
+  threads = std::min<int>(threads, std::max(1.0, (static_cast<double>(available_memory_bytes()) - kept) / per_joint));
   std::atomic<int> next{0};
   auto worker = [&] {
     for (int j = next++; j < n; j = next++) {
       const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
-      outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, y, options, progress);
+      outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, progress);
     }
   };
   std::vector<std::thread> pool;
@@ -242,8 +279,9 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   }
   result.report.status = result.report.message.empty() ? combine_joint_statuses(result.report.joints) : FitStatus::Failed;
   if (result.report.ok())
-    result.model = InverseDynamicsModel(joints, options.kernel, X, std::move(gps), options.scaling, offset, scale,
-                                        options.robot_prior, std::move(means), result.report.joints);
+    result.model = InverseDynamicsModel(joints, options.kernel, sparse ? Eigen::MatrixXd(X(inducing_rows, Eigen::all)) : X,
+                                        std::move(gps), options.scaling, offset, scale, options.robot_prior,
+                                        std::move(means), result.report.joints, X.rows());
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
 }

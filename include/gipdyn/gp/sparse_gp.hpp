@@ -24,9 +24,11 @@ namespace gipdyn {
 // Mutable buffers of sparse evaluations (one per thread); every matrix is M x M
 // or B x M, reused across an optimiser's evaluations.
 struct SparseGpWorkspace {
-  Eigen::MatrixXd Lm, La, S, Kinv, Ainv, C, Wmm, Kb, Wb, Zb;
-  Eigen::VectorXd r, beta, d, alpha_b;
-  KernelScratch scratch;
+  Eigen::MatrixXd Lm, LB, VVt, Binv, C, H, Vb, Wb, Zb;
+  Eigen::VectorXd Vy, c, d, alpha_b;
+  // Two, so that the diagonal's small blocks do not shrink the cross
+  // contraction's large buffers (a reallocation per row block).
+  KernelScratch scratch, diagonal_scratch;
 };
 
 // eps of Kmm, relative to the mean of its diagonal: the inducing rows of a

@@ -17,7 +17,8 @@
 
 namespace gipdyn {
 
-constexpr unsigned kModelFormatVersion = 2;
+// 3: sparse GP models ("approximation": "vfe"). Older versions are read as they are.
+constexpr unsigned kModelFormatVersion = 3;
 
 struct ModelContainer {
   nlohmann::json header;  // without "arrays", "format", "format_version": pack_container writes those

@@ -37,6 +37,8 @@ class GipKernel final : public Kernel {
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
   void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
+  void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                      Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
@@ -65,7 +67,9 @@ class GipKernel final : public Kernel {
     int offset;                // index of its log s0; weights follow
   };
   template <class WeightColumn>
-  void fused_contract(const Eigen::MatrixXd& Z, WeightColumn&& weight_column, Eigen::Ref<Eigen::VectorXd> grad,
+  // Z1 == Z2 with `symmetric`: K(Z, Z) over its lower triangle; else K(Z1, Z2).
+  void fused_contract(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, bool symmetric,
+                      WeightColumn&& weight_column, Eigen::Ref<Eigen::VectorXd> grad,
                       KernelScratch& scratch) const;
   void acceleration_factor_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& A) const;
   // col (rows i0 .. i0+m of Z) *= the position factors, then += the friction

@@ -28,15 +28,21 @@ class InverseDynamicsModel {
   // X: training inputs (N x 3n). gps: one fitted GP per joint (alpha set).
   // means: one prior mean per joint in scaled-output units (empty: zero means).
   // training: how each joint's hyperparameters were found (empty when unknown,
-  // as for files written before it was recorded).
+  // as for files written before it was recorded). For sparse GPs (every joint's
+  // GpRegressor::is_sparse()), X holds the inducing rows and data_rows the
+  // number of rows the model was trained on (0: X's rows).
   InverseDynamicsModel(const JointTypes& joints, std::string kernel_name, Eigen::MatrixXd X,
                        std::vector<GpRegressor> gps, OutputScaling scaling, Eigen::VectorXd y_offset,
                        Eigen::VectorXd y_scale, RobotPrior prior = {}, std::vector<MeanFunction> means = {},
-                       std::vector<JointReport> training = {});
+                       std::vector<JointReport> training = {}, Eigen::Index data_rows = 0);
 
   const JointTypes& joints() const { return joints_; }
   int num_joints() const { return joints_.size(); }
+  // The rows the GPs are conditioned on: the training rows, or a sparse model's inducing rows.
   int num_training_samples() const { return static_cast<int>(X_.rows()); }
+  // The rows the model was trained on (for a sparse model, more than it keeps).
+  Eigen::Index num_data_rows() const { return data_rows_; }
+  bool is_sparse() const { return !gps_.empty() && gps_.front().is_sparse(); }
   const std::string& kernel_name() const { return kernel_name_; }
   // The nominal robot of model-based kernels (pp, sp); empty otherwise.
   const RobotPrior& robot_prior() const { return prior_; }
@@ -100,6 +106,7 @@ class InverseDynamicsModel {
   FeatureMap features_{joints_};
   std::string kernel_name_;
   Eigen::MatrixXd X_, Z_;
+  Eigen::Index data_rows_ = 0;
   std::vector<GpRegressor> gps_;
   std::vector<MeanFunction> means_;
   OutputScaling scaling_ = OutputScaling::None;

@@ -38,6 +38,12 @@ struct TrainOptions {
   // start. Measured (docs/training.md): 2-2.5x faster, the same NLL on a UR10,
   // a worse optimum on one SCARA joint; hence opt-in.
   int warm_start_rows = 0;
+  // Sparse GP (gp/sparse_gp.hpp): with M > 0, each joint is conditioned on M
+  // inducing rows chosen among the training rows (greedy variance under the
+  // first joint's initial kernel, shared by every joint), and its
+  // hyperparameters minimise Titsias' bound, O(N M^2) per evaluation instead of
+  // O(N^3). The model then holds the inducing rows only. 0: exact GP.
+  int inducing_points = 0;
   // A joint's optimisation has converged when the projected |dNLL/dlog theta|_inf
   // at its best point is at most this times the number of rows (the NLL and its
   // gradient grow with the rows); it sets OptimizerOptions::gradient_tolerance.
