@@ -93,6 +93,13 @@ Command add_train(CLI::App& app) {
     save_estimator(*r.estimator, a->out);
     if (!a->quiet) {
       std::printf("\n%s", r.report.brief_report().c_str());
+      const InverseDynamicsModel* gp = r.estimator->gp_model();
+      if (gp && gp->is_sparse())
+        std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
+                    static_cast<long>(gp->num_data_rows()),
+                    gp->num_training_samples() < o.gp.inducing_points
+                        ? " (fewer than asked: the rest would add no direction to the kernel's feature space)"
+                        : "");
       std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
       std::fflush(stdout);
       for (const auto& w : data_warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", w.c_str());

@@ -21,6 +21,7 @@ def test_sparse_training_predicts_with_its_inducing_rows_only(tmp_path, gipdyn_b
     r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--inducing", "120", "--out", str(model))
     assert r.returncode == 0, r.stderr
     assert "sparse GP with 120 inducing rows" in r.stdout
+    assert "sparse GP: 120 inducing rows for 600 training rows" in r.stdout
     h = header(model)
     assert h["format_version"] == 3 and h["approximation"] == "vfe"
     assert h["num_training_samples"] == 120 and h["num_data_rows"] == 600
