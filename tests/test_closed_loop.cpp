@@ -71,6 +71,35 @@ TEST(ClosedLoop, ComputedTorqueWithTheRightModelTracks) {
             std::string::npos);
 }
 
+// Sensor noise reaches the controller, not the robot's state: tracking gets
+// worse with it, the same seed gives the same run, another seed another one.
+TEST(ClosedLoop, SensorNoiseIsSeededAndDegradesTracking) {
+  const RobotModel robot = scara_robot();
+  const SimulationResult reference = trajectory(1000, 0.001, 12, 0.0);
+  const Eigen::MatrixXd ff = inverse_dynamics(robot, reference.X);
+  TrackingOptions o;
+  const TrackingResult clean = track_reference(robot, reference.X, ff, o);
+  o.position_noise = 1e-2;
+  o.velocity_noise = 1e-1;
+  o.noise_seed = 5;
+  const TrackingResult noisy = track_reference(robot, reference.X, ff, o);
+  const TrackingResult again = track_reference(robot, reference.X, ff, o);
+  o.noise_seed = 6;
+  const TrackingResult other = track_reference(robot, reference.X, ff, o);
+  EXPECT_EQ(noisy.q, again.q);
+  EXPECT_NE(noisy.q, other.q);
+  std::cout << "RMS error, exact feed-forward: clean " << clean.rms_error.transpose() << "; noisy "
+            << noisy.rms_error.transpose() << "\n";
+  for (int j = 0; j < 4; ++j) {
+    EXPECT_GT(noisy.rms_error(j), 1.1 * clean.rms_error(j)) << "joint " << j + 1;
+    // The plant filters the PD's reaction to white noise: the error stays below the noise.
+    EXPECT_LT(noisy.rms_error(j), o.position_noise) << "joint " << j + 1;
+  }
+  EXPECT_GT((noisy.rms_error.array() / clean.rms_error.array()).maxCoeff(), 10.0);
+  // The torques carry the noise through the PD terms.
+  EXPECT_GT((noisy.tau - clean.tau).cwiseAbs().maxCoeff(), 0.0);
+}
+
 TEST(ClosedLoop, BadInputIsNamed) {
   const RobotModel robot = scara_robot();
   const SimulationResult reference = trajectory(50, 0.001, 1, 0.0);
@@ -82,6 +111,11 @@ TEST(ClosedLoop, BadInputIsNamed) {
   o.kd = Eigen::VectorXd::Ones(3);
   EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
                 .find("TrackingOptions::kp and kd need one gain per joint"),
+            std::string::npos);
+  o = TrackingOptions();
+  o.velocity_noise = -1.0;
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("TrackingOptions::velocity_noise must be"),
             std::string::npos);
   o = TrackingOptions();
   o.kp = Eigen::VectorXd::Constant(4, 1e9);  // far too stiff for 1 ms steps

@@ -150,7 +150,15 @@ Command add_experiment(CLI::App& app) {
                 "PD gains: critically damped at this many rad/s on each joint's inertia")
       ->capture_default_str();
   k->add_flag("--friction", ctl->config.friction, "The true robot has viscous and Coulomb friction");
-  k->add_option("--seed", ctl->config.seed, "Seed of the reference trajectory (use one the models were not trained on)")
+  k->add_option("--seed", ctl->config.seed,
+                "Seed of the reference trajectory (use one the models were not trained on) and of the sensor noise")
+      ->capture_default_str();
+  k->add_option("--position-noise", ctl->config.position_noise,
+                "Sensor noise: std of the positions every controller measures (rad or m); the robot moves on its "
+                "true state")
+      ->capture_default_str();
+  k->add_option("--velocity-noise", ctl->config.velocity_noise,
+                "Sensor noise: std of the measured velocities (rad/s or m/s)")
       ->capture_default_str();
   k->add_option("--out", ctl->config.out, "Output folder: tracking.csv, errors.csv, summary.md, tracking.png")
       ->required();

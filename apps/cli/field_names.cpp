@@ -12,6 +12,8 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::threads", "--threads"},
       {"TrainOptions::warm_start_rows", "--warm-start-rows"},
       {"TrainOptions::inducing_points", "--inducing"},
+      {"TrackingOptions::position_noise", "--position-noise"},
+      {"TrackingOptions::velocity_noise", "--velocity-noise"},
       {"TrainOptions::gradient_tolerance_per_row", "--gradient-tolerance"},
       {"TrainOptions::scaling", "--scaling"},
       {"TrainOptions::mean", "--mean"},

@@ -30,7 +30,8 @@ void ControlConfig::validate() const {
 
 nlohmann::json ControlConfig::to_json() const {
   return {{"experiment", "control"}, {"robot", robot},         {"models", models},   {"seconds", seconds},
-          {"dt", dt},                {"bandwidth", bandwidth}, {"friction", friction}, {"seed", seed}};
+          {"dt", dt},                {"bandwidth", bandwidth}, {"friction", friction}, {"seed", seed},
+          {"position_noise", position_noise}, {"velocity_noise", velocity_noise}};
 }
 
 namespace {
@@ -75,7 +76,6 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
                   robot.joint_types().str());
     models.emplace_back(controller_name(path), std::move(e));
   }
-  fs::create_directories(c.out);
   SimulationOptions so;
   so.samples = static_cast<int>(std::lround(c.seconds / c.dt));
   so.dt = c.dt;
@@ -86,6 +86,11 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   to.dt = c.dt;
   to.bandwidth = c.bandwidth;
   to.friction = c.friction;
+  to.position_noise = c.position_noise;
+  to.velocity_noise = c.velocity_noise;
+  to.noise_seed = c.seed;
+  to.validate(n);  // before any output
+  fs::create_directories(c.out);
 
   ExperimentOutcome outcome;
   std::vector<std::pair<std::string, TrackingResult>> results;
@@ -160,7 +165,12 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
       << c.bandwidth << " rad/s on each joint's inertia, plus each controller's feed-forward torque along the "
       << "reference. Rows ending in -ct use computed-torque control instead: the model is asked, at the measured "
       << "state, for the torque of the reference acceleration plus a critically damped correction at the same "
-      << "bandwidth.\n\n"
+      << "bandwidth.";
+    if (c.position_noise > 0.0 || c.velocity_noise > 0.0)
+      o << " Every controller measures the state with Gaussian sensor noise (std " << c.position_noise
+        << " on positions, " << c.velocity_noise << " on velocities; the same sequence for all, seed " << c.seed
+        << ").";
+    o << "\n\n"
       << "RMS position error per joint (rad or m):\n\n";
     joint_table(o, n, results, diverged, &TrackingResult::rms_error);
     for (const auto& [name, why] : diverged) o << "\n- " << name << ": " << why << "\n";

@@ -20,7 +20,8 @@ struct ControlConfig {
   double dt = 0.001;                // control period (s)
   double bandwidth = 10.0;          // PD: critically damped at this many rad/s per joint
   bool friction = false;            // the true robot has friction
-  std::uint64_t seed = 0;           // of the reference trajectory
+  std::uint64_t seed = 0;           // of the reference trajectory and of the sensor noise
+  double position_noise = 0.0, velocity_noise = 0.0;  // std of what the controllers measure
   std::string out;
   void validate() const;
   nlohmann::json to_json() const;

@@ -266,6 +266,14 @@ def test_python_quickstart_example_runs():
     assert "joint 4  nMSE" in r.stdout and "one sample" in r.stdout
 
 
+def test_python_control_loop_example_runs(tmp_path, fitted):
+    fitted.save(str(tmp_path / "m.gipdyn"))
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "examples", "python", "control_loop.py"),
+                        str(tmp_path / "m.gipdyn"), "--calls", "2000"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "2000 torque queries, 4 joints: p50" in r.stdout and "gravity at q = 0.3" in r.stdout
+
+
 @pytest.mark.skipif(os.environ.get("GIPDYN_QUICKSTART_BIN") is None, reason="GIPDYN_QUICKSTART_BIN not set")
 def test_cpp_quickstart_example_runs():
     r = subprocess.run([os.environ["GIPDYN_QUICKSTART_BIN"], "200", "20"], capture_output=True, text=True, timeout=300)

@@ -1,6 +1,7 @@
 #include "gipdyn/sim/closed_loop.hpp"
 
 #include <cmath>
+#include <random>
 #include <string>
 
 #include "gipdyn/error.hpp"
@@ -15,6 +16,9 @@ void TrackingOptions::validate(int joints) const {
     throw Error("TrackingOptions::kp and kd need one gain per joint (" + std::to_string(joints) + "), or none");
   if ((kp.array() < 0.0).any() || (kd.array() < 0.0).any() || !kp.allFinite() || !kd.allFinite())
     throw Error("TrackingOptions::kp and kd must be finite and >= 0");
+  if (!(position_noise >= 0.0) || !(velocity_noise >= 0.0) || !std::isfinite(position_noise) ||
+      !std::isfinite(velocity_noise))
+    throw Error("TrackingOptions::position_noise and TrackingOptions::velocity_noise must be finite standard deviations >= 0");
 }
 
 namespace {
@@ -56,8 +60,19 @@ TrackingResult run_loop(const RobotModel& robot, const Eigen::MatrixXd& referenc
   Eigen::VectorXd h;
   r.q.resize(steps, n);
   r.tau.resize(steps, n);
+  std::mt19937_64 rng(options.noise_seed);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const bool noisy = options.position_noise > 0.0 || options.velocity_noise > 0.0;
+  Eigen::VectorXd q_seen(n), qd_seen(n);
   for (Eigen::Index k = 0; k < steps; ++k) {
-    const Eigen::VectorXd tau = law(k, q, qd);
+    q_seen = q;
+    qd_seen = qd;
+    if (noisy)
+      for (int i = 0; i < n; ++i) {
+        q_seen(i) += options.position_noise * normal(rng);
+        qd_seen(i) += options.velocity_noise * normal(rng);
+      }
+    const Eigen::VectorXd tau = law(k, q_seen, qd_seen);
     if (!tau.allFinite()) throw Error("the controller's torque is not finite at step " + std::to_string(k + 1));
     r.q.row(k) = q.transpose();
     r.tau.row(k) = tau.transpose();

@@ -41,3 +41,21 @@ def test_control_experiment_refuses_a_model_of_another_robot(tmp_path, gipdyn_bi
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "is for joints RRPR" in lines[0], r.stderr
     assert not (tmp_path / "o").exists()
+
+
+def test_control_experiment_with_sensor_noise(tmp_path, gipdyn_bin):
+    out, clean = tmp_path / "noisy", tmp_path / "clean"
+    args = ["experiment", "control", "--robot", "scara", "--seconds", "0.5", "--seed", "3", "--quiet"]
+    assert run(gipdyn_bin, *args, "--out", str(clean)).returncode == 0
+    r = run(gipdyn_bin, *args, "--position-noise", "1e-2", "--velocity-noise", "0.1", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    rms = lambda d: {(x["controller"], x["joint"]): float(x["rms_error"]) for x in csv.DictReader(open(d / "tracking.csv"))}
+    noisy, base = rms(out), rms(clean)
+    for j in "1234":
+        assert noisy[("true-model", j)] > 1.1 * base[("true-model", j)]
+    assert "sensor noise (std 0.01 on positions, 0.1 on velocities" in (out / "summary.md").read_text()
+    r = run(gipdyn_bin, *args, "--velocity-noise", "-1", "--out", str(tmp_path / "bad"))
+    assert r.returncode != 0
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "--velocity-noise must be" in lines[0], r.stderr
+    assert not (tmp_path / "bad").exists()

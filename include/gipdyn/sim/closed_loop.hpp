@@ -6,6 +6,7 @@
 // where tau_ff is a model's feed-forward torque (zero for PD alone, the
 // robot's own inverse dynamics for the ideal case).
 #include <Eigen/Dense>
+#include <cstdint>
 #include <functional>
 
 #include "gipdyn/robot/robot_model.hpp"
@@ -19,6 +20,12 @@ struct TrackingOptions {
   Eigen::VectorXd kp, kd;
   double bandwidth = 10.0;
   bool friction = false;  // the true robot has its viscous and Coulomb friction
+  // Sensor noise: the controller sees q + N(0, position_noise^2) and
+  // qd + N(0, velocity_noise^2) per joint and step (rad or m, and per second);
+  // the robot moves on its true state. Seeded: the same seed gives every
+  // controller the same noise sequence.
+  double position_noise = 0.0, velocity_noise = 0.0;
+  std::uint64_t noise_seed = 0;
   void validate(int joints) const;  // throws gipdyn::Error naming the field
 };
 
