@@ -103,7 +103,7 @@ TEST(SparseGp, GradientIsRightAcrossRowBlocks) {
 // The default contractions reduce to contract(); check them against the
 // per-parameter gradient matrices they avoid forming.
 TEST(SparseGp, CrossAndDiagonalContractionsMatchGradientMatrices) {
-  for (const char* name : {"gip", "rbf", "gip-envelope+friction"}) {
+  for (const char* name : {"gip", "rbf", "gip-envelope+friction", "gip+friction+rbf", "gip-friction"}) {
     Problem p = make_problem("RP", name, 23, 51);
     const Eigen::MatrixXd Z1 = p.Z.topRows(17), Z2 = p.Z.bottomRows(6);
     const Eigen::MatrixXd W = Eigen::MatrixXd::NullaryExpr(17, 6, [](Eigen::Index i, Eigen::Index j) {

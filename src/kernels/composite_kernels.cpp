@@ -108,6 +108,20 @@ void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W,
   }
 }
 
+void ProductKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                                   Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  std::vector<Eigen::MatrixXd> parts(children_.size());
+  for (size_t c = 0; c < children_.size(); ++c) children_[c]->cross(Z1, Z2, parts[c]);
+  Eigen::MatrixXd WR;
+  for (size_t c = 0; c < children_.size(); ++c) {
+    WR = W;
+    for (size_t o = 0; o < children_.size(); ++o)
+      if (o != c) WR.array() *= parts[o].array();
+    children_[c]->contract_cross(Z1, Z2, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()),
+                                 scratch);
+  }
+}
+
 namespace {
 std::vector<std::unique_ptr<Kernel>> pair_of(std::unique_ptr<Kernel> a, std::unique_ptr<Kernel> b) {
   std::vector<std::unique_ptr<Kernel>> v;
@@ -208,6 +222,13 @@ void SumKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eig
                          KernelScratch& scratch) const {
   for (size_t c = 0; c < children_.size(); ++c)
     children_[c]->contract(Z, W, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
+}
+
+void SumKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                               Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  for (size_t c = 0; c < children_.size(); ++c)
+    children_[c]->contract_cross(Z1, Z2, W, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()),
+                                 scratch);
 }
 
 void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const {

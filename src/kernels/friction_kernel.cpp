@@ -131,4 +131,21 @@ void FrictionKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W
   }
 }
 
+void FrictionKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                                    Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  // K = F1 S F2^T: sum_ij W_ij dK_ij = sum_k s_k (D1_k^T W F2_k + F1_k^T W D2_k) for the velocity scales.
+  Eigen::MatrixXd &WF2 = scratch.a, &WtF1 = scratch.b;
+  Eigen::MatrixXd F1, F2, Dc1, Dr1, Dc2, Dr2;
+  feature_matrix(Z1, F1, &Dc1, &Dr1);
+  feature_matrix(Z2, F2, &Dc2, &Dr2);
+  WF2.noalias() = W * F2;
+  WtF1.noalias() = W.transpose() * F1;
+  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  for (int k = 0; k < 4; ++k) grad(k) += s(k) * F1.col(k).dot(WF2.col(k));
+  for (int k = 2; k < 4; ++k) {
+    grad(kCoulombVelocity) += s(k) * (Dc1.col(k).dot(WF2.col(k)) + Dc2.col(k).dot(WtF1.col(k)));
+    grad(kStribeckVelocity) += s(k) * (Dr1.col(k).dot(WF2.col(k)) + Dr2.col(k).dot(WtF1.col(k)));
+  }
+}
+
 }  // namespace gipdyn

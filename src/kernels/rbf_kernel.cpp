@@ -80,6 +80,21 @@ void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eig
     grad(1 + d) += 2.0 * S.col(d).cwiseAbs2().dot(r) - 2.0 * S.col(d).dot(MS.col(d));
 }
 
+void RbfKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                               Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  // With M = W o K: sum_ij M_ij (a_id - b_jd)^2 = a_d^2 . M 1 + b_d^2 . M^T 1 - 2 a_d^T M b_d.
+  Eigen::MatrixXd& M = scratch.a;
+  cross(Z1, Z2, M);
+  M.array() *= W.array();
+  grad(0) += M.sum();
+  const Eigen::MatrixXd A = scaled(Z1), B = scaled(Z2);
+  const Eigen::VectorXd rows = M.rowwise().sum(), cols = M.colwise().sum().transpose();
+  Eigen::MatrixXd& MB = scratch.b;
+  MB.noalias() = M * B;
+  for (Eigen::Index d = 0; d < A.cols(); ++d)
+    grad(1 + d) += A.col(d).cwiseAbs2().dot(rows) + B.col(d).cwiseAbs2().dot(cols) - 2.0 * A.col(d).dot(MB.col(d));
+}
+
 void RbfKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                     KernelScratch& /*scratch*/) const {
   out.setZero();

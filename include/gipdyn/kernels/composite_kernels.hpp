@@ -41,6 +41,8 @@ class ProductKernel : public CompositeKernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+  void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                      Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   // One query through each child's own row(): the children's fast paths, one
   // N-vector allocated per further child.
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
@@ -78,6 +80,8 @@ class SumKernel final : public CompositeKernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+  void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                      Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
   void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
