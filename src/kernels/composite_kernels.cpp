@@ -94,32 +94,35 @@ void ProductKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::Matr
   }
 }
 
+// sum_ij W_ij (dK_c)_ij prod_{c' != c} (K_c')_ij: each child c contracts W o R_c,
+// with R_c the product of the other children's k(Z1, Z2).
+template <class ContractChild>
+void contract_product(const std::vector<std::unique_ptr<Kernel>>& children, const Eigen::MatrixXd& Z1,
+                      const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W, ContractChild&& contract_child) {
+  std::vector<Eigen::MatrixXd> parts(children.size());
+  for (size_t c = 0; c < children.size(); ++c) children[c]->cross(Z1, Z2, parts[c]);
+  Eigen::MatrixXd WR;
+  for (size_t c = 0; c < children.size(); ++c) {
+    WR = W;
+    for (size_t o = 0; o < children.size(); ++o)
+      if (o != c) WR.array() *= parts[o].array();
+    contract_child(c, WR);
+  }
+}
+
 void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                              KernelScratch& scratch) const {
-  // sum_ij W_ij (dK_c)_ij prod_{c' != c} (K_c')_ij = contraction of child c with W o R_c.
-  std::vector<Eigen::MatrixXd> parts(children_.size());
-  for (size_t c = 0; c < children_.size(); ++c) children_[c]->cross(Z, Z, parts[c]);
-  Eigen::MatrixXd WR;
-  for (size_t c = 0; c < children_.size(); ++c) {
-    WR = W;
-    for (size_t o = 0; o < children_.size(); ++o)
-      if (o != c) WR.array() *= parts[o].array();
+  contract_product(children_, Z, Z, W, [&](size_t c, const Eigen::MatrixXd& WR) {
     children_[c]->contract(Z, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
-  }
+  });
 }
 
 void ProductKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                    Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  std::vector<Eigen::MatrixXd> parts(children_.size());
-  for (size_t c = 0; c < children_.size(); ++c) children_[c]->cross(Z1, Z2, parts[c]);
-  Eigen::MatrixXd WR;
-  for (size_t c = 0; c < children_.size(); ++c) {
-    WR = W;
-    for (size_t o = 0; o < children_.size(); ++o)
-      if (o != c) WR.array() *= parts[o].array();
+  contract_product(children_, Z1, Z2, W, [&](size_t c, const Eigen::MatrixXd& WR) {
     children_[c]->contract_cross(Z1, Z2, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()),
                                  scratch);
-  }
+  });
 }
 
 namespace {
