@@ -115,6 +115,48 @@ TEST(OnlineUpdate, TrainingTargetsAreRecoveredFromTheFactors) {
   EXPECT_LT((m.training_targets() - s.Y).cwiseAbs().maxCoeff(), 1e-6 * (1.0 + s.Y.cwiseAbs().maxCoeff()));
 }
 
+// The robot picks up a payload (torques x 1.5 on a window of new rows): the
+// refit starts at the old hyperparameters and can only lower the NLL on the
+// kept rows; it is a fresh optimisation there, so it must match one.
+TEST(OnlineUpdate, RefitStartsFromTheCurrentHyperparametersAndOnlyImproves) {
+  const Stream s = stream(120, 6);
+  const InverseDynamicsModel base = trained(s.X.topRows(60), s.Y.topRows(60));
+  const InverseDynamicsModel moved = base.updated(s.X.bottomRows(60), 1.5 * s.Y.bottomRows(60), 60);
+  TrainOptions o;
+  o.threads = 1;
+  const TrainResult refit = refit_model(moved, o);
+  ASSERT_TRUE(refit.report.ok()) << refit.report.message;
+  EXPECT_EQ(refit.model.num_training_samples(), 60);
+  EXPECT_EQ(refit.model.kernel_name(), base.kernel_name());
+  // The refit's start: the old hyperparameters' NLL on the kept rows, scaled as the refit scales them.
+  for (int j = 0; j < 2; ++j) {
+    GpRegressor old_gp = base.joint_gp(j);
+    GpWorkspace ws;
+    const Eigen::VectorXd y = ((moved.training_targets().col(j).array() - refit.model.output_offset()(j)) /
+                               refit.model.output_scale()(j)).matrix();
+    const NllEvaluation at_old = evaluate_nll(old_gp.kernel(), old_gp.log_noise_variance(),
+                                              refit.model.training_features(), y, false, ws);
+    ASSERT_TRUE(at_old.ok());
+    const double after = refit.report.joints[static_cast<size_t>(j)].nll;
+    EXPECT_LE(after, at_old.nll + 1e-6 * std::abs(at_old.nll)) << "joint " << j + 1;
+    EXPECT_NE(refit.model.joint_gp(j).kernel().log_params(), base.joint_gp(j).kernel().log_params());
+  }
+  // Its predictions follow the new rows: the payload's torques.
+  const Eigen::MatrixXd Xq = s.X.bottomRows(20);
+  const double err = (refit.model.predict(Xq) - 1.5 * two_link_torques(Xq)).squaredNorm();
+  const double err_base = (base.predict(Xq) - 1.5 * two_link_torques(Xq)).squaredNorm();
+  EXPECT_LT(err, 0.01 * err_base);
+  TrainOptions sparse_options;
+  sparse_options.inducing_points = 20;
+  sparse_options.threads = 1;
+  const TrainResult sparse = train_model(s.X, s.Y, kJoints, sparse_options);
+  ASSERT_TRUE(sparse.report.ok());
+  EXPECT_NE(error_of([&] { refit_model(sparse.model, o); }).find("sparse"), std::string::npos);
+  o.initial_log_params = {Eigen::VectorXd::Zero(3), Eigen::VectorXd::Zero(3)};
+  EXPECT_NE(error_of([&] { train_model(s.X, s.Y, kJoints, o); }).find("TrainOptions::initial_log_params of joint 1 needs"),
+            std::string::npos);
+}
+
 TEST(OnlineUpdate, BadNewSamplesAreNamed) {
   const Stream s = stream(60, 5);
   const InverseDynamicsModel m = trained(s.X.topRows(50), s.Y.topRows(50));

@@ -110,6 +110,11 @@ std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, 
   return std::make_shared<Model>(std::move(r.model));
 }
 
+std::shared_ptr<Model> refit(const Model& model, const TrainOptions& options, bool verbose) {
+  TrainResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, options, cb); });
+  return std::make_shared<Model>(std::move(r.model));
+}
+
 // gravity, inertia and velocity_terms for a model class whose `estimator` points to an Estimator.
 template <class Holder>
 void add_physics_methods(py::class_<Holder, std::shared_ptr<Holder>>& cls) {
@@ -404,6 +409,9 @@ PYBIND11_MODULE(_core, m) {
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("verbose") = false);
   m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("verbose") = false);
+  m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
+        "The model with its hyperparameters re-optimised on its own rows, from the current ones "
+        "(kernel, robot, scaling and mean from the model; optimiser settings from options)");
   m.def("kernel_names", &kernel_names);
 
   py::class_<SimulationOptions>(m, "SimulationOptions")

@@ -72,6 +72,16 @@ def test_sparse_gp_from_python(scara, tmp_path):
         gipdyn.InverseDynamicsGP(joints="RRPR", inducing=-1).fit(train["X"], train["tau"])
 
 
+def test_partial_fit_with_refit_reoptimises_from_the_current_hyperparameters(scara):
+    train, test = scara
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"][:100], train["tau"][:100])
+    before = [dict(h) for h in est.hyperparameters_]
+    est.partial_fit(train["X"][100:], 1.2 * train["tau"][100:], window=100, refit=True)
+    assert est.model_.num_training_samples == 100
+    assert [dict(h) for h in est.hyperparameters_] != before
+    assert all(r["evaluations"] > 0 for r in est.training_report_)
+
+
 def test_fit_trajectory_equals_fit(scara):
     train, test = scara
     a = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10).fit(train["X"], train["tau"])

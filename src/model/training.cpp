@@ -66,6 +66,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   Eigen::VectorXd x0(P + 1);
   x0.head(P) = kernel->log_params();
   x0(P) = std::log(o.initial_noise_fraction * target);
+  if (!o.initial_log_params.empty()) x0 = o.initial_log_params[static_cast<size_t>(j)];  // sizes checked by train_model
 
   OptimizerOptions opt = o.optimizer;
   // Box bounds keep exp() finite and the noise above its floor.
@@ -73,6 +74,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   opt.upper_bounds = Eigen::VectorXd::Constant(P + 1, 30.0);
   opt.lower_bounds(P) = std::log(o.min_noise_fraction * target);
   opt.upper_bounds(P) = std::log(10.0 * target);
+  x0 = x0.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
 
   GpWorkspace ws;
   SparseGpWorkspace sparse_ws;
@@ -214,6 +216,17 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   const int n = joints.size();
   const FeatureMap features(joints);
   const Eigen::MatrixXd Z = features.compute(X);
+  if (!options.initial_log_params.empty()) {  // checked here: the joints are trained in worker threads
+    if (static_cast<int>(options.initial_log_params.size()) != n)
+      throw Error("TrainOptions::initial_log_params needs one vector per joint (" + std::to_string(n) + ") or none");
+    for (int j = 0; j < n; ++j) {
+      const Eigen::Index P = make_kernel(options.kernel, features, j, options.robot_prior)->num_params();
+      const Eigen::VectorXd& x = options.initial_log_params[static_cast<size_t>(j)];
+      if (x.size() != P + 1 || !x.allFinite())
+        throw Error("TrainOptions::initial_log_params of joint " + std::to_string(j + 1) + " needs " +
+                    std::to_string(P + 1) + " finite values (kernel log-parameters, then the log noise variance)");
+    }
+  }
   const bool sparse = options.inducing_points > 0;
   if (sparse && options.inducing_points > X.rows())
     throw Error("TrainOptions::inducing_points (" + std::to_string(options.inducing_points) + ") exceeds the " +
@@ -284,6 +297,27 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
                                         std::move(means), result.report.joints, X.rows());
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
+}
+
+TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& options,
+                        const ProgressCallback& progress) {
+  if (model.is_sparse())
+    throw Error("refit_model needs an exact GP model; a sparse model keeps its inducing rows, not its training rows");
+  const InverseDynamicsModel exact = model.has_variance() ? model : model.with_variance();
+  TrainOptions o = options;
+  o.kernel = model.kernel_name();
+  o.robot_prior = model.robot_prior();
+  o.scaling = model.output_scaling();
+  o.mean = model.mean_kind();
+  o.initial_log_params.clear();
+  for (int j = 0; j < model.num_joints(); ++j) {
+    const GpRegressor& gp = model.joint_gp(j);
+    const Eigen::VectorXd p = gp.kernel().log_params();
+    Eigen::VectorXd x(p.size() + 1);
+    x << p, gp.log_noise_variance();
+    o.initial_log_params.push_back(x);
+  }
+  return train_model(exact.training_inputs(), exact.training_targets(), model.joints(), o, progress);
 }
 
 }  // namespace gipdyn

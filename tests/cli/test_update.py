@@ -56,3 +56,25 @@ def test_update_refuses_what_it_cannot_do(tmp_path, gipdyn_bin):
         assert len(lines) == 1 and words in lines[0], r.stderr
     assert model.read_bytes() == before
     assert not (tmp_path / "x.gipdyn").exists()
+
+
+def test_update_refit_reoptimises_the_hyperparameters(tmp_path, gipdyn_bin):
+    old, new = tmp_path / "old.csv", tmp_path / "new.csv"
+    write_dataset(old, 60, seed=4)
+    write_dataset(new, 40, seed=5)
+    model, refit = tmp_path / "m.gipdyn", tmp_path / "r.gipdyn"
+    assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--max-iter", "20", "--quiet",
+               "--out", str(model)).returncode == 0
+    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--refit", "--max-iter", "40",
+            "--out", str(refit))
+    assert r.returncode == 0, r.stderr
+    assert "refitting the hyperparameters on 100 rows" in r.stdout and "NLL" in r.stdout
+
+    def header(path):
+        raw = path.read_bytes()
+        return json.JSONDecoder().raw_decode(raw[raw.index(b"{"):].decode("latin-1"))[0]
+
+    h = header(refit)
+    assert h["num_training_samples"] == 100
+    assert h["joint_models"][0]["log_params"] != header(model)["joint_models"][0]["log_params"]
+    assert h["joint_models"][0]["training"]["evaluations"] > 0

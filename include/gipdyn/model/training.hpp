@@ -53,6 +53,10 @@ struct TrainOptions {
   // Noise variance, relative to the variance of the scaled output: its start and its floor.
   double initial_noise_fraction = 1e-2;
   double min_noise_fraction = 1e-8;
+  // Per joint, the starting point [kernel log-params, log noise variance] instead
+  // of the data-driven start (clamped into the optimiser's bounds); empty: data-driven.
+  // refit_model fills it with a model's current hyperparameters.
+  std::vector<Eigen::VectorXd> initial_log_params;
   int threads = 0;  // 0: min(hardware threads, joints)
   // Off: maximum marginal likelihood. On: MAP with log-normal priors centred on the data-driven start.
   HyperparameterPrior prior;
@@ -74,5 +78,15 @@ struct TrainResult {
 // joint and restart, and one finished event per joint, from worker threads.
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
                         const TrainOptions& options, const ProgressCallback& progress = {});
+
+// Re-optimises every joint's hyperparameters on the model's own rows
+// (training_inputs(), training_targets()), starting from its current ones:
+// the periodic refit of online learning, for when the robot has changed more
+// than new rows at old hyperparameters can express. The kernel, nominal robot,
+// output scaling and mean come from the model; the optimiser settings, restarts
+// and threads from `options`. Throws gipdyn::Error for a sparse model (it keeps
+// no training rows) and whatever train_model throws.
+TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& options,
+                        const ProgressCallback& progress = {});
 
 }  // namespace gipdyn
