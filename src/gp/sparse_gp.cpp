@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/memory.hpp"
 #include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
@@ -191,6 +192,9 @@ std::vector<Eigen::Index> select_inducing_rows(const Kernel& kernel, const Eigen
     throw Error("inducing points: " + std::to_string(count) + " requested from " + std::to_string(N) +
                 " rows; choose between 1 and the number of training rows");
   const Eigen::Index pool_size = std::min(N, std::max<Eigen::Index>(20 * count, 20000));
+  require_memory(8.0 * static_cast<double>(pool_size) * static_cast<double>(count + Z.cols()),
+                 "choosing " + std::to_string(count) + " inducing rows among " + std::to_string(pool_size),
+                 "ask for fewer inducing points");
   const std::vector<Eigen::Index> pool = constant_step_indices(N, pool_size);
   const Eigen::MatrixXd Zp = Z(pool, Eigen::all);
   Eigen::VectorXd d;
