@@ -11,6 +11,7 @@ PACKAGES=(
   libnlopt-cxx-dev
   liborocos-kdl-dev liburdfdom-dev liburdfdom-headers-dev libkdl-parser-dev libconsole-bridge-dev
   libmatio-dev
+  libopenmpi-dev libscalapack-openmpi-dev openmpi-bin
   libtorch-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-sklearn
   python3-scipy python3-matplotlib

@@ -12,6 +12,7 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::threads", "--threads"},
       {"TrainOptions::warm_start_rows", "--warm-start-rows"},
       {"TrainOptions::inducing_points", "--inducing"},
+      {"TrainOptions::nll_backend", "--distributed"},
       {"TrackingOptions::position_noise", "--position-noise"},
       {"TrackingOptions::velocity_noise", "--velocity-noise"},
       {"TrainOptions::gradient_tolerance_per_row", "--gradient-tolerance"},

@@ -4,6 +4,7 @@
 #include <string>
 
 #include "commands.hpp"
+#include "distributed_run.hpp"
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
 
@@ -61,6 +62,8 @@ int main(int argc, char** argv) {
         command = sub->get_name();
         return run();
       }
+  } catch (const gipdyn::cli::ExitQuietly&) {
+    return 1;  // another MPI process reported the error
   } catch (const gipdyn::Error& e) {
     std::cerr << "gipdyn: error: " << gipdyn::rename_fields(e.what(), gipdyn::cli::cli_field_names()) << "\n";
     return 1;

@@ -4,6 +4,7 @@
 #include <mutex>
 
 #include "commands.hpp"
+#include "distributed_run.hpp"
 #include "output_guard.hpp"
 #include "estimator_args.hpp"
 #include "field_names.hpp"
@@ -20,7 +21,7 @@ namespace {
 struct TrainArgs {
   std::string data, joints, kernel = "gip", out, preset;
   long subsample = 0;
-  bool quiet = false;
+  bool quiet = false, distributed = false;
   EstimatorArgs estimator;
 };
 
@@ -46,24 +47,46 @@ Command add_train(CLI::App& app) {
   a->estimator.add_to(app, true);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
+  app.add_flag("--distributed", a->distributed,
+               "Spread each joint's exact GP over MPI processes (ScaLAPACK): run `mpirun -np P gipdyn train "
+               "--distributed ...`, every process with the same options and data; the first one prints and writes "
+               "--out (docs/distributed.md)");
   return [a, &app]() -> int {
-    refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}}, {{"--out", a->out}});
+    std::unique_ptr<DistributedRun> mpi;
+    if (a->distributed) mpi = std::make_unique<DistributedRun>();
+    if (mpi && !mpi->is_root()) a->quiet = true;
     const JointTypes joints = JointTypes::parse(a->joints);
-    const EstimatorOptions o =
-        a->preset.empty() ? a->estimator.build(a->kernel)
-                          : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
-    if (a->subsample < 0) throw Error("--subsample must be >= 0");
-    if (!a->preset.empty() && app.count("--subsample") == 0) a->subsample = preset_max_training_rows(a->preset);
-
-    Dataset data = read_dataset(a->data, joints, true);
+    EstimatorOptions o;
+    Dataset data;
     // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
     std::vector<std::string> data_warnings;
-    const std::vector<std::string> names = input_column_names(joints.size());
-    for (Eigen::Index c : constant_columns(data.X))
-      data_warnings.push_back("column " + names[static_cast<size_t>(c)] + " of " + a->data +
-                              " is constant: the model cannot learn how the torque depends on it");
-    const Eigen::Index total = data.rows();
-    if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
+    Eigen::Index total = 0;
+    std::string setup_error;
+    try {
+      refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}}, {{"--out", a->out}});
+      o = a->preset.empty()
+              ? a->estimator.build(a->kernel)
+              : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
+      if (a->subsample < 0) throw Error("--subsample must be >= 0");
+      if (!a->preset.empty() && app.count("--subsample") == 0) a->subsample = preset_max_training_rows(a->preset);
+      if (mpi) {
+        if (!is_gp_estimator(o.name))
+          throw Error("--distributed trains the exact GP of a kernel estimator (gip, rbf, gip-friction, ...), not '" +
+                      o.name + "'");
+        o.gp.nll_backend = mpi->backend();
+      }
+      data = read_dataset(a->data, joints, true);
+      const std::vector<std::string> names = input_column_names(joints.size());
+      for (Eigen::Index c : constant_columns(data.X))
+        data_warnings.push_back("column " + names[static_cast<size_t>(c)] + " of " + a->data +
+                                " is constant: the model cannot learn how the torque depends on it");
+      total = data.rows();
+      if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
+    } catch (const std::exception& e) {
+      if (!mpi) throw;
+      setup_error = e.what();
+    }
+    if (mpi) mpi->agree(setup_error);
     if (!a->quiet) {
       std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
                   static_cast<long>(total), a->data.c_str(), joints.str().c_str(), o.name.c_str());
@@ -74,6 +97,7 @@ Command add_train(CLI::App& app) {
       if (is_kernel_estimator(o.name) && o.gp.inducing_points > 0)
         std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
       if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
+      if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
       std::printf("\n");
       std::fflush(stdout);
     }
@@ -88,7 +112,18 @@ Command add_train(CLI::App& app) {
         std::fflush(stdout);
       };
     }
-    FitResult r = fit_estimator(o, data.X, data.tau, joints, progress);
+    FitResult r;
+    try {
+      r = fit_estimator(o, data.X, data.tau, joints, progress);
+    } catch (...) {
+      if (!mpi) throw;
+      mpi->fail(std::current_exception());
+    }
+    // A distributed training's status is the same on every process: the first one reports it and writes.
+    if (mpi && !mpi->is_root()) {
+      if (!r.report.ok()) throw ExitQuietly();
+      return 0;
+    }
     if (!r.report.ok()) throw Error("training failed: " + r.report.message);
     save_estimator(*r.estimator, a->out);
     if (!a->quiet) {

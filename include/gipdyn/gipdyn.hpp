@@ -20,6 +20,9 @@
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/gp/mean_function.hpp"
+#include "gipdyn/gp/nll_backend.hpp"
+// Distributed training (MPI + ScaLAPACK, gipdyn::distributed) is not included
+// here, so that this header never needs mpi.h: gipdyn/distributed/distributed_nll.hpp.
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"

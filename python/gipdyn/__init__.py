@@ -14,10 +14,11 @@ import warnings
 import numpy as np
 
 from . import _core
-from ._core import GipdynError, HyperparameterPrior, OptimizerOptions, Robot, SimulationOptions, TrainOptions
+from ._core import (GipdynError, HyperparameterPrior, OptimizerOptions, Robot, SimulationOptions, TrainOptions,
+                    mpi_rank, mpi_size)
 
 __all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
-           "SimulationOptions", "simulate", "nmse", "neg_nmse_scorer", "GipdynError"]
+           "SimulationOptions", "simulate", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator
@@ -108,7 +109,11 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     many rows, 0: off), gradient_tolerance (convergence: projected NLL
     gradient per training row) and inducing (a sparse GP conditioned on this
     many inducing rows chosen among the training rows, hyperparameters by
-    Titsias' variational bound: for data too long for the exact GP; 0: exact). They fill in the library's TrainOptions
+    Titsias' variational bound: for data too long for the exact GP; 0: exact)
+    and distributed (the exact GP's N x N matrix spread over the MPI processes
+    of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
+    script.py`, every process with the same data; mpi_rank() tells the first
+    one, which should be the one that writes). They fill in the library's TrainOptions
     (train_options()). The non-GP estimators fe and nn are available from the CLI.
 
     preset ("default", "real"; see gipdyn/estimators/presets.hpp) starts from a
@@ -127,7 +132,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
-                 inducing=_DEFAULTS.inducing_points):
+                 inducing=_DEFAULTS.inducing_points, distributed=False):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -149,6 +154,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.preset = preset
         self.subsample = subsample
         self.inducing = inducing
+        self.distributed = distributed
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -173,6 +179,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.threads = int(self.threads)
         o.warm_start_rows = int(self.warm_start_rows)
         o.inducing_points = int(self.inducing)
+        if self.distributed:
+            o.nll_backend = _core.distributed_backend()
+            o.keep_factor = False  # spread over the processes; predict(return_std=True) rebuilds it
         o.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
         if self.robot is not None:
             o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))

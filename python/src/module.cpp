@@ -25,6 +25,9 @@
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#ifdef GIPDYN_HAVE_MPI
+#include "gipdyn/distributed/distributed_nll.hpp"
+#endif
 
 namespace py = pybind11;
 using namespace gipdyn;
@@ -44,6 +47,7 @@ const FieldNames& python_field_names() {
       {"TrainOptions::threads", "threads"},
       {"TrainOptions::warm_start_rows", "warm_start_rows"},
       {"TrainOptions::inducing_points", "inducing"},
+      {"TrainOptions::nll_backend", "distributed"},
       {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
       {"TrainOptions::scaling", "scaling"},
       {"TrainOptions::mean", "mean"},
@@ -269,6 +273,37 @@ PYBIND11_MODULE(_core, m) {
   m.def("preset_names", &preset_names);
   m.def("preset_max_training_rows", &preset_max_training_rows, py::arg("name"));
 
+  py::class_<NllBackend, std::shared_ptr<NllBackend>>(m, "NllBackend").def("describe", &NllBackend::describe);
+#ifdef GIPDYN_HAVE_MPI
+  m.attr("has_mpi") = true;
+  // One MPI session and one backend per process, made on first use and
+  // finalised when the interpreter's process exits.
+  static std::shared_ptr<DistributedNll> backend;
+  static std::unique_ptr<MpiSession> session;
+  auto distributed = [] {
+    if (!session) session = std::make_unique<MpiSession>(nullptr, nullptr);
+    if (!backend) backend = std::make_shared<DistributedNll>(MPI_COMM_WORLD);
+    return backend;
+  };
+  m.def("distributed_backend", [distributed] { return std::static_pointer_cast<NllBackend>(distributed()); },
+        "The MPI + ScaLAPACK backend over every process of the run (initialises MPI)");
+  m.def("mpi_rank", [distributed] { return distributed()->rank(); });
+  m.def("mpi_size", [distributed] { return distributed()->size(); });
+  py::module_::import("atexit").attr("register")(py::cpp_function([] {
+    backend.reset();
+    session.reset();
+  }));
+#else
+  m.attr("has_mpi") = false;
+  auto no_mpi = [] {
+    throw Error("distributed training needs gipdyn built with MPI and ScaLAPACK: install libopenmpi-dev "
+                "libscalapack-openmpi-dev openmpi-bin and rebuild");
+  };
+  m.def("distributed_backend", [no_mpi]() -> std::shared_ptr<NllBackend> { no_mpi(); return nullptr; });
+  m.def("mpi_rank", [] { return 0; });
+  m.def("mpi_size", [] { return 1; });
+#endif
+
   py::class_<TrainOptions> train_options(m, "TrainOptions");
   train_options.def(py::init<>())
       .def_readwrite("kernel", &TrainOptions::kernel)
@@ -284,6 +319,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("gradient_tolerance_per_row", &TrainOptions::gradient_tolerance_per_row)
       .def_readwrite("prior", &TrainOptions::prior)
       .def_readwrite("keep_factor", &TrainOptions::keep_factor)
+      .def_readwrite("nll_backend", &TrainOptions::nll_backend)
       .def_property(
           "robot", [](const TrainOptions& o) { return std::const_pointer_cast<RobotModel>(o.robot_prior.robot); },
           [](TrainOptions& o, std::shared_ptr<RobotModel> r) { o.robot_prior.robot = std::move(r); })

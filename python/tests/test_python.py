@@ -408,3 +408,47 @@ def test_preset_real_sets_the_kernel_and_subsample_and_explicit_parameters_overr
         gipdyn.InverseDynamicsGP(preset="fancy").fit(d["X"], d["tau"])
     with pytest.raises(ValueError, match="subsample must be >= 0"):
         gipdyn.InverseDynamicsGP(subsample=-1).fit(d["X"], d["tau"])
+
+
+MPIRUN = __import__("shutil").which("mpirun")
+
+
+@pytest.mark.skipif(not gipdyn._core.has_mpi or MPIRUN is None, reason="gipdyn built without MPI")
+def test_distributed_fit_under_mpirun_gives_the_in_process_model(tmp_path):
+    script = tmp_path / "fit.py"
+    script.write_text(
+        "import sys, numpy as np, gipdyn\n"
+        "d = gipdyn.simulate('scara', samples=220, seed=31)\n"
+        "est = gipdyn.InverseDynamicsGP(joints='RRPR', max_iter=12, min_noise=1e-3, threads=1, distributed=True)\n"
+        "est.fit(d['X'], d['tau'])\n"
+        "t = gipdyn.simulate('scara', samples=50, seed=32)\n"
+        "if gipdyn.mpi_rank() == 0:\n"
+        "    np.save(sys.argv[1], est.predict(t['X']))\n"
+        "    print('processes', gipdyn.mpi_size())\n")
+    env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
+    out = tmp_path / "pred.npy"
+    r = subprocess.run([MPIRUN, "-np", "2", "--oversubscribe", sys.executable, str(script), str(out)],
+                       capture_output=True, text=True, timeout=300, env=env)
+    assert r.returncode == 0, r.stderr
+    assert "processes 2" in r.stdout
+    d = gipdyn.simulate("scara", samples=220, seed=31)
+    single = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=12, min_noise=1e-3, threads=1).fit(d["X"], d["tau"])
+    a = single.predict(gipdyn.simulate("scara", samples=50, seed=32)["X"])
+    b = np.load(out)
+    assert np.linalg.norm(a - b) < 1e-7 * np.linalg.norm(a)
+
+
+def test_distributed_options_that_cannot_work_are_refused_by_name():
+    # In a child process: MPI, once initialised, would stay in this one.
+    code = ("import gipdyn\n"
+            "d = gipdyn.simulate('scara', samples=60, seed=33)\n"
+            "try:\n"
+            "    gipdyn.InverseDynamicsGP(joints='RRPR', distributed=True, inducing=20).fit(d['X'], d['tau'])\n"
+            "except gipdyn.GipdynError as e:\n"
+            "    print(e)\n")
+    r = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, timeout=120)
+    assert r.returncode == 0, r.stderr
+    if gipdyn._core.has_mpi:
+        assert "distributed computes the exact GP: set inducing to 0" in r.stdout, r.stdout
+    else:
+        assert "libscalapack-openmpi-dev" in r.stdout, r.stdout

@@ -7,28 +7,13 @@
 
 namespace gipdyn {
 
-CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
-                                    const JitterPolicy& policy) {
+CholeskyResult factorize_with_jitter(double mean_diagonal, const std::function<bool(double jitter)>& factorize,
+                                     const JitterPolicy& policy) {
   CholeskyResult result;
-  const lapack_int n = static_cast<lapack_int>(K.rows());
-  if (n == 0) return result;
-  const double mean_diag = K.diagonal().mean();
-  bool finite = std::isfinite(mean_diag);
-  for (lapack_int j = 0; finite && j < n; ++j) finite = K.col(j).segment(j, n - j).allFinite();
-  if (!finite) {
-    result.status = CholeskyResult::Status::NonFinite;
-    result.message = "kernel matrix has NaN or Inf entries (check the inputs and the hyperparameters)";
-    return result;
-  }
   double relative = 0.0;
   while (true) {
-    if (relative > 0.0) {
-      rebuild(K);
-      result.jitter = relative * std::abs(mean_diag);
-      K.diagonal().array() += result.jitter;
-    }
-    const lapack_int info = LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, K.data(), n);
-    if (info == 0) return result;
+    result.jitter = relative * std::abs(mean_diagonal);
+    if (factorize(result.jitter)) return result;
     relative = relative == 0.0 ? policy.initial_relative : relative * policy.growth;
     if (relative > policy.max_relative * (1.0 + 1e-12)) break;
   }
@@ -38,6 +23,31 @@ CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void
   result.status = CholeskyResult::Status::NotPositiveDefinite;
   result.message = msg.str();
   return result;
+}
+
+CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
+                                    const JitterPolicy& policy) {
+  const lapack_int n = static_cast<lapack_int>(K.rows());
+  if (n == 0) return {};
+  const double mean_diag = K.diagonal().mean();
+  bool finite = std::isfinite(mean_diag);
+  for (lapack_int j = 0; finite && j < n; ++j) finite = K.col(j).segment(j, n - j).allFinite();
+  if (!finite) {
+    CholeskyResult result;
+    result.status = CholeskyResult::Status::NonFinite;
+    result.message = "kernel matrix has NaN or Inf entries (check the inputs and the hyperparameters)";
+    return result;
+  }
+  return factorize_with_jitter(
+      mean_diag,
+      [&](double jitter) {
+        if (jitter > 0.0) {
+          rebuild(K);
+          K.diagonal().array() += jitter;
+        }
+        return LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, K.data(), n) == 0;
+      },
+      policy);
 }
 
 void cholesky_solve(const Eigen::MatrixXd& L, Eigen::Ref<Eigen::MatrixXd> b) {

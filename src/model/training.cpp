@@ -32,6 +32,16 @@ void TrainOptions::validate() const {
   if (inducing_points > 0 && mean != MeanKind::Zero)
     throw Error("TrainOptions::mean must be zero with inducing points (TrainOptions::inducing_points)");
   if (!(gradient_tolerance_per_row >= 0.0)) throw Error("TrainOptions::gradient_tolerance_per_row must be >= 0");
+  if (nll_backend) {
+    if (inducing_points > 0)
+      throw Error("TrainOptions::nll_backend computes the exact GP: set TrainOptions::inducing_points to 0, or leave "
+                  "TrainOptions::nll_backend unset for a sparse GP");
+    if (mean != MeanKind::Zero)
+      throw Error("TrainOptions::nll_backend needs TrainOptions::mean zero (a profiled mean is not distributed)");
+    if (keep_factor)
+      throw Error("TrainOptions::keep_factor must be off with TrainOptions::nll_backend: the factor is spread over "
+                  "its processes (a loaded model recomputes it for variances)");
+  }
   prior.validate();
   require_known_kernel(kernel);
   if (kernel_needs_robot(kernel) && !robot_prior.robot)
@@ -83,14 +93,17 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   std::normal_distribution<double> normal(0.0, 1.0);
 
   // One optimisation of the NLL on the rows (Xr, Zr, yr).
-  auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr,
+  // all_rows: (Xr, Zr, yr) are all the rows, not the warm-start subsample.
+  auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
                       const Eigen::VectorXd& start, int restart) {
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
-      // A warm-start subsample is small: the exact NLL there, the sparse bound on all rows.
-      const bool sparse = Zm && &Zr == &Z;
-      NllEvaluation e = sparse ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
-                               : evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
+      // A warm-start subsample is small: the exact NLL there, in this process;
+      // the sparse bound or the backend on all rows.
+      NllEvaluation e = Zm && all_rows ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
+                        : o.nll_backend && all_rows
+                            ? o.nll_backend->evaluate(*trial, x(P), Zr, yr, true, nullptr, o.jitter)
+                            : evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
       if (!e.ok()) return false;
       f = e.nll;
       g = e.gradient;
@@ -130,7 +143,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     Eigen::VectorXd start = x0;
     if (r > 0)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    OptimizerResult res = warm ? optimise(Xw, Zw, yw, start, r) : optimise(X, Z, y, start, r);
+    OptimizerResult res = warm ? optimise(Xw, Zw, yw, false, start, r) : optimise(X, Z, y, true, start, r);
     (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
     starts.add(res);
   }
@@ -138,7 +151,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   OptimizerResult kept = starts.kept;
   Eigen::VectorXd best_x = starts.found() ? kept.x : Eigen::VectorXd();
   if (warm && best_x.size() > 0) {
-    OptimizerResult res = optimise(X, Z, y, best_x, 0);
+    OptimizerResult res = optimise(X, Z, y, true, best_x, 0);
     out.report.evaluations += res.evaluations;
     kept = res;
     best_x = res.usable() ? res.x : Eigen::VectorXd();
@@ -187,6 +200,17 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     if (fit.ok())
       out.gp.set_sparse_state(post.alpha, post.jitter, post.objective, std::move(post.inducing_factor),
                               std::move(post.posterior_factor));
+  } else if (o.nll_backend) {  // the mean is zero there
+    Eigen::VectorXd alpha;
+    const NllEvaluation e = o.nll_backend->evaluate(out.gp.kernel(), best_x(P), Z, y, false, &alpha, o.jitter);
+    fit.jitter = e.jitter;
+    if (e.ok()) {
+      out.gp.set_state(alpha, e.jitter, e.nll);
+    } else {
+      fit.status = e.status == NllEvaluation::Status::NotPositiveDefinite ? CholeskyResult::Status::NotPositiveDefinite
+                                                                          : CholeskyResult::Status::NonFinite;
+      fit.message = e.message;
+    }
   } else {
     fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
   }
@@ -264,11 +288,23 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   const double square = 8.0 * side * side;
   const double per_joint = sparse ? 10.0 * square + 8.0 * 3.0 * 1024.0 * side : 2.0 * square;
   const double kept = sparse ? 2.0 * n * square : options.keep_factor ? n * square : 0.0;
-  require_memory(kept + per_joint, "training on " + std::to_string(X.rows()) + " rows",
-                 "train on fewer rows (a constant-step subsample)" +
-                     std::string(options.keep_factor && !sparse ? " or without kept factors (TrainOptions::keep_factor)" : "") +
-                     std::string(sparse ? " or with fewer inducing points" : ", or a sparse GP (TrainOptions::inducing_points)"));
+  // A backend plans the memory of its own processes.
+  if (options.nll_backend) {
+    Eigen::MatrixXd scaled(Y.rows(), n);
+    for (int j = 0; j < n; ++j) scaled.col(j) = (Y.col(j).array() - offset(j)) / scale(j);
+    options.nll_backend->plan(Z, scaled);
+  } else {
+    require_memory(
+        kept + per_joint, "training on " + std::to_string(X.rows()) + " rows",
+        "train on fewer rows (a constant-step subsample)" +
+            std::string(options.keep_factor && !sparse ? " or without kept factors (TrainOptions::keep_factor)" : "") +
+            std::string(sparse ? " or with fewer inducing points"
+                               : ", or a sparse GP (TrainOptions::inducing_points), or distributed over processes "
+                                 "(TrainOptions::nll_backend)"));
+  }
   threads = std::min<int>(threads, std::max(1.0, (static_cast<double>(available_memory_bytes()) - kept) / per_joint));
+  // A backend's evaluations are collective: one joint at a time, in the same order everywhere.
+  if (options.nll_backend) threads = 1;
   std::atomic<int> next{0};
   auto worker = [&] {
     for (int j = next++; j < n; j = next++) {

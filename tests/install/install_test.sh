@@ -14,3 +14,4 @@ cmake -S "$here/consumer" -B "$work/consumer" -DCMAKE_BUILD_TYPE=Release -DCMAKE
 cmake --build "$work/consumer" -j"$(nproc)" > "$work/build.log"
 "$work/consumer/consumer"
 "$work/consumer/c_consumer"
+if [ -x "$work/consumer/distributed_consumer" ]; then "$work/consumer/distributed_consumer"; fi

@@ -29,6 +29,14 @@ struct CholeskyResult {
 CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
                                     const JitterPolicy& policy = {});
 
+// The jitter policy for any factorisation: calls factorize(0), then
+// factorize(jitter) for the policy's growing jitters (relative to
+// |mean_diagonal|) until it returns true; NotPositiveDefinite with a message
+// when the largest one fails too. cholesky_with_jitter uses it, and so does
+// the distributed factorisation.
+CholeskyResult factorize_with_jitter(double mean_diagonal, const std::function<bool(double jitter)>& factorize,
+                                     const JitterPolicy& policy);
+
 // Solves (L L^T) x = b in place, L from cholesky_with_jitter.
 void cholesky_solve(const Eigen::MatrixXd& L, Eigen::Ref<Eigen::MatrixXd> b);
 

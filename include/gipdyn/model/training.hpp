@@ -3,12 +3,14 @@
 // maximum marginal likelihood, joints trained in parallel.
 #include <Eigen/Dense>
 #include <cstdint>
+#include <memory>
 #include <string>
 #include <vector>
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
+#include "gipdyn/gp/nll_backend.hpp"
 #include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/optim/optimizer.hpp"
@@ -62,6 +64,13 @@ struct TrainOptions {
   HyperparameterPrior prior;
   bool keep_factor = true;  // keep Cholesky factors so the model can give variances
   JitterPolicy jitter;
+  // Null: every NLL on all rows, and the final fit, in this process. Otherwise
+  // they go to this backend (e.g. DistributedNll, MPI + ScaLAPACK): the joints
+  // are then trained one after another, every process of the backend calls
+  // train_model with the same arguments, and warm starts stay in process. It
+  // needs the exact GP (inducing_points 0), a zero mean and keep_factor off
+  // (the factor is spread over the processes; a loaded model recomputes it).
+  std::shared_ptr<NllBackend> nll_backend;
 
   // Throws gipdyn::Error naming the bad field (e.g. "TrainOptions::restarts must be >= 0").
   void validate() const;
