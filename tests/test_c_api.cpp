@@ -9,6 +9,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"
@@ -129,7 +130,7 @@ TEST(CApi, MisuseGetsAStatusAndAMessage) {
   gipdyn_model_free(nullptr);
   EXPECT_STREQ(gipdyn_status_string(GIPDYN_ERROR_SIZE), "wrong size");
 
-  // Files: missing, truncated, not a GP model.
+  // Files: missing, truncated.
   gipdyn_model* m = nullptr;
   EXPECT_EQ(gipdyn_model_load(nullptr, &m), GIPDYN_ERROR_NULL_ARGUMENT);
   EXPECT_EQ(gipdyn_model_load("/nonexistent/arm.gipdyn", &m), GIPDYN_ERROR_FILE);
@@ -145,20 +146,58 @@ TEST(CApi, MisuseGetsAStatusAndAMessage) {
   EXPECT_EQ(m, nullptr);
   fs::remove(truncated);
   fs::remove(t.path);
+}
 
+// Every estimator's model file works through the C API, with the torques of
+// the C++ API; gravity where the estimator gives it; and a flag that says
+// whether its queries allocate.
+TEST(CApi, EveryEstimatorPredictsAsTheCppApi) {
   SimulationOptions so;
   so.samples = 200;
   const SimulationResult sim = simulate(load_robot("scara"), so);
-  EstimatorOptions fe;
-  fe.name = "fe";
-  fe.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
-  FitResult f = fit_estimator(fe, sim.X, sim.tau, JointTypes::parse("RRPR"));
-  ASSERT_TRUE(f.report.ok()) << f.report.message;
-  const fs::path fe_path = temp_file("fe.gipdyn");
-  save_estimator(*f.estimator, fe_path.string());
-  EXPECT_EQ(gipdyn_model_load(fe_path.c_str(), &m), GIPDYN_ERROR_UNSUPPORTED);
-  EXPECT_NE(std::string(gipdyn_last_error()).find("fe model"), std::string::npos) << gipdyn_last_error();
-  fs::remove(fe_path);
+  const JointTypes joints = JointTypes::parse("RRPR");
+  struct Expect {
+    std::string name;
+    bool physics, allocation_free;
+  };
+  std::vector<Expect> cases = {{"gip", true, true}, {"rbf", false, true}, {"fe", true, false}, {"lip", true, false}};
+  if (neural_network_training_available()) cases.push_back({"nn", false, true});
+  for (const Expect& c : cases) {
+    EstimatorOptions o;
+    o.name = c.name;
+    o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
+    o.gp.optimizer.max_iterations = 15;
+    o.nn.epochs = 3;
+    const bool lip = c.name == "lip";
+    const Eigen::MatrixXd X = lip ? Eigen::MatrixXd(sim.X.topRows(60)) : sim.X;
+    const Eigen::MatrixXd Y = lip ? Eigen::MatrixXd(sim.tau.topRows(60)) : sim.tau;
+    FitResult f = fit_estimator(o, X, Y, joints);
+    ASSERT_TRUE(f.report.ok()) << c.name << ": " << f.report.message;
+    const fs::path path = temp_file(c.name + ".gipdyn");
+    save_estimator(*f.estimator, path.string());
+    CModel m(path.string());
+    fs::remove(path);
+    ASSERT_NE(m.ws, nullptr) << c.name;
+    EXPECT_EQ(gipdyn_model_num_joints(m.model), 4);
+    EXPECT_EQ(gipdyn_model_has_physics(m.model), c.physics ? 1 : 0) << c.name;
+    EXPECT_EQ(gipdyn_model_allocation_free(m.model), c.allocation_free ? 1 : 0) << c.name;
+    const Eigen::MatrixXd states = sim.X.bottomRows(5);
+    const Eigen::MatrixXd expected = f.estimator->predict(states);
+    for (Eigen::Index r = 0; r < states.rows(); ++r) {
+      const Eigen::RowVectorXd x = states.row(r);
+      double tau[4];
+      ASSERT_EQ(gipdyn_predict(m.ws, x.data(), x.data() + 4, x.data() + 8, 4, tau), GIPDYN_OK) << gipdyn_last_error();
+      for (int j = 0; j < 4; ++j)
+        EXPECT_NEAR(tau[j], expected(r, j), 1e-9 * (1.0 + std::abs(expected(r, j)))) << c.name << " joint " << j + 1;
+      if (!c.physics) continue;
+      Eigen::MatrixXd at_rest = Eigen::MatrixXd::Zero(1, 12);
+      at_rest.leftCols(4) = x.head(4);
+      const Eigen::MatrixXd g_expected = f.estimator->predict(at_rest);
+      double g[4];
+      ASSERT_EQ(gipdyn_gravity(m.ws, x.data(), 4, g), GIPDYN_OK) << gipdyn_last_error();
+      for (int j = 0; j < 4; ++j) EXPECT_NEAR(g[j], g_expected(0, j), 1e-9 * (1.0 + std::abs(g_expected(0, j))));
+    }
+  }
 }
 
 }  // namespace

@@ -11,6 +11,8 @@
 
 #include <filesystem>
 
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
@@ -144,6 +146,43 @@ TEST(NoAllocation, CApiQueriesDoNotAllocate) {
     EXPECT_EQ(s[4], GIPDYN_ERROR_SIZE);
     EXPECT_TRUE(s[5] == GIPDYN_OK || s[5] == GIPDYN_ERROR_SINGULAR) << gipdyn_status_string(s[5]);
   }
+  gipdyn_workspace_free(ws);
+  gipdyn_model_free(model);
+}
+
+// A network's C API queries allocate nothing either (two layer buffers in the workspace).
+TEST(NoAllocation, CApiNetworkQueriesDoNotAllocate) {
+  if (!neural_network_training_available()) GTEST_SKIP() << "built without libtorch: no network to train";
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 200, 64);
+  NeuralNetworkOptions o;
+  o.epochs = 2;
+  o.hidden = {32, 16};
+  const NeuralNetworkEstimator net(NeuralNetwork::train(X, Eigen::MatrixXd::Random(200, 4), joints, o));
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("gipdyn_c_api_nn_" + std::to_string(::getpid()) + ".gipdyn")).string();
+  save_estimator(net, path);
+  gipdyn_model* model = nullptr;
+  ASSERT_EQ(gipdyn_model_load(path.c_str(), &model), GIPDYN_OK) << gipdyn_last_error();
+  std::filesystem::remove(path);
+  ASSERT_EQ(gipdyn_model_allocation_free(model), 1);
+  gipdyn_workspace* ws = nullptr;
+  ASSERT_EQ(gipdyn_workspace_create(model, &ws), GIPDYN_OK);
+  double q[4] = {0.1, -0.2, 0.1, 0.3}, qd[4] = {0.5, 0.1, 0.0, -0.2}, qdd[4] = {1, 2, 0.1, -1}, tau[4];
+  ASSERT_EQ(gipdyn_predict(ws, q, qd, qdd, 4, tau), GIPDYN_OK);  // warm-up
+  const Eigen::MatrixXd expected = net.predict(X.topRows(1));
+  gipdyn_status statuses[10];
+  double first[4] = {0, 0, 0, 0};
+  g_allocations = 0;
+  g_armed = true;
+  for (auto& s : statuses) s = gipdyn_predict(ws, q, qd, qdd, 4, tau);
+  g_armed = false;
+  EXPECT_EQ(g_allocations.load(), 0);
+  for (auto s : statuses) EXPECT_EQ(s, GIPDYN_OK);
+  // The same torques as the batch path.
+  const Eigen::RowVectorXd x = X.row(0);
+  ASSERT_EQ(gipdyn_predict(ws, x.data(), x.data() + 4, x.data() + 8, 4, first), GIPDYN_OK);
+  for (int j = 0; j < 4; ++j) EXPECT_NEAR(first[j], expected(0, j), 1e-12 * (1 + std::abs(expected(0, j))));
   gipdyn_workspace_free(ws);
   gipdyn_model_free(model);
 }

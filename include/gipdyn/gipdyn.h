@@ -1,11 +1,12 @@
 /*
  * gipdyn's C API (C99): a learned inverse dynamics model inside a control loop.
  *
- * Load a GP model file written by `gipdyn train` or the C++/Python APIs, make
+ * Load a model file written by `gipdyn train` or the C++/Python APIs, make
  * one workspace per thread, then query torques (and, for models with the
  * rigid-body structure, gravity and inertia) for one state at a time. After
- * gipdyn_workspace_create, the query functions allocate no memory, take no
- * lock and throw nothing: every function returns a gipdyn_status, and
+ * gipdyn_workspace_create, the query functions of GP and nn models allocate
+ * no memory (gipdyn_model_allocation_free; fe and lip queries do), none takes
+ * a lock or throws: every function returns a gipdyn_status, and
  * gipdyn_last_error() gives a one-line message for the last failure of the
  * calling thread.
  *
@@ -48,14 +49,18 @@ const char* gipdyn_last_error(void);
 /* "ok", "null argument", ... */
 const char* gipdyn_status_string(gipdyn_status status);
 
-/* Loads a GP model file (gip, gip-friction, rbf, the hybrids, pp, sp). fe and
- * nn model files are refused with GIPDYN_ERROR_UNSUPPORTED. */
+/* Loads any model file gipdyn writes: the GP estimators (gip, gip-friction,
+ * rbf, the hybrids, pp, sp), lip, fe and nn. */
 gipdyn_status gipdyn_model_load(const char* path, gipdyn_model** model);
 void gipdyn_model_free(gipdyn_model* model); /* NULL is allowed */
 /* Joint count, or -1 for a NULL model. */
 int gipdyn_model_num_joints(const gipdyn_model* model);
-/* 1 if gravity and inertia are defined (gip, gip-friction, pp), else 0. */
+/* 1 if gravity and inertia are defined (gip, gip-friction, gip+friction, pp,
+ * fe, lip), else 0. */
 int gipdyn_model_has_physics(const gipdyn_model* model);
+/* 1 if this model's queries never allocate once the workspace exists (the GP
+ * estimators and nn); 0 for fe and lip, whose queries allocate, and for NULL. */
+int gipdyn_model_allocation_free(const gipdyn_model* model);
 
 gipdyn_status gipdyn_workspace_create(const gipdyn_model* model, gipdyn_workspace** workspace);
 void gipdyn_workspace_free(gipdyn_workspace* workspace); /* NULL is allowed */

@@ -16,19 +16,18 @@
 
 struct gipdyn_model {
   std::unique_ptr<gipdyn::Estimator> estimator;
-  const gipdyn::InverseDynamicsModel* gp = nullptr;
   int joints = 0;
-  bool physics = false;
+  bool physics = false, allocation_free = false;
 };
 
 struct gipdyn_workspace {
   const gipdyn_model* model = nullptr;
-  gipdyn::PredictionWorkspace prediction;
+  std::unique_ptr<gipdyn::QueryWorkspace> prediction;
   // Sized once, reused by every query: x 3n, tau, gravity and rhs n, inertia n x n.
   std::vector<double> x, tau, gravity, rhs, inertia;
   explicit gipdyn_workspace(const gipdyn_model* m)
-      : model(m), prediction(*m->gp), x(3 * static_cast<size_t>(m->joints)), tau(static_cast<size_t>(m->joints)),
-        gravity(tau.size()), rhs(tau.size()), inertia(tau.size() * tau.size()) {}
+      : model(m), prediction(m->estimator->make_query_workspace()), x(3 * static_cast<size_t>(m->joints)),
+        tau(static_cast<size_t>(m->joints)), gravity(tau.size()), rhs(tau.size()), inertia(tau.size() * tau.size()) {}
 };
 
 namespace {
@@ -68,13 +67,14 @@ gipdyn_status check_query(const gipdyn_workspace* ws, int n, const void* out) {
 gipdyn_status check_physics(const gipdyn_workspace* ws) {
   if (!ws->model->physics)
     return fail(GIPDYN_ERROR_UNSUPPORTED,
-                "this model's kernel has no rigid-body structure: gravity and inertia need gip, gip-friction, gip+friction or pp");
+                "this model's torque is not affine in the accelerations: gravity and inertia need a gip, "
+                "gip-friction, gip+friction, pp, fe or lip model");
   return GIPDYN_OK;
 }
 
 // tau = f(x) from the workspace's x; checks that the result is finite.
 gipdyn_status predict_into(gipdyn_workspace* ws, double* tau) {
-  ws->prediction.predict(ws->x.data(), tau);
+  ws->prediction->predict(ws->x.data(), tau);
   if (!all_finite(tau, ws->model->joints))
     return fail(GIPDYN_ERROR_NOT_FINITE, "the prediction is not finite: the state is far outside the training data");
   return GIPDYN_OK;
@@ -120,14 +120,9 @@ gipdyn_status gipdyn_model_load(const char* path, gipdyn_model** model) {
   try {
     auto m = std::make_unique<gipdyn_model>();
     m->estimator = gipdyn::load_estimator(path);
-    m->gp = m->estimator->gp_model();
-    if (!m->gp)
-      return fail(GIPDYN_ERROR_UNSUPPORTED,
-                  ("'" + std::string(path) + "' holds a " + m->estimator->name() +
-                   " model; the C API predicts from GP models (gip, gip-friction, rbf, hybrids, pp, sp)")
-                      .c_str());
-    m->joints = m->gp->num_joints();
+    m->joints = m->estimator->joints().size();
     m->physics = gipdyn::estimator_gives_physics(m->estimator->name());
+    m->allocation_free = m->estimator->make_query_workspace()->allocation_free();
     *model = m.release();
     return ok();
   } catch (const gipdyn::Error& e) {
@@ -144,6 +139,8 @@ void gipdyn_model_free(gipdyn_model* model) { delete model; }
 int gipdyn_model_num_joints(const gipdyn_model* model) { return model ? model->joints : -1; }
 
 int gipdyn_model_has_physics(const gipdyn_model* model) { return model && model->physics ? 1 : 0; }
+
+int gipdyn_model_allocation_free(const gipdyn_model* model) { return model && model->allocation_free ? 1 : 0; }
 
 gipdyn_status gipdyn_workspace_create(const gipdyn_model* model, gipdyn_workspace** workspace) {
   if (!workspace) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "workspace (the output pointer) is NULL");

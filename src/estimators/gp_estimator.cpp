@@ -3,6 +3,23 @@
 #include "gipdyn/model/model_file.hpp"
 
 namespace gipdyn {
+namespace {
+
+class GpQueryWorkspace final : public QueryWorkspace {
+ public:
+  explicit GpQueryWorkspace(const InverseDynamicsModel& model) : prediction_(model) {}
+  void predict(const double* x, double* tau) override { prediction_.predict(x, tau); }
+  bool allocation_free() const override { return true; }
+
+ private:
+  PredictionWorkspace prediction_;
+};
+
+}  // namespace
+
+std::unique_ptr<QueryWorkspace> GpEstimator::make_query_workspace() const {
+  return std::make_unique<GpQueryWorkspace>(model_);
+}
 
 ModelContainer GpEstimator::to_container() const { return model_to_container(model_); }
 

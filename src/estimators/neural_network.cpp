@@ -154,6 +154,29 @@ Eigen::MatrixXd NeuralNetwork::predict(const Eigen::Ref<const Eigen::MatrixXd>& 
   return ((h.array().rowwise() * y_scale_.array()).rowwise() + y_mean_.array()).matrix();
 }
 
+int NeuralNetwork::widest_layer() const {
+  Eigen::Index w = x_mean_.size();
+  for (const auto& W : weights_) w = std::max(w, W.rows());
+  return static_cast<int>(w);
+}
+
+void NeuralNetwork::predict_one(const double* x, double* tau, Eigen::VectorXd& a, Eigen::VectorXd& b) const {
+  const Eigen::Index d = x_mean_.size();
+  a.head(d) = ((Eigen::Map<const Eigen::RowVectorXd>(x, d) - x_mean_).array() / x_scale_.array()).transpose();
+  Eigen::VectorXd* in = &a;
+  Eigen::VectorXd* out = &b;
+  for (size_t l = 0; l < weights_.size(); ++l) {
+    const Eigen::Index rows = weights_[l].rows(), cols = weights_[l].cols();
+    out->head(rows).noalias() = weights_[l] * in->head(cols);
+    out->head(rows) += biases_[l];
+    if (l + 1 < weights_.size()) out->head(rows) = (1.0 / (1.0 + (-out->head(rows).array()).exp())).matrix();
+    std::swap(in, out);
+  }
+  const Eigen::Index n = y_mean_.size();
+  Eigen::Map<Eigen::RowVectorXd>(tau, n) =
+      (in->head(n).transpose().array() * y_scale_.array() + y_mean_.array()).matrix();
+}
+
 int NeuralNetwork::num_weights() const {
   int k = 0;
   for (size_t l = 0; l < weights_.size(); ++l) k += static_cast<int>(weights_[l].size() + biases_[l].size());

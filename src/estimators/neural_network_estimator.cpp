@@ -1,6 +1,25 @@
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 
 namespace gipdyn {
+namespace {
+
+class NetworkQueryWorkspace final : public QueryWorkspace {
+ public:
+  explicit NetworkQueryWorkspace(const NeuralNetwork& net)
+      : net_(net), a_(net.widest_layer()), b_(net.widest_layer()) {}
+  void predict(const double* x, double* tau) override { net_.predict_one(x, tau, a_, b_); }
+  bool allocation_free() const override { return true; }
+
+ private:
+  const NeuralNetwork& net_;
+  Eigen::VectorXd a_, b_;
+};
+
+}  // namespace
+
+std::unique_ptr<QueryWorkspace> NeuralNetworkEstimator::make_query_workspace() const {
+  return std::make_unique<NetworkQueryWorkspace>(net_);
+}
 
 ModelContainer NeuralNetworkEstimator::to_container() const {
   ModelContainer c;

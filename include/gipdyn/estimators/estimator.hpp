@@ -4,6 +4,7 @@
 // estimators are listed by name in estimator_registry.hpp, fitted by
 // fit_estimator (fit_estimator.hpp) and saved and loaded by estimator_file.hpp.
 #include <Eigen/Dense>
+#include <memory>
 #include <nlohmann/json.hpp>
 #include <string>
 
@@ -13,6 +14,17 @@
 namespace gipdyn {
 
 class InverseDynamicsModel;
+
+// One query at a time, for control loops: bound to one estimator (which must
+// outlive it), used by one thread. Made by Estimator::make_query_workspace.
+class QueryWorkspace {
+ public:
+  virtual ~QueryWorkspace() = default;
+  // x: 3n inputs (q, qd, qdd); tau: n outputs.
+  virtual void predict(const double* x, double* tau) = 0;
+  // Whether predict() runs without a heap allocation once the workspace exists.
+  virtual bool allocation_free() const = 0;
+};
 
 class Estimator {
  public:
@@ -29,6 +41,9 @@ class Estimator {
   // The GP model behind a GP estimator (predictive variances, hyperparameters);
   // nullptr for the others.
   virtual const InverseDynamicsModel* gp_model() const { return nullptr; }
+  // The single-query path. GP and network estimators give one that never
+  // allocates; the default goes through predict() on a one-row matrix.
+  virtual std::unique_ptr<QueryWorkspace> make_query_workspace() const;
 };
 
 }  // namespace gipdyn

@@ -14,6 +14,7 @@ class GpEstimator final : public Estimator {
   ModelContainer to_container() const override;
   nlohmann::json summary() const override;
   const InverseDynamicsModel* gp_model() const override { return &model_; }
+  std::unique_ptr<QueryWorkspace> make_query_workspace() const override;  // a PredictionWorkspace
 
   const InverseDynamicsModel& model() const { return model_; }
 

@@ -41,6 +41,10 @@ class NeuralNetwork {
 
   const JointTypes& joints() const { return joints_; }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
+  // One row x (3n) into tau (n), through two buffers of at least
+  // widest_layer() entries each: no allocation.
+  void predict_one(const double* x, double* tau, Eigen::VectorXd& a, Eigen::VectorXd& b) const;
+  int widest_layer() const;
   int num_weights() const;
   double final_loss() const { return final_loss_; }
 

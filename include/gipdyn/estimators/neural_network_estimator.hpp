@@ -13,6 +13,7 @@ class NeuralNetworkEstimator final : public Estimator {
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override { return net_.predict(X); }
   ModelContainer to_container() const override;
   nlohmann::json summary() const override;
+  std::unique_ptr<QueryWorkspace> make_query_workspace() const override;  // allocation-free
 
   const NeuralNetwork& network() const { return net_; }
 
