@@ -10,6 +10,7 @@
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/model/training.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -201,6 +202,59 @@ TEST(SparseGp, ASparseGpRefusesOnlineUpdates) {
   GpRegressor gp(p.kernel->clone(), std::log(0.05));
   gp.set_sparse_state(post.alpha, post.jitter, post.objective, post.inducing_factor, post.posterior_factor);
   EXPECT_NE(error_of([&] { gp.update(0, Zm, 0, Eigen::VectorXd::Zero(Zm.rows())); }).find("sparse"), std::string::npos);
+}
+
+// TrainOptions::hyperparameter_rows: the optimiser sees a constant-step
+// subsample, the model every row. For the exact and the sparse GP: the weights
+// are those of every row at the learned hyperparameters, and the learned
+// hyperparameters are an optimum of the subsample's objective.
+TEST(HyperparameterRows, LearnOnASubsampleAndConditionOnEveryRow) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, 240, 91);
+  const Eigen::MatrixXd Y = test::two_link_torques(X) + 0.05 * Eigen::MatrixXd::Random(240, 2);
+  const std::vector<Eigen::Index> sub = constant_step_indices(240, 80);
+  for (const int inducing : {0, 40}) {
+    TrainOptions o;
+    o.hyperparameter_rows = 80;
+    o.inducing_points = inducing;
+    o.min_noise_fraction = 1e-4;  // keeps the optimum away from the noise bound
+    const TrainResult r = train_model(X, Y, joints, o);
+    ASSERT_TRUE(r.report.ok()) << r.report.message;
+    const InverseDynamicsModel& m = r.model;
+    EXPECT_EQ(m.num_data_rows(), 240);
+    EXPECT_NE(r.report.brief_report().find("learned on 80 rows"), std::string::npos) << r.report.brief_report();
+    for (int j = 0; j < 2; ++j) {
+      EXPECT_EQ(r.report.joints[j].hyperparameter_rows, 80);
+      const GpRegressor& gp = m.joint_gp(j);
+      const Eigen::VectorXd y = (Y.col(j).array() - m.output_offset()(j)) / m.output_scale()(j);
+      const Eigen::MatrixXd Z = m.features().compute(X);
+      Eigen::VectorXd alpha;
+      const int P = gp.kernel().num_params();
+      Eigen::VectorXd subsample_gradient;
+      if (inducing == 0) {
+        GpWorkspace ws;
+        ASSERT_TRUE(evaluate_nll(gp.kernel(), gp.log_noise_variance(), Z, y, false, ws).ok());
+        alpha = ws.alpha;
+        const NllEvaluation e = evaluate_nll(gp.kernel(), gp.log_noise_variance(), Z(sub, Eigen::all), y(sub), true, ws);
+        subsample_gradient = e.gradient;
+      } else {
+        SparseGpWorkspace ws;
+        const Eigen::MatrixXd& Zm = m.training_features();  // a sparse model keeps its inducing rows
+        alpha = fit_sparse(gp.kernel(), gp.log_noise_variance(), Z, y, Zm, ws).alpha;
+        subsample_gradient =
+            evaluate_vfe(gp.kernel(), gp.log_noise_variance(), Z(sub, Eigen::all), y(sub), Zm, true, ws).gradient;
+      }
+      EXPECT_LT((alpha - gp.alpha()).norm(), 1e-8 * gp.alpha().norm()) << "inducing " << inducing << " joint " << j;
+      // Converged on the subsample: the kernel's gradient there is within the tolerance (1e-5 per row).
+      if (r.report.joints[j].status == OptimizerResult::Status::Converged)
+        EXPECT_LT(subsample_gradient.head(P).cwiseAbs().maxCoeff(), 80 * 1e-5 * 1.01)
+            << "inducing " << inducing << " joint " << j;
+    }
+  }
+  TrainOptions bad;
+  bad.hyperparameter_rows = 3;
+  EXPECT_NE(error_of([&] { train_model(X, Y, joints, bad); }).find("TrainOptions::hyperparameter_rows"),
+            std::string::npos);
 }
 
 }  // namespace

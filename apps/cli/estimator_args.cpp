@@ -29,6 +29,10 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
                  "GP: sparse GP with this many inducing rows chosen among the training rows (variational bound, "
                  "O(N M^2) per evaluation: for logs too long for the exact GP); 0: exact")
       ->capture_default_str();
+  app.add_option("--hyperparameter-rows", hyperparameter_rows,
+                 "GP: learn the hyperparameters on a constant-step subsample of this many rows, then condition "
+                 "the model on every row (with --inducing: 10^6 rows in minutes); 0: all rows")
+      ->capture_default_str();
   app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str();
   app.add_option("--restarts", restarts, "GP: extra optimiser runs from perturbed starts; the best NLL is kept")
       ->capture_default_str();
@@ -94,6 +98,7 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--restarts")) o.gp.restarts = restarts;
   if (given("--warm-start-rows")) o.gp.warm_start_rows = warm_start_rows;
   if (given("--inducing")) o.gp.inducing_points = inducing;
+  if (given("--hyperparameter-rows")) o.gp.hyperparameter_rows = hyperparameter_rows;
   if (given("--gradient-tolerance")) o.gp.gradient_tolerance_per_row = gradient_tolerance;
   if (given("--seed")) {
     o.gp.seed = seed;

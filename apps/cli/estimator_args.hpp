@@ -15,6 +15,7 @@ struct EstimatorArgs {
   // Library defaults, so that --help shows what the library does.
   int max_iter = OptimizerOptions{}.max_iterations, restarts = TrainOptions{}.restarts, threads = 0;
   int warm_start_rows = TrainOptions{}.warm_start_rows, inducing = TrainOptions{}.inducing_points;
+  int hyperparameter_rows = TrainOptions{}.hyperparameter_rows;
   double gradient_tolerance = TrainOptions{}.gradient_tolerance_per_row;
   std::uint64_t seed = 0;
   double min_noise = 1e-8, learning_rate = 0.01;

@@ -11,6 +11,7 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::min_noise_fraction", "--min-noise"},
       {"TrainOptions::threads", "--threads"},
       {"TrainOptions::warm_start_rows", "--warm-start-rows"},
+      {"TrainOptions::hyperparameter_rows", "--hyperparameter-rows"},
       {"TrainOptions::inducing_points", "--inducing"},
       {"TrainOptions::nll_backend", "--distributed"},
       {"TrackingOptions::position_noise", "--position-noise"},

@@ -109,7 +109,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     many rows, 0: off), gradient_tolerance (convergence: projected NLL
     gradient per training row) and inducing (a sparse GP conditioned on this
     many inducing rows chosen among the training rows, hyperparameters by
-    Titsias' variational bound: for data too long for the exact GP; 0: exact)
+    Titsias' variational bound: for data too long for the exact GP; 0: exact),
+    hyperparameter_rows (learn the hyperparameters on a constant-step
+    subsample of this many rows, then condition on every row; 0: all rows)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
@@ -132,7 +134,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
-                 inducing=_DEFAULTS.inducing_points, distributed=False):
+                 inducing=_DEFAULTS.inducing_points, distributed=False,
+                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -155,6 +158,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.subsample = subsample
         self.inducing = inducing
         self.distributed = distributed
+        self.hyperparameter_rows = hyperparameter_rows
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -179,6 +183,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.threads = int(self.threads)
         o.warm_start_rows = int(self.warm_start_rows)
         o.inducing_points = int(self.inducing)
+        o.hyperparameter_rows = int(self.hyperparameter_rows)
         if self.distributed:
             o.nll_backend = _core.distributed_backend()
             o.keep_factor = False  # spread over the processes; predict(return_std=True) rebuilds it

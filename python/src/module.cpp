@@ -46,6 +46,7 @@ const FieldNames& python_field_names() {
       {"TrainOptions::initial_noise_fraction", "initial_noise_fraction"},
       {"TrainOptions::threads", "threads"},
       {"TrainOptions::warm_start_rows", "warm_start_rows"},
+      {"TrainOptions::hyperparameter_rows", "hyperparameter_rows"},
       {"TrainOptions::inducing_points", "inducing"},
       {"TrainOptions::nll_backend", "distributed"},
       {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
@@ -158,6 +159,7 @@ py::list report_to_list(const std::vector<JointReport>& reports) {
     d["status"] = to_string(r.status);
     d["evaluations"] = r.evaluations;
     d["warm_start_evaluations"] = r.warm_start_evaluations;
+    d["hyperparameter_rows"] = r.hyperparameter_rows;
     d["nll"] = r.nll;
     d["grad_norm"] = r.grad_norm;
     d["noise_variance"] = r.noise_variance;
@@ -315,6 +317,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
       .def_readwrite("threads", &TrainOptions::threads)
       .def_readwrite("warm_start_rows", &TrainOptions::warm_start_rows)
+      .def_readwrite("hyperparameter_rows", &TrainOptions::hyperparameter_rows)
       .def_readwrite("inducing_points", &TrainOptions::inducing_points)
       .def_readwrite("gradient_tolerance_per_row", &TrainOptions::gradient_tolerance_per_row)
       .def_readwrite("prior", &TrainOptions::prior)

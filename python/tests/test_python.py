@@ -72,6 +72,17 @@ def test_sparse_gp_from_python(scara, tmp_path):
         gipdyn.InverseDynamicsGP(joints="RRPR", inducing=-1).fit(train["X"], train["tau"])
 
 
+def test_hyperparameters_from_a_subsample_and_the_model_from_every_row(scara):
+    train, _ = scara
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, hyperparameter_rows=100, max_iter=30)
+    est.fit(train["X"], train["tau"])
+    assert est.train_options().hyperparameter_rows == 100
+    assert all(r["hyperparameter_rows"] == 100 for r in est.training_report_)
+    assert est.model_.num_data_rows == 200
+    with pytest.raises(ValueError, match="hyperparameter_rows must be 0 or at least"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", hyperparameter_rows=2).fit(train["X"], train["tau"])
+
+
 def test_partial_fit_with_refit_reoptimises_from_the_current_hyperparameters(scara):
     train, test = scara
     est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"][:100], train["tau"][:100])

@@ -27,7 +27,6 @@ void pdpotrs_(const char* uplo, const int* n, const int* nrhs, const double* a, 
 namespace gipdyn {
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093454836;
 constexpr int kOne = 1, kZero = 0;
 
 // The global indices of the rows (or columns) a process owns, in its local
@@ -263,7 +262,7 @@ NllEvaluation DistributedNll::evaluate(const Kernel& kernel, double log_noise_va
   if (bcols > 0) alpha(rows) = b;
   MPI_Allreduce(MPI_IN_PLACE, alpha.data(), N, MPI_DOUBLE, MPI_SUM, comm_);
 
-  out.nll = 0.5 * y.dot(alpha) + 0.5 * logdet + 0.5 * N * kLog2Pi;
+  out.nll = gaussian_nll(y.dot(alpha), logdet, N);
   // MPI does not promise bit-identical reductions on every process; the
   // optimisers stay in step only if they see identical values, so the first
   // process's are everyone's.

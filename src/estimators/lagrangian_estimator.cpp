@@ -7,13 +7,13 @@
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/gp/cholesky.hpp"
+#include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093453;
 
 void check_options(const TrainOptions& o) {
   TrainOptions shared = o;
@@ -69,7 +69,7 @@ class LikelihoodWorkspace {
       return e;
     }
     e.jitter = c.jitter;
-    e.nll = 0.5 * y_.dot(alpha_) + K_.diagonal().array().log().sum() + 0.5 * static_cast<double>(y_.size()) * kLog2Pi;
+    e.nll = gaussian_nll(y_.dot(alpha_), 2.0 * K_.diagonal().array().log().sum(), y_.size());
     if (!std::isfinite(e.nll)) {
       e.message = "the marginal likelihood is not finite";
       return e;

@@ -7,8 +7,6 @@
 namespace gipdyn {
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093454836;
-
 void build_covariance(const Kernel& kernel, double noise_variance, const Eigen::MatrixXd& Z, Eigen::MatrixXd& K,
                       KernelScratch& scratch) {
   K.resize(Z.rows(), Z.rows());
@@ -28,7 +26,7 @@ CholeskyResult factorize_covariance(const Kernel& kernel, double diag_add, const
 double solve_and_nll(const Eigen::MatrixXd& L, const Eigen::VectorXd& y, Eigen::VectorXd& alpha) {
   alpha = y;
   cholesky_solve(L, alpha);
-  return 0.5 * y.dot(alpha) + L.diagonal().array().log().sum() + 0.5 * static_cast<double>(y.size()) * kLog2Pi;
+  return gaussian_nll(y.dot(alpha), 2.0 * L.diagonal().array().log().sum(), y.size());
 }
 
 }  // namespace
@@ -99,6 +97,11 @@ NllEvaluation nll_with_optional_mean(const Kernel& kernel, double log_noise_vari
 }
 
 }  // namespace
+
+double gaussian_nll(double y_dot_alpha, double log_det, Eigen::Index rows) {
+  constexpr double kLog2Pi = 1.8378770664093454836;
+  return 0.5 * (y_dot_alpha + log_det + static_cast<double>(rows) * kLog2Pi);
+}
 
 NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
                            const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,

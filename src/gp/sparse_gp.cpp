@@ -10,7 +10,6 @@
 namespace gipdyn {
 namespace {
 
-constexpr double kLog2Pi = 1.8378770664093454836;
 constexpr Eigen::Index kRowBlock = 1024;  // rows per pass block: B x M buffers
 
 NllEvaluation::Status to_nll_status(const CholeskyResult& r) {
@@ -110,6 +109,7 @@ NllEvaluation evaluate_vfe(const Kernel& kernel, double log_noise_variance, cons
   const double s = std::exp(log_noise_variance);
   const double N = static_cast<double>(Z.rows()), M = static_cast<double>(Zm.rows());
   const FirstPass pass = first_pass(kernel, s, Z, y, Zm, ws, jitter);
+  ws.inducing_eps = pass.eps;
   out.jitter = pass.status.jitter - pass.eps;  // eps is part of the model, not a repair
   if (!pass.status.ok()) {
     out.status = to_nll_status(pass.status);
@@ -119,7 +119,7 @@ NllEvaluation evaluate_vfe(const Kernel& kernel, double log_noise_variance, cons
   const double yy = y.squaredNorm(), vy_c = ws.Vy.dot(ws.c);
   const double log_det_b = 2.0 * ws.LB.diagonal().array().log().sum();
   const double trace_term = (pass.diag_sum - ws.VVt.trace()) / (2.0 * s);  // tr(Knn - Q) / (2 s)
-  out.nll = 0.5 * (N * kLog2Pi + N * std::log(s) + log_det_b + (yy - vy_c / s) / s) + trace_term;
+  out.nll = gaussian_nll((yy - vy_c / s) / s, N * std::log(s) + log_det_b, Z.rows()) + trace_term;
   if (!std::isfinite(out.nll)) {
     out.message = "sparse marginal likelihood bound is not finite at these hyperparameters";
     return out;
@@ -178,8 +178,7 @@ SparsePosterior fit_sparse(const Kernel& kernel, double log_noise_variance, cons
   out.status.jitter = e.jitter;
   out.objective = e.nll;
   // Kmm's diagonal addition, for compute_factor to rebuild Lm: eps plus any repair.
-  kernel.diagonal(Zm, ws.d);
-  out.jitter = kInducingJitter * std::abs(ws.d.mean()) + e.jitter;
+  out.jitter = ws.inducing_eps + e.jitter;
   out.alpha = ws.Lm.triangularView<Eigen::Lower>().transpose().solve(ws.c) / std::exp(log_noise_variance);  // beta / s, beta = Lm^-T c
   out.inducing_factor = ws.Lm;
   out.posterior_factor = ws.Lm * ws.LB;  // A = Lm B Lm^T; both strict upper triangles are zero

@@ -36,6 +36,9 @@ std::string FitReport::brief_report() const {
                   j.noise_variance, j.jitter, j.seconds);
     out += buf;
   }
+  if (joints.front().hyperparameter_rows > 0)
+    out += " hyperparameters learned on " + std::to_string(joints.front().hyperparameter_rows) +
+           " rows (a constant-step subsample), the model conditioned on every row\n";
   for (const auto& j : joints) {
     if (j.restart_nlls.size() < 2) continue;
     out += " joint " + std::to_string(j.joint + 1) +

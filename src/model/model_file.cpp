@@ -13,7 +13,7 @@ std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.da
 
 nlohmann::json training_to_json(const JointReport& r) {
   return {{"status", to_string(r.status)},       {"evaluations", r.evaluations}, {"nll", r.nll},
-          {"warm_start_evaluations", r.warm_start_evaluations},
+          {"warm_start_evaluations", r.warm_start_evaluations}, {"hyperparameter_rows", r.hyperparameter_rows},
           {"grad_norm", r.grad_norm},            {"noise_variance", r.noise_variance},
           {"jitter", r.jitter},                  {"seconds", r.seconds},         {"restart_nlls", r.restart_nlls},
           {"message", r.message}};
@@ -25,6 +25,7 @@ JointReport training_from_json(const nlohmann::json& t, int joint) {
   r.status = parse_optimizer_status(t.at("status").get<std::string>());
   r.evaluations = t.at("evaluations").get<int>();
   r.warm_start_evaluations = t.value("warm_start_evaluations", 0);  // absent before warm starts existed
+  r.hyperparameter_rows = t.value("hyperparameter_rows", 0L);       // absent before such subsamples existed
   r.nll = t.at("nll").get<double>();
   r.grad_norm = t.at("grad_norm").get<double>();
   r.noise_variance = t.at("noise_variance").get<double>();

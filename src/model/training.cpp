@@ -29,6 +29,9 @@ void TrainOptions::validate() const {
   if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
     throw Error("TrainOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
   if (inducing_points < 0) throw Error("TrainOptions::inducing_points must be >= 0 (0: exact GP)");
+  if (hyperparameter_rows < 0) throw Error("TrainOptions::hyperparameter_rows must be >= 0 (0: all rows)");
+  if (hyperparameter_rows > 0 && hyperparameter_rows < static_cast<int>(kMinTrainingRows))
+    throw Error("TrainOptions::hyperparameter_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
   if (inducing_points > 0 && mean != MeanKind::Zero)
     throw Error("TrainOptions::mean must be zero with inducing points (TrainOptions::inducing_points)");
   if (!(gradient_tolerance_per_row >= 0.0)) throw Error("TrainOptions::gradient_tolerance_per_row must be >= 0");
@@ -93,7 +96,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   std::normal_distribution<double> normal(0.0, 1.0);
 
   // One optimisation of the NLL on the rows (Xr, Zr, yr).
-  // all_rows: (Xr, Zr, yr) are all the rows, not the warm-start subsample.
+  // all_rows: (Xr, Zr, yr) are the hyperparameter rows, not the warm-start subsample.
   auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
                       const Eigen::VectorXd& start, int restart) {
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
@@ -126,24 +129,39 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     return minimize(objective, start, stage, cb);
   };
 
+  // The rows the hyperparameters are learned on: all, or a constant-step subsample.
+  const bool subsampled = o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
+  Eigen::MatrixXd Xh, Zh;
+  Eigen::VectorXd yh;
+  if (subsampled) {
+    const std::vector<Eigen::Index> rows = constant_step_indices(X.rows(), o.hyperparameter_rows);
+    Xh = X(rows, Eigen::all);
+    Zh = Z(rows, Eigen::all);
+    yh = y(rows);
+  }
+  const Eigen::MatrixXd& Xo = subsampled ? Xh : X;
+  const Eigen::MatrixXd& Zo = subsampled ? Zh : Z;
+  const Eigen::VectorXd& yo = subsampled ? yh : y;
+  if (subsampled) out.report.hyperparameter_rows = static_cast<long>(yo.size());
+
   // Every start on the subsample when the data are large: the subsample's
   // optimum is a start close to the full data's, and there restarts are cheap.
-  const Eigen::Index N = X.rows();
+  const Eigen::Index N = Xo.rows();
   const bool warm = o.warm_start_rows > 0 && N >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
   Eigen::MatrixXd Xw, Zw;  // the warm-start subsample, taken once for every start
   Eigen::VectorXd yw;
   if (warm) {
     const std::vector<Eigen::Index> rows = constant_step_indices(N, o.warm_start_rows);
-    Xw = X(rows, Eigen::all);
-    Zw = Z(rows, Eigen::all);
-    yw = y(rows);
+    Xw = Xo(rows, Eigen::all);
+    Zw = Zo(rows, Eigen::all);
+    yw = yo(rows);
   }
   BestOfStarts starts;
   for (int r = 0; r <= o.restarts; ++r) {
     Eigen::VectorXd start = x0;
     if (r > 0)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    OptimizerResult res = warm ? optimise(Xw, Zw, yw, false, start, r) : optimise(X, Z, y, true, start, r);
+    OptimizerResult res = warm ? optimise(Xw, Zw, yw, false, start, r) : optimise(Xo, Zo, yo, true, start, r);
     (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
     starts.add(res);
   }
@@ -151,7 +169,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   OptimizerResult kept = starts.kept;
   Eigen::VectorXd best_x = starts.found() ? kept.x : Eigen::VectorXd();
   if (warm && best_x.size() > 0) {
-    OptimizerResult res = optimise(X, Z, y, true, best_x, 0);
+    OptimizerResult res = optimise(Xo, Zo, yo, true, best_x, 0);
     out.report.evaluations += res.evaluations;
     kept = res;
     best_x = res.usable() ? res.x : Eigen::VectorXd();

@@ -57,3 +57,19 @@ def test_sparse_training_refuses_bad_sizes_and_updates(tmp_path, gipdyn_bin):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "sparse" in lines[0], r.stderr
     assert not (tmp_path / "u.gipdyn").exists()
+
+
+def test_hyperparameter_rows_learn_on_a_subsample_and_keep_every_row(tmp_path, gipdyn_bin):
+    train = tmp_path / "train.csv"
+    write_dataset(train, 400, seed=13)
+    model = tmp_path / "m.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--inducing", "60",
+            "--hyperparameter-rows", "100", "--max-iter", "30", "--out", str(model))
+    assert r.returncode == 0, r.stderr
+    assert "hyperparameters learned on 100 rows (a constant-step subsample)" in r.stdout
+    h = header(model)
+    assert h["num_data_rows"] == 400
+    assert all(j["training"]["hyperparameter_rows"] == 100 for j in h["joint_models"]), h["joint_models"]
+    r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--hyperparameter-rows", "-1",
+            "--out", str(tmp_path / "bad.gipdyn"))
+    assert r.returncode == 1 and "--hyperparameter-rows must be >= 0" in r.stderr, r.stderr

@@ -40,6 +40,10 @@ struct NllEvaluation {
   std::string message;
 };
 
+// The Gaussian NLL from its parts, for y ~ N(0, K) with N rows:
+// 1/2 y^T K^-1 y + 1/2 log det K + N/2 log(2 pi).
+double gaussian_nll(double y_dot_alpha, double log_det, Eigen::Index rows);
+
 // Negative log marginal likelihood of y and (optionally) its gradient.
 NllEvaluation evaluate_nll(const Kernel& kernel, double log_noise_variance, const Eigen::MatrixXd& Z,
                            const Eigen::VectorXd& y, bool with_gradient, GpWorkspace& ws,

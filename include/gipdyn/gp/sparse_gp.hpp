@@ -26,6 +26,7 @@ namespace gipdyn {
 struct SparseGpWorkspace {
   Eigen::MatrixXd Lm, LB, VVt, Binv, C, H, Vb, Wb, Zb;
   Eigen::VectorXd Vy, c, d, alpha_b;
+  double inducing_eps = 0.0;  // the eps added to Kmm's diagonal by the last evaluation
   // Two, so that the diagonal's small blocks do not shrink the cross
   // contraction's large buffers (a reallocation per row block).
   KernelScratch scratch, diagonal_scratch;

@@ -22,8 +22,11 @@ struct JointReport {
   int joint = 0;  // 0-based
   double nll = 0.0;
   std::vector<double> restart_nlls;  // one per start (on the warm-start subsample if any), NaN where a start failed
-  int evaluations = 0;      // NLL evaluations on all rows
+  int evaluations = 0;      // NLL evaluations on all rows (or the hyperparameter rows)
   int warm_start_evaluations = 0;  // NLL evaluations on the warm-start subsample, over every start
+  // The rows the hyperparameters were learned on when a subsample
+  // (TrainOptions::hyperparameter_rows), else 0: learned on every row.
+  long hyperparameter_rows = 0;
   double grad_norm = 0.0;   // projected |dNLL/dtheta|_inf at the kept point
   double noise_variance = 0.0;  // learned, in units of the scaled output (a share of its variance when standardised)
   double seconds = 0.0;
