@@ -11,6 +11,7 @@
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/training.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -36,7 +37,9 @@ Problem make_problem(const char* joints_str, const char* kernel_name, int rows, 
   p.Z = p.fm.compute(X);
   p.y = (X.col(0).array().sin() + 0.3 * X.col(X.cols() - 1).array()).matrix() +
         0.1 * random_vector(rows, -1, 1, seed + 1);
-  p.kernel = make_kernel(kernel_name, p.fm, 0, {});
+  RobotPrior prior;  // the model-based kernels' nominal robot: the SCARA
+  if (joints.str() == "RRPR") prior.robot = std::make_shared<const RobotModel>(scara_robot());
+  p.kernel = make_kernel(kernel_name, p.fm, 0, prior);
   p.kernel->initialize(p.Z, 1.0);
   return p;
 }
@@ -104,8 +107,9 @@ TEST(SparseGp, GradientIsRightAcrossRowBlocks) {
 // The default contractions reduce to contract(); check them against the
 // per-parameter gradient matrices they avoid forming.
 TEST(SparseGp, CrossAndDiagonalContractionsMatchGradientMatrices) {
-  for (const char* name : {"gip", "rbf", "gip-envelope+friction", "gip+friction+rbf", "gip-friction"}) {
-    Problem p = make_problem("RP", name, 23, 51);
+  for (const char* name : {"gip", "rbf", "gip-envelope+friction", "gip+friction+rbf", "gip-friction", "pp", "sp"}) {
+    const bool model_based = std::string(name) == "pp" || std::string(name) == "sp";
+    Problem p = make_problem(model_based ? "RRPR" : "RP", name, 23, 51);
     const Eigen::MatrixXd Z1 = p.Z.topRows(17), Z2 = p.Z.bottomRows(6);
     const Eigen::MatrixXd W = Eigen::MatrixXd::NullaryExpr(17, 6, [](Eigen::Index i, Eigen::Index j) {
       return std::sin(1.0 + 3.0 * static_cast<double>(i) + 7.0 * static_cast<double>(j));

@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "field_names.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
@@ -151,7 +152,7 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
     const PlotResult p = render_plot(kind, input, (fs::path(dir) / png).string());
     if (!p.ok) warnings.push_back(p.message);
   }
-  for (const auto& wmsg : warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", wmsg.c_str());
+  print_warnings(warnings);
   if (j.contains("noise_ratio")) {
     std::printf(" learned noise / output variance:");
     for (double r : j["noise_ratio"]) std::printf(" %.3g", r);

@@ -5,6 +5,7 @@
 #include "cli_parsing.hpp"
 #include "output_guard.hpp"
 #include "commands.hpp"
+#include "field_names.hpp"
 #include "estimator_args.hpp"
 #include "gipdyn/error.hpp"
 #include "experiments/experiments.hpp"
@@ -21,7 +22,7 @@ ProgressCallback printer(bool quiet) {
 }
 
 int report(const ExperimentOutcome& o, bool quiet) {
-  for (const auto& w : o.warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", w.c_str());
+  print_warnings(o.warnings);
   if (!quiet) {
     std::printf("%d fit(s) done, %d already recorded, %d failed\n", o.units_done, o.units_skipped, o.units_failed);
     for (const auto& f : o.files) std::printf("wrote %s\n", f.c_str());

@@ -1,5 +1,7 @@
 #include "field_names.hpp"
 
+#include <cstdio>
+
 namespace gipdyn::cli {
 
 const FieldNames& cli_field_names() {
@@ -42,6 +44,11 @@ const FieldNames& cli_field_names() {
       {"PreprocessOptions::max_gap_steps", "--max-gap"},
   };
   return names;
+}
+
+void print_warnings(const std::vector<std::string>& warnings) {
+  for (const auto& w : warnings)
+    std::fprintf(stderr, "gipdyn: warning: %s\n", rename_fields(w, cli_field_names()).c_str());
 }
 
 }  // namespace gipdyn::cli

@@ -137,9 +137,8 @@ Command add_train(CLI::App& app) {
                         : "");
       std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
       std::fflush(stdout);
-      for (const auto& w : data_warnings) std::fprintf(stderr, "gipdyn: warning: %s\n", w.c_str());
-      for (const auto& w : r.report.warnings())
-        std::fprintf(stderr, "gipdyn: warning: %s\n", rename_fields(w, cli_field_names()).c_str());
+      print_warnings(data_warnings);
+      print_warnings(r.report.warnings());
     }
     return 0;
   };

@@ -66,8 +66,7 @@ Command add_update(CLI::App& app) {
       TrainResult r = refit_model(updated, o);
       if (!r.report.ok()) throw Error("refit failed: " + r.report.message);
       if (!a->quiet) std::printf("\n%s", r.report.brief_report().c_str());
-      for (const auto& w : r.report.warnings())
-        std::fprintf(stderr, "gipdyn: warning: %s\n", rename_fields(w, cli_field_names()).c_str());
+      print_warnings(r.report.warnings());
       updated = std::move(r.model);
     }
     save_estimator(GpEstimator(updated), a->out);

@@ -67,6 +67,14 @@ void LinearKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, 
   }
 }
 
+void LinearKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                                  Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& /*scratch*/) const {
+  int p = 0;
+  if (bias_) grad(p++) += bias_value() * W.sum();
+  for (size_t d = 0; d < columns_.size(); ++d, ++p)
+    grad(p) += weight(static_cast<int>(d)) * Z1.col(columns_[d]).dot(W * Z2.col(columns_[d]));
+}
+
 void LinearKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                        KernelScratch& /*scratch*/) const {
   out.setConstant(bias_value());

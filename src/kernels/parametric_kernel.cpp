@@ -80,6 +80,14 @@ void ParametricKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd&
   grad += (variances_.array() * (scratch.a.array() * scratch.b.array()).colwise().sum().transpose()).matrix();
 }
 
+void ParametricKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                                      Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  // sum_ij W_ij s_k phi1_ik phi2_jk = s_k sum_i phi1_ik (W phi2)_ik.
+  scratch.a = features(Z1);
+  scratch.b.noalias() = W * features(Z2);
+  grad += (variances_.array() * (scratch.a.array() * scratch.b.array()).colwise().sum().transpose()).matrix();
+}
+
 void ParametricKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
   const Eigen::VectorXd mean_sq = features(Z).array().square().colwise().mean().transpose();
   const double floor = 1e-12 * std::max(mean_sq.maxCoeff(), 1e-300);

@@ -26,6 +26,8 @@ class LinearKernel final : public Kernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+  void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                      Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
   double self(const double* z, int feature_dim) const override;

@@ -29,6 +29,8 @@ class ParametricKernel final : public Kernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+  void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                      Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
 
   // s_k = target / (active parameters * mean phi_k^2) for every parameter the
   // joint's torque depends on, so that k(x, x) starts near target on average.
