@@ -28,6 +28,8 @@ namespace gipdyn {
 namespace {
 
 constexpr int kOne = 1, kZero = 0;
+// Columns per panel of the kernel's values and the gradient's weights (at least one block).
+constexpr int kPanelColumns = 256;
 
 // The global indices of the rows (or columns) a process owns, in its local
 // order: block-cyclic with square blocks, the first block on process 0.
@@ -161,9 +163,9 @@ double DistributedNll::bytes_per_process(long rows) const {
   const int zero = 0;
   const double m = numroc_(&n, &block_, &zero, &zero, &grid_rows_);  // process 0 holds the most
   const double c = numroc_(&n, &block_, &zero, &zero, &grid_cols_);
-  // The matrix (K, its factor, then K^-1), and per panel of 256 columns the
+  // The matrix (K, its factor, then K^-1), and per panel of columns the
   // kernel's values, the weights W and the contraction's scratch.
-  return 8.0 * m * c + 3.0 * 8.0 * m * std::min(c, 256.0);
+  return 8.0 * m * c + 3.0 * 8.0 * m * std::min<double>(c, std::max(block_, kPanelColumns));
 }
 
 void DistributedNll::plan(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& Y) {
@@ -213,7 +215,7 @@ NllEvaluation DistributedNll::evaluate(const Kernel& kernel, double log_noise_va
   // Only the lower triangle is read, so the kernel is evaluated on panels of
   // local columns and the rows at or below each panel's first column: about
   // half the entries (the rest of the upper triangle is zero).
-  const std::vector<Panel> panels = lower_panels(rows, cols, std::max(block_, 256));
+  const std::vector<Panel> panels = lower_panels(rows, cols, std::max(block_, kPanelColumns));
   Eigen::MatrixXd A = Eigen::MatrixXd::Zero(mloc, nloc), Kp;
   auto build = [&](double diag_add) {
     for (const Panel& p : panels) {
@@ -253,8 +255,7 @@ NllEvaluation DistributedNll::evaluate(const Kernel& kernel, double log_noise_va
 
   // alpha = K^-1 y: the vector lives in the grid's first process column.
   const int bcols = numroc_(&kOne, &block_, &my_col_, &kZero, &grid_cols_);
-  Eigen::VectorXd b = Eigen::VectorXd::Zero(bcols > 0 ? mloc : 0);
-  if (bcols > 0) b = y(rows);
+  Eigen::VectorXd b = bcols > 0 ? Eigen::VectorXd(y(rows)) : Eigen::VectorXd();
   int bdesc[9];
   descinit_(bdesc, &N, &kOne, &block_, &block_, &kZero, &kZero, &context_, &lld, &info);
   pdpotrs_("L", &N, &kOne, A.data(), &kOne, &kOne, desc, b.data(), &kOne, &kOne, bdesc, &info);

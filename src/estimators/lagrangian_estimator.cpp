@@ -14,7 +14,6 @@
 namespace gipdyn {
 namespace {
 
-
 void check_options(const TrainOptions& o) {
   TrainOptions shared = o;
   shared.kernel = "gip";  // the kernel is LIP's own; the rest is checked as for any GP

@@ -98,6 +98,16 @@ NllEvaluation nll_with_optional_mean(const Kernel& kernel, double log_noise_vari
 
 }  // namespace
 
+CholeskyResult fit_result(const NllEvaluation& e) {
+  CholeskyResult r;
+  r.jitter = e.jitter;
+  r.message = e.message;
+  if (!e.ok())
+    r.status = e.status == NllEvaluation::Status::NonFinite ? CholeskyResult::Status::NonFinite
+                                                            : CholeskyResult::Status::NotPositiveDefinite;
+  return r;
+}
+
 double gaussian_nll(double y_dot_alpha, double log_det, Eigen::Index rows) {
   constexpr double kLog2Pi = 1.8378770664093454836;
   return 0.5 * (y_dot_alpha + log_det + static_cast<double>(rows) * kLog2Pi);

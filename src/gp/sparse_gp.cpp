@@ -169,13 +169,8 @@ SparsePosterior fit_sparse(const Kernel& kernel, double log_noise_variance, cons
                            const JitterPolicy& jitter) {
   SparsePosterior out;
   const NllEvaluation e = evaluate_vfe(kernel, log_noise_variance, Z, y, Zm, false, ws, jitter);
-  if (!e.ok()) {
-    out.status.status = e.status == NllEvaluation::Status::NonFinite ? CholeskyResult::Status::NonFinite
-                                                                      : CholeskyResult::Status::NotPositiveDefinite;
-    out.status.message = e.message;
-    return out;
-  }
-  out.status.jitter = e.jitter;
+  out.status = fit_result(e);
+  if (!e.ok()) return out;
   out.objective = e.nll;
   // Kmm's diagonal addition, for compute_factor to rebuild Lm: eps plus any repair.
   out.jitter = ws.inducing_eps + e.jitter;

@@ -60,6 +60,20 @@ struct JointOutcome {
   bool ok = false;
 };
 
+// A constant-step subsample of `count` rows of (X, Z, y).
+struct RowSubset {
+  Eigen::MatrixXd X, Z;
+  Eigen::VectorXd y;
+  RowSubset() = default;
+  RowSubset(const Eigen::MatrixXd& X_all, const Eigen::MatrixXd& Z_all, const Eigen::VectorXd& y_all,
+            Eigen::Index count) {
+    const std::vector<Eigen::Index> rows = constant_step_indices(X_all.rows(), count);
+    X = X_all(rows, Eigen::all);
+    Z = Z_all(rows, Eigen::all);
+    y = y_all(rows);
+  }
+};
+
 // Zm: the inducing rows' features of a sparse GP, or null for the exact GP.
 JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
                          const Eigen::MatrixXd* Zm, const Eigen::VectorXd& y, const TrainOptions& o,
@@ -131,37 +145,24 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
 
   // The rows the hyperparameters are learned on: all, or a constant-step subsample.
   const bool subsampled = o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
-  Eigen::MatrixXd Xh, Zh;
-  Eigen::VectorXd yh;
-  if (subsampled) {
-    const std::vector<Eigen::Index> rows = constant_step_indices(X.rows(), o.hyperparameter_rows);
-    Xh = X(rows, Eigen::all);
-    Zh = Z(rows, Eigen::all);
-    yh = y(rows);
-  }
-  const Eigen::MatrixXd& Xo = subsampled ? Xh : X;
-  const Eigen::MatrixXd& Zo = subsampled ? Zh : Z;
-  const Eigen::VectorXd& yo = subsampled ? yh : y;
+  RowSubset h;
+  if (subsampled) h = RowSubset(X, Z, y, o.hyperparameter_rows);
+  const Eigen::MatrixXd& Xo = subsampled ? h.X : X;
+  const Eigen::MatrixXd& Zo = subsampled ? h.Z : Z;
+  const Eigen::VectorXd& yo = subsampled ? h.y : y;
   if (subsampled) out.report.hyperparameter_rows = static_cast<long>(yo.size());
 
   // Every start on the subsample when the data are large: the subsample's
   // optimum is a start close to the full data's, and there restarts are cheap.
-  const Eigen::Index N = Xo.rows();
-  const bool warm = o.warm_start_rows > 0 && N >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
-  Eigen::MatrixXd Xw, Zw;  // the warm-start subsample, taken once for every start
-  Eigen::VectorXd yw;
-  if (warm) {
-    const std::vector<Eigen::Index> rows = constant_step_indices(N, o.warm_start_rows);
-    Xw = Xo(rows, Eigen::all);
-    Zw = Zo(rows, Eigen::all);
-    yw = yo(rows);
-  }
+  const bool warm = o.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
+  RowSubset w;  // the warm-start subsample, taken once for every start
+  if (warm) w = RowSubset(Xo, Zo, yo, o.warm_start_rows);
   BestOfStarts starts;
   for (int r = 0; r <= o.restarts; ++r) {
     Eigen::VectorXd start = x0;
     if (r > 0)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    OptimizerResult res = warm ? optimise(Xw, Zw, yw, false, start, r) : optimise(Xo, Zo, yo, true, start, r);
+    OptimizerResult res = warm ? optimise(w.X, w.Z, w.y, false, start, r) : optimise(Xo, Zo, yo, true, start, r);
     (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
     starts.add(res);
   }
@@ -221,14 +222,8 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   } else if (o.nll_backend) {  // the mean is zero there
     Eigen::VectorXd alpha;
     const NllEvaluation e = o.nll_backend->evaluate(out.gp.kernel(), best_x(P), Z, y, false, &alpha, o.jitter);
-    fit.jitter = e.jitter;
-    if (e.ok()) {
-      out.gp.set_state(alpha, e.jitter, e.nll);
-    } else {
-      fit.status = e.status == NllEvaluation::Status::NotPositiveDefinite ? CholeskyResult::Status::NotPositiveDefinite
-                                                                          : CholeskyResult::Status::NonFinite;
-      fit.message = e.message;
-    }
+    fit = fit_result(e);
+    if (e.ok()) out.gp.set_state(alpha, e.jitter, e.nll);
   } else {
     fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
   }
@@ -308,9 +303,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   const double kept = sparse ? 2.0 * n * square : options.keep_factor ? n * square : 0.0;
   // A backend plans the memory of its own processes.
   if (options.nll_backend) {
-    Eigen::MatrixXd scaled(Y.rows(), n);
-    for (int j = 0; j < n; ++j) scaled.col(j) = (Y.col(j).array() - offset(j)) / scale(j);
-    options.nll_backend->plan(Z, scaled);
+    options.nll_backend->plan(Z, Y);
   } else {
     require_memory(
         kept + per_joint, "training on " + std::to_string(X.rows()) + " rows",

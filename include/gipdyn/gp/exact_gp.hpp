@@ -40,6 +40,11 @@ struct NllEvaluation {
   std::string message;
 };
 
+// The factorisation's result behind a value-only evaluation (a final fit):
+// status, jitter and message; NonFinite stays NonFinite, other failures are
+// NotPositiveDefinite.
+CholeskyResult fit_result(const NllEvaluation& e);
+
 // The Gaussian NLL from its parts, for y ~ N(0, K) with N rows:
 // 1/2 y^T K^-1 y + 1/2 log det K + N/2 log(2 pi).
 double gaussian_nll(double y_dot_alpha, double log_det, Eigen::Index rows);

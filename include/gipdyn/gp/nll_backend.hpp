@@ -21,7 +21,7 @@ class NllBackend {
                                  const Eigen::VectorXd& y, bool with_gradient, Eigen::VectorXd* alpha,
                                  const JitterPolicy& jitter) = 0;
   // Called once by train_model before any evaluation, with the training
-  // features and the scaled targets (one column per joint). Throws
+  // features and targets (one column per joint). Throws
   // gipdyn::Error when the backend cannot hold a problem of this size, or (for
   // processes) when they disagree on the data. Collective like evaluate().
   virtual void plan(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& Y) = 0;
