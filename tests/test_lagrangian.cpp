@@ -11,6 +11,7 @@
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "gipdyn/training_data.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -236,6 +237,43 @@ TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
   // Training is deterministic.
   const FitResult again = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
   EXPECT_EQ(again.estimator->predict(test.X), r.estimator->predict(test.X));
+}
+
+// Hyperparameters learned on a subsample are those of a fit on the subsample
+// alone; the model is then the posterior on every row, written out here as
+// K*(K + noise)^-1 y from the kernel's own covariances.
+TEST(LagrangianEstimator, HyperparametersFromASubsampleConditionOnEveryRow) {
+  const SimulationResult train = small_scara(3, 90), test = small_scara(4, 10);
+  const JointTypes joints = JointTypes::parse("RRPR");
+  TrainOptions o;
+  o.optimizer.max_iterations = 30;
+  o.hyperparameter_rows = 30;
+  const auto full = LagrangianEstimator::fit(train.X, train.tau, joints, o);
+  ASSERT_TRUE(full.report.ok()) << full.report.message;
+  const std::vector<Eigen::Index> rows = constant_step_indices(90, 30);
+  o.hyperparameter_rows = 0;
+  const auto sub = LagrangianEstimator::fit(train.X(rows, Eigen::all), train.tau(rows, Eigen::all), joints, o);
+  ASSERT_TRUE(sub.report.ok()) << sub.report.message;
+  const LagrangianEstimator& m = *full.estimator;
+  EXPECT_EQ(m.kernel().log_params(), sub.estimator->kernel().log_params());
+  EXPECT_EQ(m.noise_variances(), sub.estimator->noise_variances());
+  EXPECT_EQ(m.training_inputs().rows(), 90);
+  for (const JointReport& j : full.report.joints) EXPECT_EQ(j.hyperparameter_rows, 30);
+  EXPECT_NE(full.report.brief_report().find("learned on 30 rows"), std::string::npos) << full.report.brief_report();
+
+  const int n = 4;
+  const double s2 = std::pow(m.to_container().header.at("torque_scale").get<double>(), 2);
+  Eigen::MatrixXd K = s2 * m.kernel().torque_covariance(train.X, train.X);
+  for (Eigen::Index r = 0; r < 90; ++r)
+    for (int i = 0; i < n; ++i) K(r * n + i, r * n + i) += m.noise_variances()(i);
+  const Eigen::MatrixXd tau_t = train.tau.transpose();
+  const Eigen::VectorXd y = Eigen::Map<const Eigen::VectorXd>(tau_t.data(), tau_t.size());
+  const Eigen::VectorXd stacked = s2 * m.kernel().torque_covariance(test.X, train.X) * K.ldlt().solve(y);
+  const Eigen::MatrixXd expected = Eigen::Map<const Eigen::MatrixXd>(stacked.data(), n, 10).transpose();
+  const Eigen::MatrixXd predicted = m.predict(test.X);
+  EXPECT_LT((predicted - expected).norm(), 1e-7 * expected.norm());
+  // Conditioning on every row is not the subsample's model.
+  EXPECT_GT((predicted - sub.estimator->predict(test.X)).norm(), 1e-6 * expected.norm());
 }
 
 TEST(LagrangianEstimator, RefusesOptionsItCannotHonourAndBadInput) {

@@ -12,6 +12,7 @@
 #include <filesystem>
 
 #include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"
@@ -66,6 +67,29 @@ void* memalign(size_t align, size_t n) {
 namespace gipdyn {
 namespace {
 
+// Saves `estimator`, loads it through the C API (null on failure, with the
+// failure recorded) and removes the file.
+gipdyn_model* load_through_c_api(const Estimator& estimator, const std::string& name) {
+  const std::string path =
+      (std::filesystem::temp_directory_path() / (name + "_" + std::to_string(::getpid()) + ".gipdyn")).string();
+  save_estimator(estimator, path);
+  gipdyn_model* model = nullptr;
+  const gipdyn_status status = gipdyn_model_load(path.c_str(), &model);
+  std::filesystem::remove(path);
+  EXPECT_EQ(status, GIPDYN_OK) << gipdyn_last_error();
+  return model;
+}
+
+// Heap allocations made while `body` runs.
+template <class Body>
+long allocations_during(Body&& body) {
+  g_allocations = 0;
+  g_armed = true;
+  body();
+  g_armed = false;
+  return g_allocations.load();
+}
+
 TEST(NoAllocation, InterpositionSeesAllocations) {
   static void* volatile sink_c;  // volatile: the compiler may not elide the pairs
   static double* volatile sink_cpp;
@@ -93,15 +117,15 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
     const Eigen::MatrixXd Xq = test::random_inputs(joints, 10, 62);
     Eigen::VectorXd x(12), tau(4), sd(4);
     ws.predict(Xq.row(0).transpose().eval().data(), tau.data(), sd.data());  // warm-up of the variance path
-    g_allocations = 0;
-    g_armed = true;
-    for (int k = 0; k < 10; ++k) {
-      for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
-      ws.predict(x.data(), tau.data());
-      ws.predict(x.data(), tau.data(), sd.data());
-    }
-    g_armed = false;
-    EXPECT_EQ(g_allocations.load(), 0) << kernel;
+    EXPECT_EQ(allocations_during([&] {
+                for (int k = 0; k < 10; ++k) {
+                  for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
+                  ws.predict(x.data(), tau.data());
+                  ws.predict(x.data(), tau.data(), sd.data());
+                }
+              }),
+              0)
+        << kernel;
   }
 }
 
@@ -126,18 +150,17 @@ TEST(NoAllocation, CApiQueriesDoNotAllocate) {
   double nan_q[4] = {0.1, std::nan(""), 0.1, 0.3};
   ASSERT_EQ(gipdyn_inertia(ws, q, 4, M), GIPDYN_OK);  // warm-up (first use of the thread's message buffer)
   gipdyn_status statuses[10][6];
-  g_allocations = 0;
-  g_armed = true;
-  for (auto& s : statuses) {
-    s[0] = gipdyn_predict(ws, q, qd, qdd, 4, tau);
-    s[1] = gipdyn_gravity(ws, q, 4, tau);
-    s[2] = gipdyn_inertia(ws, q, 4, M);
-    s[3] = gipdyn_predict(ws, nan_q, qd, qdd, 4, tau);
-    s[4] = gipdyn_predict(ws, q, qd, qdd, 3, tau);
-    s[5] = gipdyn_forward_dynamics(ws, q, qd, tau, 4, M);
-  }
-  g_armed = false;
-  EXPECT_EQ(g_allocations.load(), 0);
+  EXPECT_EQ(allocations_during([&] {
+              for (auto& s : statuses) {
+                s[0] = gipdyn_predict(ws, q, qd, qdd, 4, tau);
+                s[1] = gipdyn_gravity(ws, q, 4, tau);
+                s[2] = gipdyn_inertia(ws, q, 4, M);
+                s[3] = gipdyn_predict(ws, nan_q, qd, qdd, 4, tau);
+                s[4] = gipdyn_predict(ws, q, qd, qdd, 3, tau);
+                s[5] = gipdyn_forward_dynamics(ws, q, qd, tau, 4, M);
+              }
+            }),
+            0);
   for (const auto& s : statuses) {
     EXPECT_EQ(s[0], GIPDYN_OK);
     EXPECT_EQ(s[1], GIPDYN_OK);
@@ -159,12 +182,8 @@ TEST(NoAllocation, CApiNetworkQueriesDoNotAllocate) {
   o.epochs = 2;
   o.hidden = {32, 16};
   const NeuralNetworkEstimator net(NeuralNetwork::train(X, Eigen::MatrixXd::Random(200, 4), joints, o));
-  const std::string path =
-      (std::filesystem::temp_directory_path() / ("gipdyn_c_api_nn_" + std::to_string(::getpid()) + ".gipdyn")).string();
-  save_estimator(net, path);
-  gipdyn_model* model = nullptr;
-  ASSERT_EQ(gipdyn_model_load(path.c_str(), &model), GIPDYN_OK) << gipdyn_last_error();
-  std::filesystem::remove(path);
+  gipdyn_model* model = load_through_c_api(net, "gipdyn_c_api_nn");
+  ASSERT_NE(model, nullptr);
   ASSERT_EQ(gipdyn_model_allocation_free(model), 1);
   gipdyn_workspace* ws = nullptr;
   ASSERT_EQ(gipdyn_workspace_create(model, &ws), GIPDYN_OK);
@@ -173,16 +192,46 @@ TEST(NoAllocation, CApiNetworkQueriesDoNotAllocate) {
   const Eigen::MatrixXd expected = net.predict(X.topRows(1));
   gipdyn_status statuses[10];
   double first[4] = {0, 0, 0, 0};
-  g_allocations = 0;
-  g_armed = true;
-  for (auto& s : statuses) s = gipdyn_predict(ws, q, qd, qdd, 4, tau);
-  g_armed = false;
-  EXPECT_EQ(g_allocations.load(), 0);
+  EXPECT_EQ(allocations_during([&] {
+              for (auto& s : statuses) s = gipdyn_predict(ws, q, qd, qdd, 4, tau);
+            }),
+            0);
   for (auto s : statuses) EXPECT_EQ(s, GIPDYN_OK);
   // The same torques as the batch path.
   const Eigen::RowVectorXd x = X.row(0);
   ASSERT_EQ(gipdyn_predict(ws, x.data(), x.data() + 4, x.data() + 8, 4, first), GIPDYN_OK);
   for (int j = 0; j < 4; ++j) EXPECT_NEAR(first[j], expected(0, j), 1e-12 * (1 + std::abs(expected(0, j))));
+  gipdyn_workspace_free(ws);
+  gipdyn_model_free(model);
+}
+
+// LIP's C API queries allocate nothing: one n x n block per training row,
+// computed in the workspace's scratch. Torque, gravity and inertia alike.
+TEST(NoAllocation, CApiLagrangianQueriesDoNotAllocate) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 40, 65);
+  TrainOptions o;
+  o.optimizer.max_iterations = 5;
+  const auto fitted = LagrangianEstimator::fit(X, Eigen::MatrixXd::Random(40, 4), joints, o);
+  ASSERT_TRUE(fitted.report.ok()) << fitted.report.message;
+  gipdyn_model* model = load_through_c_api(*fitted.estimator, "gipdyn_c_api_lip");
+  ASSERT_NE(model, nullptr);
+  ASSERT_EQ(gipdyn_model_allocation_free(model), 1);
+  gipdyn_workspace* ws = nullptr;
+  ASSERT_EQ(gipdyn_workspace_create(model, &ws), GIPDYN_OK);
+  double q[4] = {0.1, -0.2, 0.1, 0.3}, qd[4] = {0.5, 0.1, 0.0, -0.2}, qdd[4] = {1, 2, 0.1, -1}, tau[4], M[16];
+  ASSERT_EQ(gipdyn_inertia(ws, q, 4, M), GIPDYN_OK);  // warm-up
+  gipdyn_status statuses[10][3];
+  EXPECT_EQ(allocations_during([&] {
+              for (auto& s : statuses) {
+                s[0] = gipdyn_predict(ws, q, qd, qdd, 4, tau);
+                s[1] = gipdyn_gravity(ws, q, 4, tau);
+                s[2] = gipdyn_inertia(ws, q, 4, M);
+              }
+            }),
+            0);
+  for (const auto& s : statuses)
+    for (auto status : s) EXPECT_EQ(status, GIPDYN_OK) << gipdyn_status_string(status);
   gipdyn_workspace_free(ws);
   gipdyn_model_free(model);
 }

@@ -368,15 +368,19 @@ class LagrangianGP(InverseDynamicsGP):
     (docs/method.md section 11). Besides torques, gravity, inertia and Coriolis
     it estimates the energies: kinetic_energy(X) and potential_energy(q) (the
     latter up to a constant). The system is (N n) x (N n): train it on a few
-    hundred rows (300 SCARA rows train in about 100 s).
+    hundred rows (300 SCARA rows train in about 100 s), or learn the
+    hyperparameters on a few hundred (hyperparameter_rows) and condition on a
+    few thousand.
 
     Parameters: joints, optimizer, max_iter, restarts, seed, min_noise,
-    learning_rate, verbose, gradient_tolerance, as InverseDynamicsGP's.
+    learning_rate, verbose, gradient_tolerance, hyperparameter_rows, as
+    InverseDynamicsGP's.
     """
 
     def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
                  restarts=_DEFAULTS.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
-                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row):
+                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row,
+                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows):
         self.joints = joints
         self.optimizer = optimizer
         self.max_iter = max_iter
@@ -386,10 +390,13 @@ class LagrangianGP(InverseDynamicsGP):
         self.learning_rate = learning_rate
         self.verbose = verbose
         self.gradient_tolerance = gradient_tolerance
+        self.hyperparameter_rows = hyperparameter_rows
 
     def train_options(self):
         """The library's TrainOptions for these parameters (checked when fitting)."""
-        return self._optimizer_options()
+        o = self._optimizer_options()
+        o.hyperparameter_rows = int(self.hyperparameter_rows)
+        return o
 
     def fit(self, X, Y):
         X, Y = self._training_arrays(X, Y)

@@ -399,6 +399,17 @@ def test_lagrangian_gp_energies_physics_and_files(scara, tmp_path):
         est.predict(test["X"][:5], return_std=True)
 
 
+def test_lagrangian_gp_hyperparameters_from_a_subsample(scara):
+    # Hyperparameters as a fit on the subsample alone, the model conditioned on every row.
+    train, test = scara
+    X, tau = train["X"][:90], train["tau"][:90]
+    full = gipdyn.LagrangianGP(joints="RRPR", max_iter=20, hyperparameter_rows=30).fit(X, tau)
+    sub = gipdyn.LagrangianGP(joints="RRPR", max_iter=20).fit(X[::3], tau[::3])
+    assert full.hyperparameters_ == sub.hyperparameters_
+    assert all(r["hyperparameter_rows"] == 30 for r in full.training_report_)
+    assert not np.allclose(full.predict(test["X"][:5]), sub.predict(test["X"][:5]))
+
+
 def _gip_model_file(train, tmp_path):
     path = tmp_path / "gip.gipdyn"
     gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"][:50], train["tau"][:50]).save(path)

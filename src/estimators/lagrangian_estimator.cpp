@@ -3,6 +3,7 @@
 #include <chrono>
 #include <cmath>
 #include <random>
+#include <vector>
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
@@ -102,12 +103,44 @@ class LikelihoodWorkspace {
   Eigen::VectorXd alpha_;
 };
 
+class LagrangianQueryWorkspace final : public QueryWorkspace {
+ public:
+  LagrangianQueryWorkspace(const LagrangianKernel& kernel, const Eigen::MatrixXd& states_by_column,
+                           const Eigen::VectorXd& alpha, double scale)
+      : kernel_(kernel), states_(states_by_column), alpha_(alpha), scale_(scale), scratch_(kernel),
+        block_(kernel.joints().size(), kernel.joints().size()), tau_(kernel.joints().size()) {}
+
+  void predict(const double* x, double* tau) override {
+    const Eigen::Index n = tau_.size();
+    tau_.setZero();
+    for (Eigen::Index r = 0; r < states_.cols(); ++r) {
+      kernel_.torque_block(x, states_.col(r).data(), scratch_, block_);
+      tau_.noalias() += block_ * alpha_.segment(r * n, n);
+    }
+    Eigen::Map<Eigen::VectorXd>(tau, n) = scale_ * tau_;
+  }
+  bool allocation_free() const override { return true; }
+
+ private:
+  const LagrangianKernel& kernel_;
+  const Eigen::MatrixXd& states_;
+  const Eigen::VectorXd& alpha_;
+  double scale_;
+  LagrangianKernel::PairScratch scratch_;
+  Eigen::MatrixXd block_;
+  Eigen::VectorXd tau_;
+};
+
 }  // namespace
+
+std::unique_ptr<QueryWorkspace> LagrangianEstimator::make_query_workspace() const {
+  return std::make_unique<LagrangianQueryWorkspace>(kernel_, states_by_column_, alpha_, scale_);
+}
 
 LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorXd noise_variances, double torque_scale,
                                          Eigen::MatrixXd X, Eigen::VectorXd alpha)
     : kernel_(std::move(kernel)), noise_(std::move(noise_variances)), scale_(torque_scale), X_(std::move(X)),
-      alpha_(std::move(alpha)) {
+      states_by_column_(X_.transpose()), alpha_(std::move(alpha)) {
   const int n = kernel_.joints().size();
   if (noise_.size() != n || X_.cols() != 3 * n || alpha_.size() != X_.rows() * n || !(scale_ > 0.0))
     throw Error("LagrangianEstimator: inconsistent shapes (noise, training states, weights or scale)");
@@ -122,23 +155,41 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   check_options(o);
   validate_training_data(X, Y, joints);
   const int n = joints.size();
+  // The hyperparameters may be learned on a constant-step subsample: each
+  // evaluation then costs (H/N)^3 of one on every row, and the model is
+  // conditioned on every row once, by one factorisation.
+  const bool subsampled = o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
+  const std::vector<Eigen::Index> rows =
+      subsampled ? constant_step_indices(X.rows(), o.hyperparameter_rows) : std::vector<Eigen::Index>();
+  const Eigen::MatrixXd X_subsample = subsampled ? Eigen::MatrixXd(X(rows, Eigen::all)) : Eigen::MatrixXd();
+  const Eigen::MatrixXd Y_subsample = subsampled ? Eigen::MatrixXd(Y(rows, Eigen::all)) : Eigen::MatrixXd();
+  const Eigen::MatrixXd& Xh = subsampled ? X_subsample : X;
+  const Eigen::MatrixXd& Yh = subsampled ? Y_subsample : Y;
   const double system = static_cast<double>(X.rows()) * n;
-  // One (N n)^2 matrix: the kernel, its factor and then its inverse in place.
-  require_memory(system * system * 8.0, "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) +
+  const double subsystem = subsampled ? static_cast<double>(Xh.rows()) * n : 0.0;
+  // One (N n)^2 matrix: the kernel, its factor and then its inverse in place;
+  // with a subsample, its (H n)^2 matrix beside the final one.
+  require_memory((system * system + subsystem * subsystem) * 8.0, "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) +
                                             " joints (one " + std::to_string(static_cast<long>(system)) +
                                             "-square matrix)",
-                 "train on fewer rows");
+                 subsampled ? "train on fewer rows" : "train on fewer rows, or learn the hyperparameters on a "
+                                                      "subsample (TrainOptions::hyperparameter_rows) and train on "
+                                                      "fewer rows");
   use_single_threaded_blas();
 
-  // One scale for all joints: the energies couple them, so no per-joint scaling.
-  const double scale = std::sqrt(std::max(Y.squaredNorm() / static_cast<double>(Y.size()), 1e-300));
+  // One scale for all joints: the energies couple them, so no per-joint
+  // scaling. Scale, start and bounds come from the rows the hyperparameters
+  // are learned on, so that they are those of a fit on the subsample alone.
+  const double scale = std::sqrt(std::max(Yh.squaredNorm() / static_cast<double>(Yh.size()), 1e-300));
   const Eigen::VectorXd y = stack_rows(Y) / scale;
+  const Eigen::VectorXd y_subsample = subsampled ? Eigen::VectorXd(stack_rows(Yh) / scale) : Eigen::VectorXd();
+  const Eigen::VectorXd& yh = subsampled ? y_subsample : y;
   Eigen::VectorXd joint_variance(n);
   for (int i = 0; i < n; ++i)
-    joint_variance(i) = std::max(Y.col(i).squaredNorm() / static_cast<double>(Y.rows()) / (scale * scale), 1e-12);
+    joint_variance(i) = std::max(Yh.col(i).squaredNorm() / static_cast<double>(Yh.rows()) / (scale * scale), 1e-12);
 
   LagrangianKernel kernel(joints);
-  kernel.initialize(X, 1.0);
+  kernel.initialize(Xh, 1.0);
   const int P = kernel.num_params();
   Eigen::VectorXd x0(P + n);
   x0.head(P) = kernel.log_params();
@@ -148,9 +199,9 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   opt.upper_bounds = Eigen::VectorXd::Constant(P + n, 30.0);
   opt.lower_bounds.tail(n) = (o.min_noise_fraction * joint_variance).array().log();
   opt.upper_bounds.tail(n) = (10.0 * joint_variance).array().log();
-  opt.gradient_tolerance = o.gradient_tolerance_per_row * system;
+  opt.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xh.rows()) * n;
 
-  LikelihoodWorkspace ws(X, y, n, o.jitter);
+  LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
   LagrangianKernel trial = kernel;
   std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
   std::normal_distribution<double> normal(0.0, 1.0);
@@ -185,7 +236,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
         ProgressEvent e = optimizer_event;
         e.estimator = "lip";
         e.restart = r;
-        e.rows = static_cast<long>(X.rows());
+        e.rows = static_cast<long>(Xh.rows());
         e.seconds = seconds();
         progress(e);
       };
@@ -205,7 +256,10 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   }
   kernel.set_log_params(kept.x.head(P));
   const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
-  const Evaluation final_fit = ws.evaluate(kernel, noise, false);
+  LikelihoodWorkspace all_rows(X, y, n, o.jitter);
+  LikelihoodWorkspace& final_ws = subsampled ? all_rows : ws;
+  if (subsampled) shared.hyperparameter_rows = static_cast<long>(Xh.rows());
+  const Evaluation final_fit = final_ws.evaluate(kernel, noise, false);
   if (!final_fit.ok) {
     out.report.message = "lip: final fit failed: " + final_fit.message;
     return out;
@@ -220,7 +274,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
     out.report.joints.push_back(j);
   }
   out.report.status = combine_joint_statuses(out.report.joints);
-  out.estimator = std::make_unique<LagrangianEstimator>(kernel, noise * scale * scale, scale, X, ws.alpha());
+  out.estimator = std::make_unique<LagrangianEstimator>(kernel, noise * scale * scale, scale, X, final_ws.alpha());
   return out;
 }
 

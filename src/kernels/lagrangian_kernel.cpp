@@ -131,10 +131,33 @@ void position_quantities(const std::vector<Jet>& jets, double& P, Eigen::VectorX
 }
 
 // S(x, y) of the notation above.
-void symmetric_term(const Eigen::MatrixXd& nu, const Eigen::VectorXd& x, const Eigen::VectorXd& y,
-                    Eigen::MatrixXd& S) {
-  S.noalias() = 2.0 * nu.cwiseProduct(y * x.transpose());
-  S.diagonal() += 2.0 * nu * x.cwiseProduct(y);
+void symmetric_term(const Eigen::MatrixXd& nu, const Eigen::Ref<const Eigen::VectorXd>& x,
+                    const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::MatrixXd& S) {
+  // Loops, not expressions: Eigen would evaluate the outer product into a
+  // heap temporary, and single queries must not allocate.
+  const Eigen::Index n = nu.rows();
+  for (Eigen::Index j = 0; j < n; ++j)
+    for (Eigen::Index i = 0; i < n; ++i) S(i, j) = 2.0 * nu(i, j) * y(i) * x(j);
+  for (Eigen::Index i = 0; i < n; ++i) {
+    double d = 0.0;
+    for (Eigen::Index j = 0; j < n; ++j) d += nu(i, j) * x(j) * y(j);
+    S(i, i) += 2.0 * d;
+  }
+}
+
+// K -= 2 (u o v) w', allocation-free.
+void subtract_twice_outer(const Eigen::Ref<const Eigen::VectorXd>& u, const Eigen::Ref<const Eigen::VectorXd>& v,
+                          const Eigen::Ref<const Eigen::VectorXd>& w, Eigen::Ref<Eigen::MatrixXd> K) {
+  for (Eigen::Index j = 0; j < K.cols(); ++j)
+    for (Eigen::Index i = 0; i < K.rows(); ++i) K(i, j) -= 2.0 * u(i) * v(i) * w(j);
+}
+
+// K -= 2 w (u o v)', allocation-free.
+void subtract_twice_outer_transposed(const Eigen::Ref<const Eigen::VectorXd>& w,
+                                     const Eigen::Ref<const Eigen::VectorXd>& u,
+                                     const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::MatrixXd> K) {
+  for (Eigen::Index j = 0; j < K.cols(); ++j)
+    for (Eigen::Index i = 0; i < K.rows(); ++i) K(i, j) -= 2.0 * w(i) * u(j) * v(j);
 }
 
 // d <W, S(x, y)> / d nu_ab (entries of nu taken as independent) added to G, times s.
@@ -181,13 +204,14 @@ struct LagrangianKernel::PairTerms {
   // Velocity products of the notation above: e = qd1 o qd2, b = nu e,
   // a5 = nu (qdd1 o qd2), c7 = nu (qdd2 o qd1), h6 = H' qd1, h8 = H qd2,
   // P1 = qd1.g, P1p = qd2.g', Q = qd1' H qd2.
-  Eigen::VectorXd e, b, a5, c7, h6, h8;
+  Eigen::VectorXd e, b, a5, c7, h6, h8, product;
   double P1 = 0.0, P1p = 0.0, Q = 0.0;
   Eigen::MatrixXd H, HV, S;
   std::vector<double> prefix, suffix;
   explicit PairTerms(int n)
-      : kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), H(n, n),
-        HV(n, n), S(n, n) {}
+      : kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), e(n), b(n),
+        a5(n), c7(n), h6(n), h8(n), product(n), H(n, n), HV(n, n), S(n, n), prefix(static_cast<size_t>(n) + 1),
+        suffix(static_cast<size_t>(n) + 1) {}
 };
 
 LagrangianKernel::LagrangianKernel(JointTypes joints) : joints_(std::move(joints)), n_(joints_.size()) {
@@ -259,8 +283,10 @@ void LagrangianKernel::kinetic_pair_terms(const double* x1, const double* x2, Pa
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
   t.e = qd1.cwiseProduct(qd2);
   t.b.noalias() = nu_ * t.e;
-  t.a5.noalias() = nu_ * qdd1.cwiseProduct(qd2);
-  t.c7.noalias() = nu_ * qdd2.cwiseProduct(qd1);
+  t.product = qdd1.cwiseProduct(qd2);  // a named vector: a product expression would make GEMV allocate
+  t.a5.noalias() = nu_ * t.product;
+  t.product = qdd2.cwiseProduct(qd1);
+  t.c7.noalias() = nu_ * t.product;
   t.h6.noalias() = t.H.transpose() * qd1;
   t.h8.noalias() = t.H * qd2;
   t.P1 = qd1.dot(t.g);
@@ -285,16 +311,27 @@ void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTe
   K.noalias() += P1 * t.S;
   symmetric_term(nu_, qd1, qd2, t.S);
   K.noalias() += Q * t.S;
-  K.noalias() -= 2.0 * qd2.cwiseProduct(a5) * t.gp.transpose();
-  K.noalias() -= 2.0 * qd2.cwiseProduct(b) * h6.transpose();
-  K.noalias() -= 2.0 * t.g * qd1.cwiseProduct(c7).transpose();
-  K.noalias() -= 2.0 * h8 * qd1.cwiseProduct(b).transpose();
+  subtract_twice_outer(qd2, a5, t.gp, K);
+  subtract_twice_outer(qd2, b, h6, K);
+  subtract_twice_outer_transposed(t.g, qd1, c7, K);
+  subtract_twice_outer_transposed(h8, qd1, b, K);
   K.noalias() += U * t.H + t.HV;
 }
+
+LagrangianKernel::PairScratch::PairScratch(const LagrangianKernel& kernel)
+    : terms_(std::make_unique<PairTerms>(kernel.n_)) {}
+LagrangianKernel::PairScratch::~PairScratch() = default;
+LagrangianKernel::PairScratch::PairScratch(PairScratch&&) noexcept = default;
+LagrangianKernel::PairScratch& LagrangianKernel::PairScratch::operator=(PairScratch&&) noexcept = default;
 
 void LagrangianKernel::torque_block(const double* x1, const double* x2, Eigen::Ref<Eigen::MatrixXd> block) const {
   PairTerms t(n_);
   assemble_block(x1, x2, t, block);
+}
+
+void LagrangianKernel::torque_block(const double* x1, const double* x2, PairScratch& scratch,
+                                    Eigen::Ref<Eigen::MatrixXd> block) const {
+  assemble_block(x1, x2, *scratch.terms_, block);
 }
 
 void LagrangianKernel::fill_blocks(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2, bool lower_only,

@@ -31,7 +31,9 @@ class LagrangianEstimator final : public Estimator {
   };
   // Maximum marginal likelihood. Uses of TrainOptions: optimizer,
   // gradient_tolerance_per_row, restarts, restart_spread, seed,
-  // initial_noise_fraction, min_noise_fraction, jitter. The others (kernel,
+  // initial_noise_fraction, min_noise_fraction, jitter, hyperparameter_rows
+  // (optimise on that constant-step subsample, then condition on every row
+  // once: the way to a few thousand rows). The others (kernel,
   // scaling, mean, prior, warm_start_rows, threads, keep_factor) belong to the
   // per-joint GPs: kernel and scaling are ignored, and mean, prior and
   // warm_start_rows must be left at their defaults (gipdyn::Error otherwise). Throws
@@ -42,6 +44,8 @@ class LagrangianEstimator final : public Estimator {
   std::string name() const override { return "lip"; }
   const JointTypes& joints() const override { return kernel_.joints(); }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
+  // Single queries make no heap allocation: one n x n block per training row.
+  std::unique_ptr<QueryWorkspace> make_query_workspace() const override;
   ModelContainer to_container() const override;
   nlohmann::json summary() const override;
   static LagrangianEstimator from_container(const ModelContainer& c, const std::string& what);
@@ -65,6 +69,7 @@ class LagrangianEstimator final : public Estimator {
   Eigen::VectorXd noise_;  // in the torques' units squared
   double scale_ = 1.0;
   Eigen::MatrixXd X_;
+  Eigen::MatrixXd states_by_column_;  // X_ transposed: a single query reads each training state contiguously
   Eigen::VectorXd alpha_;
 };
 

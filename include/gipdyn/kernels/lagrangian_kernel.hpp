@@ -22,6 +22,7 @@
 // States are rows x = (q, qd, qdd) of length 3n; covariance matrices of many
 // states are sample-major: entry (r n + i, s n + j) is cov(tau_i(x_r), tau_j(x_s)).
 #include <Eigen/Dense>
+#include <memory>
 #include <string>
 #include <vector>
 
@@ -30,6 +31,8 @@
 namespace gipdyn {
 
 class LagrangianKernel {
+  struct PairTerms;
+
  public:
   explicit LagrangianKernel(JointTypes joints);
 
@@ -41,8 +44,23 @@ class LagrangianKernel {
   // Throws gipdyn::Error unless the length is num_params() and every entry is finite.
   void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& log_params);
 
+  // Scratch for one pair of states, reused across calls (one per thread):
+  // with it, torque_block makes no heap allocation.
+  class PairScratch {
+   public:
+    explicit PairScratch(const LagrangianKernel& kernel);
+    ~PairScratch();
+    PairScratch(PairScratch&&) noexcept;
+    PairScratch& operator=(PairScratch&&) noexcept;
+
+   private:
+    friend class LagrangianKernel;
+    std::unique_ptr<PairTerms> terms_;
+  };
+
   // cov(tau(x1), tau(x2)), n x n.
   void torque_block(const double* x1, const double* x2, Eigen::Ref<Eigen::MatrixXd> block) const;
+  void torque_block(const double* x1, const double* x2, PairScratch& scratch, Eigen::Ref<Eigen::MatrixXd> block) const;
   // (rows(X1) n) x (rows(X2) n).
   Eigen::MatrixXd torque_covariance(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2) const;
   // Lower triangle of torque_covariance(X, X) (the strict upper one is unspecified).
@@ -68,7 +86,6 @@ class LagrangianKernel {
   int potential_offset() const { return potential_offset_; }
 
  private:
-  struct PairTerms;
   // Per-joint jets of the position kernels for one pair of states.
   void position_jets(const double* q1, const double* q2, PairTerms& t) const;
   // The kinetic energy's position quantities and velocity products for a pair.
