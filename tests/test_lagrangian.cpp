@@ -241,7 +241,8 @@ TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
 
 // Hyperparameters learned on a subsample are those of a fit on the subsample
 // alone; the model is then the posterior on every row, written out here as
-// K*(K + noise)^-1 y from the kernel's own covariances.
+// K*(K + noise)^-1 y from the kernel's own covariances, and so are its
+// standard deviations.
 TEST(LagrangianEstimator, HyperparametersFromASubsampleConditionOnEveryRow) {
   const SimulationResult train = small_scara(3, 90), test = small_scara(4, 10);
   const JointTypes joints = JointTypes::parse("RRPR");
@@ -274,6 +275,24 @@ TEST(LagrangianEstimator, HyperparametersFromASubsampleConditionOnEveryRow) {
   EXPECT_LT((predicted - expected).norm(), 1e-7 * expected.norm());
   // Conditioning on every row is not the subsample's model.
   EXPECT_GT((predicted - sub.estimator->predict(test.X)).norm(), 1e-6 * expected.norm());
+
+  // Standard deviations: diag(k(x, x)) - k*' (K + noise)^-1 k*, from the same dense matrices.
+  EXPECT_NE(test::error_of([&] { m.predict_std(test.X); }).find("with_variance"), std::string::npos);
+  const LagrangianEstimator with_variance = m.with_variance();
+  ASSERT_TRUE(with_variance.has_variance());
+  const Eigen::MatrixXd sd = with_variance.predict_std(test.X);
+  const Eigen::LDLT<Eigen::MatrixXd> solver(K);
+  for (Eigen::Index r = 0; r < 10; ++r) {
+    const Eigen::MatrixXd x = test.X.row(r);
+    const Eigen::MatrixXd cross = s2 * m.kernel().torque_covariance(train.X, x);
+    const Eigen::VectorXd var =
+        (s2 * m.kernel().torque_covariance(x, x) - cross.transpose() * solver.solve(cross)).diagonal();
+    for (int i = 0; i < n; ++i)
+      EXPECT_NEAR(sd(r, i), std::sqrt(std::max(var(i), 0.0)), 1e-6 * std::sqrt(s2)) << "row " << r << " joint " << i;
+  }
+  EXPECT_EQ(with_variance.predict(test.X), predicted);
+  // Not a clipped zero: the test states are new, so the model is uncertain about them.
+  EXPECT_GT(sd.minCoeff(), 1e-4 * std::sqrt(s2));
 }
 
 TEST(LagrangianEstimator, RefusesOptionsItCannotHonourAndBadInput) {

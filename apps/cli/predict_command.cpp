@@ -1,10 +1,11 @@
-// `gipdyn predict`: torques (and, for GP models, standard deviations) for a CSV of states.
+// `gipdyn predict`: torques (and, for GP and lip models, standard deviations) for a CSV of states.
 #include <memory>
 
 #include "commands.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
@@ -21,7 +22,7 @@ Command add_predict(CLI::App& app) {
   app.add_option("--data", a->data, "CSV with columns q1..qn, qd1..qdn, qdd1..qddn (others ignored)")
       ->required()->check(CLI::ExistingFile);
   app.add_option("--out", a->out,
-                 "Output CSV: tau1_hat..taun_hat, and tau1_std..taun_std for GP models")->required();
+                 "Output CSV: tau1_hat..taun_hat, and tau1_std..taun_std for GP and lip models")->required();
   app.add_flag("--no-std", a->no_std, "Skip the standard deviations (much faster for large models)");
   return [a]() -> int {
     refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
@@ -31,10 +32,17 @@ Command add_predict(CLI::App& app) {
     Eigen::MatrixXd mean, sd;
     std::vector<std::string> header = torque_column_names(n, "_hat");
     const InverseDynamicsModel* gp = estimator->gp_model();
-    if (a->no_std || gp == nullptr) {
+    const auto* lip = dynamic_cast<const LagrangianEstimator*>(estimator.get());
+    if (a->no_std || (gp == nullptr && lip == nullptr)) {
       write_csv(a->out, header, estimator->predict(data.X));
     } else {
-      gp->with_variance().predict(data.X, mean, &sd);
+      if (gp) {
+        gp->with_variance().predict(data.X, mean, &sd);
+      } else {
+        const LagrangianEstimator with_variance = lip->with_variance();
+        mean = with_variance.predict(data.X);
+        sd = with_variance.predict_std(data.X);
+      }
       const auto std_names = torque_column_names(n, "_std");
       header.insert(header.end(), std_names.begin(), std_names.end());
       Eigen::MatrixXd both(mean.rows(), 2 * n);

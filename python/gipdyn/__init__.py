@@ -422,11 +422,16 @@ class LagrangianGP(InverseDynamicsGP):
             raise ValueError("this LagrangianGP is not fitted yet; call fit(X, Y) first")
 
     def predict(self, X, return_std=False):
-        """Torques (N, n)."""
-        if return_std:
-            raise ValueError("LagrangianGP gives no predictive variance yet; use return_std=False")
+        """Torques (N, n); with return_std also the latent standard deviations
+        (the first such call factorises the (N n)^2 training covariance once)."""
         self._check_fitted()
-        return self.model_.predict(np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints)))
+        X = np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints))
+        mean = self.model_.predict(X)
+        if not return_std:
+            return mean
+        if not self.model_.has_variance:
+            self.model_ = self.model_.with_variance()
+        return mean, self.model_.predict_std(X)
 
     def predict_one(self, x):
         return self.predict(np.atleast_2d(x))[0]

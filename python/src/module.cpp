@@ -422,6 +422,25 @@ PYBIND11_MODULE(_core, m) {
             return s.estimator->predict(X);
           },
           py::arg("X"))
+      .def_property_readonly("has_variance", [](const LagrangianModel& s) { return s.estimator->has_variance(); })
+      .def(
+          "with_variance",
+          [](const LagrangianModel& s) {
+            auto m = std::make_shared<LagrangianModel>();
+            {
+              py::gil_scoped_release release;
+              m->estimator = std::make_shared<const LagrangianEstimator>(s.estimator->with_variance());
+            }
+            m->report = s.report;
+            return m;
+          })
+      .def(
+          "predict_std",
+          [](const LagrangianModel& s, ConstRef X) {
+            py::gil_scoped_release release;
+            return s.estimator->predict_std(X);
+          },
+          py::arg("X"))
       .def(
           "kinetic_energy",
           [](const LagrangianModel& s, ConstRef X) {

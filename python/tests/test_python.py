@@ -395,8 +395,14 @@ def test_lagrangian_gp_energies_physics_and_files(scara, tmp_path):
     np.testing.assert_array_equal(loaded.predict(test["X"][:5]), est.predict(test["X"][:5]))
     with pytest.raises(ValueError, match="not lip"):
         gipdyn.LagrangianGP.load(_gip_model_file(train, tmp_path))
-    with pytest.raises(ValueError, match="no predictive variance"):
-        est.predict(test["X"][:5], return_std=True)
+    # Standard deviations: positive, larger far from the training states, the same after loading.
+    mean, std = est.predict(test["X"][:5], return_std=True)
+    np.testing.assert_array_equal(mean, est.predict(test["X"][:5]))
+    assert std.shape == (5, 4) and np.all(std > 0)
+    far = test["X"][:5].copy()
+    far[:, 4:12] *= 5.0
+    assert np.all(est.predict(far, return_std=True)[1] > std)
+    np.testing.assert_allclose(loaded.predict(test["X"][:5], return_std=True)[1], std, rtol=1e-8)
 
 
 def test_lagrangian_gp_hyperparameters_from_a_subsample(scara):

@@ -305,6 +305,47 @@ Eigen::MatrixXd LagrangianEstimator::predict(const Eigen::Ref<const Eigen::Matri
   return tau;
 }
 
+LagrangianEstimator LagrangianEstimator::with_variance() const {
+  const int n = joints().size();
+  const double system = static_cast<double>(X_.rows()) * n;
+  require_memory(system * system * 8.0,
+                 "lip variances for " + std::to_string(X_.rows()) + " training rows (one " +
+                     std::to_string(static_cast<long>(system)) + "-square factor)",
+                 "train on fewer rows to get variances");
+  LagrangianEstimator out = *this;
+  const Eigen::VectorXd noise = noise_ / (scale_ * scale_);
+  auto build = [&](Eigen::MatrixXd& K) {
+    kernel_.torque_gram_lower(X_, K);
+    for (Eigen::Index r = 0; r < X_.rows(); ++r)
+      for (int i = 0; i < n; ++i) K(r * n + i, r * n + i) += noise(i);
+  };
+  build(out.factor_);
+  const CholeskyResult c = cholesky_with_jitter(out.factor_, build);
+  if (!c.ok()) throw Error("lip variances: " + c.message);
+  return out;
+}
+
+Eigen::MatrixXd LagrangianEstimator::predict_std(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
+  const int n = joints().size();
+  if (!has_variance())
+    throw Error("lip predict_std: this model holds no factor for variances; use the model from with_variance()");
+  if (X.cols() != 3 * n)
+    throw Error("lip predict_std: " + std::to_string(X.cols()) + " columns given, " + std::to_string(3 * n) +
+                " expected (q, qd, qdd of " + std::to_string(n) + " joints)");
+  Eigen::MatrixXd sd(X.rows(), n);
+  Eigen::MatrixXd prior(n, n);
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    const Eigen::RowVectorXd x = X.row(r);
+    kernel_.torque_block(x.data(), x.data(), prior);
+    // V = L^-1 k(X_train, x): the variance explained by the data is V's column norms.
+    Eigen::MatrixXd V = kernel_.torque_covariance(X_, x);
+    factor_.triangularView<Eigen::Lower>().solveInPlace(V);
+    const Eigen::VectorXd var = prior.diagonal() - V.colwise().squaredNorm().transpose();
+    sd.row(r) = (var.cwiseMax(0.0).cwiseSqrt() * scale_).transpose();
+  }
+  return sd;
+}
+
 // The posterior mean of an energy: its covariance with the training torques times alpha.
 template <class Covariance>
 Eigen::VectorXd LagrangianEstimator::energy(const Eigen::MatrixXd& states, Covariance&& covariance) const {

@@ -300,6 +300,18 @@ def test_lip_trains_and_gives_energies(tmp_path, gipdyn_bin):
     assert rel(V - V.mean(), V_true - V_true.mean()) < 1e-3
     r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"))
     assert r.returncode == 0, r.stderr
+    # Predictions with standard deviations, which grow away from the training states.
+    r = run(gipdyn_bin, "predict", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"),
+            "--out", str(tmp_path / "p.csv"))
+    assert r.returncode == 0, r.stderr
+    header, table = read_table(tmp_path / "p.csv")
+    assert header == ["tau1_hat", "tau2_hat", "tau1_std", "tau2_std"]
+    assert np.all(table[:, 2:] > 0)
+    # Hyperparameters from 50 of the 100 rows, the model on all of them.
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "lip",
+            "--hyperparameter-rows", "50", "--out", str(tmp_path / "lip50.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "learned on 50 rows" in r.stdout, r.stdout
 
 
 def test_evaluate_compares_physics_with_the_robot(tmp_path, gipdyn_bin):

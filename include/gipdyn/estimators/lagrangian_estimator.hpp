@@ -50,6 +50,17 @@ class LagrangianEstimator final : public Estimator {
   nlohmann::json summary() const override;
   static LagrangianEstimator from_container(const ModelContainer& c, const std::string& what);
 
+  // The same model able to give predictive variances: it holds the factor of
+  // the (N n)^2 training covariance (built here once, O((N n)^3), not saved in
+  // model files). Throws gipdyn::Error when it cannot be factorised or would
+  // not fit in memory.
+  LagrangianEstimator with_variance() const;
+  bool has_variance() const { return factor_.size() > 0; }
+  // Posterior standard deviation of each joint's noise-free torque at every
+  // row of X (M x n, the torques' units). Throws gipdyn::Error unless
+  // has_variance().
+  Eigen::MatrixXd predict_std(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
+
   // Kinetic energy at every row of X (rows x 3n or rows x 2n: q, qd), J.
   Eigen::VectorXd kinetic_energy(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
   // Potential energy at every row of Q (rows x n or more: q first), J, up to an
@@ -71,6 +82,7 @@ class LagrangianEstimator final : public Estimator {
   Eigen::MatrixXd X_;
   Eigen::MatrixXd states_by_column_;  // X_ transposed: a single query reads each training state contiguously
   Eigen::VectorXd alpha_;
+  Eigen::MatrixXd factor_;  // lower Cholesky factor of the scaled training covariance plus noise, or empty
 };
 
 }  // namespace gipdyn
