@@ -160,7 +160,7 @@ TEST(CApi, EveryEstimatorPredictsAsTheCppApi) {
     std::string name;
     bool physics, allocation_free;
   };
-  std::vector<Expect> cases = {{"gip", true, true}, {"rbf", false, true}, {"fe", true, false}, {"lip", true, true}};
+  std::vector<Expect> cases = {{"gip", true, true}, {"rbf", false, true}, {"fe", true, true}, {"lip", true, true}};
   if (neural_network_training_available()) cases.push_back({"nn", false, true});
   for (const Expect& c : cases) {
     EstimatorOptions o;

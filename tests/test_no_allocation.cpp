@@ -12,7 +12,8 @@
 #include <filesystem>
 
 #include "gipdyn/estimators/estimator_file.hpp"
-#include "gipdyn/estimators/lagrangian_estimator.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"
@@ -205,16 +206,10 @@ TEST(NoAllocation, CApiNetworkQueriesDoNotAllocate) {
   gipdyn_model_free(model);
 }
 
-// LIP's C API queries allocate nothing: one n x n block per training row,
-// computed in the workspace's scratch. Torque, gravity and inertia alike.
-TEST(NoAllocation, CApiLagrangianQueriesDoNotAllocate) {
-  const JointTypes joints = JointTypes::parse("RRPR");
-  const Eigen::MatrixXd X = test::random_inputs(joints, 40, 65);
-  TrainOptions o;
-  o.optimizer.max_iterations = 5;
-  const auto fitted = LagrangianEstimator::fit(X, Eigen::MatrixXd::Random(40, 4), joints, o);
-  ASSERT_TRUE(fitted.report.ok()) << fitted.report.message;
-  gipdyn_model* model = load_through_c_api(*fitted.estimator, "gipdyn_c_api_lip");
+// Loads `estimator` through the C API and checks that its torque, gravity and
+// inertia queries make no heap allocation.
+void expect_queries_do_not_allocate(const Estimator& estimator, const std::string& name) {
+  gipdyn_model* model = load_through_c_api(estimator, name);
   ASSERT_NE(model, nullptr);
   ASSERT_EQ(gipdyn_model_allocation_free(model), 1);
   gipdyn_workspace* ws = nullptr;
@@ -234,6 +229,23 @@ TEST(NoAllocation, CApiLagrangianQueriesDoNotAllocate) {
     for (auto status : s) EXPECT_EQ(status, GIPDYN_OK) << gipdyn_status_string(status);
   gipdyn_workspace_free(ws);
   gipdyn_model_free(model);
+}
+
+// lip and fe C API queries allocate nothing either: LIP's n x n blocks and
+// fe's regressor are built in the workspace. Torque, gravity and inertia alike.
+TEST(NoAllocation, CApiLagrangianAndFisherianQueriesDoNotAllocate) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 40, 65);
+  for (const char* name : {"lip", "fe"}) {
+    SCOPED_TRACE(name);
+    EstimatorOptions o;
+    o.name = name;
+    o.gp.optimizer.max_iterations = 5;
+    o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
+    const FitResult fitted = fit_estimator(o, X, Eigen::MatrixXd::Random(40, 4), joints);
+    ASSERT_TRUE(fitted.report.ok()) << fitted.report.message;
+    expect_queries_do_not_allocate(*fitted.estimator, std::string("gipdyn_c_api_") + name);
+  }
 }
 
 }  // namespace

@@ -4,8 +4,8 @@
  * Load a model file written by `gipdyn train` or the C++/Python APIs, make
  * one workspace per thread, then query torques (and, for models with the
  * rigid-body structure, gravity and inertia) for one state at a time. After
- * gipdyn_workspace_create, the query functions of GP, lip and nn models
- * allocate no memory (gipdyn_model_allocation_free; fe queries do), none takes
+ * gipdyn_workspace_create, the query functions allocate no memory, whatever
+ * the estimator (gipdyn_model_allocation_free says so per model), none takes
  * a lock or throws: every function returns a gipdyn_status, and
  * gipdyn_last_error() gives a one-line message for the last failure of the
  * calling thread.
@@ -58,8 +58,8 @@ int gipdyn_model_num_joints(const gipdyn_model* model);
 /* 1 if gravity and inertia are defined (gip, gip-friction, gip+friction, pp,
  * fe, lip), else 0. */
 int gipdyn_model_has_physics(const gipdyn_model* model);
-/* 1 if this model's queries never allocate once the workspace exists (the GP
- * estimators, lip and nn); 0 for fe, whose queries allocate, and for NULL. */
+/* 1 if this model's queries never allocate once the workspace exists (every
+ * estimator gipdyn writes today: the GP kernels, lip, fe and nn); 0 for NULL. */
 int gipdyn_model_allocation_free(const gipdyn_model* model);
 
 gipdyn_status gipdyn_workspace_create(const gipdyn_model* model, gipdyn_workspace** workspace);

@@ -11,6 +11,26 @@ namespace {
 
 int regressor_columns(const RobotPrior& prior) { return (prior.friction ? 12 : 10) * prior.robot->num_joints(); }
 
+class FisherianQueryWorkspace final : public QueryWorkspace {
+ public:
+  FisherianQueryWorkspace(const RobotPrior& prior, const Eigen::VectorXd& weights)
+      : prior_(prior), weights_(weights), regressor_(*prior.robot),
+        Phi_(prior.robot->num_joints(), regressor_columns(prior)) {}
+
+  void predict(const double* x, double* tau) override {
+    const int n = static_cast<int>(Phi_.rows());
+    regressor_into(*prior_.robot, x, x + n, x + 2 * n, prior_.friction, regressor_, Phi_);
+    Eigen::Map<Eigen::VectorXd>(tau, n).noalias() = Phi_ * weights_;
+  }
+  bool allocation_free() const override { return true; }
+
+ private:
+  const RobotPrior& prior_;
+  const Eigen::VectorXd& weights_;
+  RegressorWorkspace regressor_;
+  Eigen::MatrixXd Phi_;
+};
+
 }  // namespace
 
 FisherianEstimator::FisherianEstimator(RobotPrior prior, Eigen::VectorXd weights)
@@ -37,6 +57,10 @@ FisherianEstimator FisherianEstimator::fit(const RobotPrior& prior, const Eigen:
   Eigen::VectorXd w = Eigen::VectorXd::Zero(regressor_columns(prior));
   for (size_t k = 0; k < base.independent.size(); ++k) w(base.independent[k]) = wb(static_cast<Eigen::Index>(k));
   return FisherianEstimator(prior, w);
+}
+
+std::unique_ptr<QueryWorkspace> FisherianEstimator::make_query_workspace() const {
+  return std::make_unique<FisherianQueryWorkspace>(prior_, weights_);
 }
 
 Eigen::MatrixXd FisherianEstimator::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {

@@ -104,14 +104,37 @@ Eigen::MatrixXd inverse_dynamics(const RobotModel& robot, const Eigen::MatrixXd&
 // The same recursion as KDL::ChainIdSolver_RNE (segment poses and unit twists
 // from KDL), with the body wrench replaced by its regressor in the standard
 // parameters, propagated link by link towards the base.
+struct RegressorWorkspace::Frames {
+  std::vector<KDL::Frame> X;
+  std::vector<KDL::Twist> S;
+  std::vector<Matrix6x10, Eigen::aligned_allocator<Matrix6x10>> A;
+  explicit Frames(int n) : X(static_cast<size_t>(n)), S(static_cast<size_t>(n)), A(static_cast<size_t>(n)) {}
+};
+
+RegressorWorkspace::RegressorWorkspace(const RobotModel& robot)
+    : frames_(std::make_unique<Frames>(robot.num_joints())) {}
+RegressorWorkspace::~RegressorWorkspace() = default;
+RegressorWorkspace::RegressorWorkspace(RegressorWorkspace&&) noexcept = default;
+RegressorWorkspace& RegressorWorkspace::operator=(RegressorWorkspace&&) noexcept = default;
+
 Eigen::MatrixXd regressor(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                           const Eigen::VectorXd& qdd, bool with_friction) {
   check_sizes(robot, q, qd, qdd);
   const int n = robot.num_joints();
+  RegressorWorkspace workspace(robot);
+  Eigen::MatrixXd Phi(n, with_friction ? 12 * n : 10 * n);
+  regressor_into(robot, q.data(), qd.data(), qdd.data(), with_friction, workspace, Phi);
+  return Phi;
+}
+
+void regressor_into(const RobotModel& robot, const double* q_data, const double* qd_data, const double* qdd_data,
+                    bool with_friction, RegressorWorkspace& workspace, Eigen::Ref<Eigen::MatrixXd> Phi) {
+  const int n = robot.num_joints();
+  const Eigen::Map<const Eigen::VectorXd> q(q_data, n), qd(qd_data, n), qdd(qdd_data, n);
   const KDL::Chain& chain = robot.chain();
-  std::vector<KDL::Frame> X(static_cast<size_t>(n));
-  std::vector<KDL::Twist> S(static_cast<size_t>(n));
-  std::vector<Matrix6x10> A(static_cast<size_t>(n));
+  auto& X = workspace.frames_->X;
+  auto& S = workspace.frames_->S;
+  auto& A = workspace.frames_->A;
   const Eigen::Vector3d& g = robot.gravity();
   KDL::Twist v = KDL::Twist::Zero(), a = -KDL::Twist(KDL::Vector(g.x(), g.y(), g.z()), KDL::Vector::Zero());
   for (int i = 0; i < n; ++i) {
@@ -123,7 +146,7 @@ Eigen::MatrixXd regressor(const RobotModel& robot, const Eigen::VectorXd& q, con
     a = X[static_cast<size_t>(i)].Inverse(a) + S[static_cast<size_t>(i)] * qdd(i) + v * vj;
     A[static_cast<size_t>(i)] = body_wrench_regressor(vec(v.vel), vec(v.rot), vec(a.vel), vec(a.rot));
   }
-  Eigen::MatrixXd Phi = Eigen::MatrixXd::Zero(n, with_friction ? 12 * n : 10 * n);
+  Phi.setZero();
   for (int j = 0; j < n; ++j) {
     Matrix6x10 W = A[static_cast<size_t>(j)];
     for (int i = j; i >= 0; --i) {
@@ -140,7 +163,6 @@ Eigen::MatrixXd regressor(const RobotModel& robot, const Eigen::VectorXd& q, con
       Phi(i, 11 * n + i) = static_cast<double>((qd(i) > 0) - (qd(i) < 0));
     }
   }
-  return Phi;
 }
 
 Eigen::MatrixXd stacked_regressor(const RobotModel& robot, const Eigen::MatrixXd& X, bool with_friction) {

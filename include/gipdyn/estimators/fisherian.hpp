@@ -21,6 +21,8 @@ class FisherianEstimator final : public Estimator {
   std::string name() const override { return "fe"; }
   const JointTypes& joints() const override { return joints_; }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
+  // Single queries make no heap allocation: the regressor is built in the workspace.
+  std::unique_ptr<QueryWorkspace> make_query_workspace() const override;
   ModelContainer to_container() const override;
   nlohmann::json summary() const override;
   static FisherianEstimator from_container(const ModelContainer& c, const std::string& what);

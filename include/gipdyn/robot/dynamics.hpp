@@ -3,6 +3,7 @@
 // the torque regressor Phi(q, qd, qdd) of gipdyn's own, and base parameters.
 #include <Eigen/Dense>
 #include <cstdint>
+#include <memory>
 #include <vector>
 
 #include "gipdyn/robot/robot_model.hpp"
@@ -21,6 +22,25 @@ Eigen::MatrixXd inverse_dynamics(const RobotModel& robot, const Eigen::MatrixXd&
 // only on the kinematics (and gravity), not on the robot's inertial values.
 Eigen::MatrixXd regressor(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
                           const Eigen::VectorXd& qdd, bool with_friction = false);
+// Scratch for regressor_into, one per thread: with it the regressor of one
+// state makes no heap allocation (the control-loop path of fe models).
+class RegressorWorkspace {
+ public:
+  explicit RegressorWorkspace(const RobotModel& robot);
+  ~RegressorWorkspace();
+  RegressorWorkspace(RegressorWorkspace&&) noexcept;
+  RegressorWorkspace& operator=(RegressorWorkspace&&) noexcept;
+  struct Frames;  // per-joint transforms, twists and wrench regressors
+
+ private:
+  friend void regressor_into(const RobotModel&, const double*, const double*, const double*, bool,
+                             RegressorWorkspace&, Eigen::Ref<Eigen::MatrixXd>);
+  std::unique_ptr<Frames> frames_;
+};
+// regressor() for q, qd, qdd of robot.num_joints() entries each, into Phi
+// (n x 10n, or n x 12n with friction).
+void regressor_into(const RobotModel& robot, const double* q, const double* qd, const double* qdd,
+                    bool with_friction, RegressorWorkspace& workspace, Eigen::Ref<Eigen::MatrixXd> Phi);
 // Rows of X stacked: (N n) x p, sample-major (rows t*n .. t*n+n-1 belong to sample t).
 Eigen::MatrixXd stacked_regressor(const RobotModel& robot, const Eigen::MatrixXd& X, bool with_friction = false);
 
