@@ -66,12 +66,14 @@ std::unique_ptr<QueryWorkspace> FisherianEstimator::make_query_workspace() const
 Eigen::MatrixXd FisherianEstimator::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {
   const int n = joints_.size();
   if (X.cols() != 3 * n) throw Error("fe: inputs must have " + std::to_string(3 * n) + " columns");
+  // Row by row through the single-query path: one regressor workspace for all rows.
+  FisherianQueryWorkspace workspace(prior_, weights_);
   Eigen::MatrixXd out(X.rows(), n);
+  Eigen::VectorXd x(3 * n), tau(n);
   for (Eigen::Index r = 0; r < X.rows(); ++r) {
-    const Eigen::VectorXd x = X.row(r).transpose();
-    out.row(r) = (regressor(*prior_.robot, x.segment(0, n), x.segment(n, n), x.segment(2 * n, n), prior_.friction) *
-                  weights_)
-                     .transpose();
+    x = X.row(r).transpose();
+    workspace.predict(x.data(), tau.data());
+    out.row(r) = tau.transpose();
   }
   return out;
 }

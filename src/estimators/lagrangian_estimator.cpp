@@ -41,6 +41,16 @@ struct Evaluation {
   Eigen::VectorXd gradient;
 };
 
+// The lower triangle of the torque covariance of X plus each joint's noise
+// variance on the diagonal (sample-major).
+void build_covariance(const LagrangianKernel& kernel, const Eigen::MatrixXd& X, const Eigen::VectorXd& noise,
+                      Eigen::MatrixXd& K) {
+  const Eigen::Index n = noise.size();
+  kernel.torque_gram_lower(X, K);
+  for (Eigen::Index r = 0; r < X.rows(); ++r)
+    for (Eigen::Index i = 0; i < n; ++i) K(r * n + i, r * n + i) += noise(i);
+}
+
 class LikelihoodWorkspace {
  public:
   LikelihoodWorkspace(const Eigen::MatrixXd& X, const Eigen::VectorXd& y, int n, const JitterPolicy& jitter)
@@ -48,11 +58,7 @@ class LikelihoodWorkspace {
 
   // K + noise on the diagonal, factorised in K_; alpha_ = K^-1 y.
   CholeskyResult factorise(const LagrangianKernel& kernel, const Eigen::VectorXd& noise) {
-    auto build = [&](Eigen::MatrixXd& K) {
-      kernel.torque_gram_lower(X_, K);
-      for (Eigen::Index r = 0; r < X_.rows(); ++r)
-        for (int i = 0; i < n_; ++i) K(r * n_ + i, r * n_ + i) += noise(i);
-    };
+    auto build = [&](Eigen::MatrixXd& K) { build_covariance(kernel, X_, noise, K); };
     build(K_);
     const CholeskyResult c = cholesky_with_jitter(K_, build, jitter_);
     if (!c.ok()) return c;
@@ -105,9 +111,9 @@ class LikelihoodWorkspace {
 
 class LagrangianQueryWorkspace final : public QueryWorkspace {
  public:
-  LagrangianQueryWorkspace(const LagrangianKernel& kernel, const Eigen::MatrixXd& states_by_column,
-                           const Eigen::VectorXd& alpha, double scale)
-      : kernel_(kernel), states_(states_by_column), alpha_(alpha), scale_(scale), scratch_(kernel),
+  LagrangianQueryWorkspace(const LagrangianKernel& kernel, const Eigen::MatrixXd& X, const Eigen::VectorXd& alpha,
+                           double scale)
+      : kernel_(kernel), states_(X.transpose()), alpha_(alpha), scale_(scale), scratch_(kernel),
         block_(kernel.joints().size(), kernel.joints().size()), tau_(kernel.joints().size()) {}
 
   void predict(const double* x, double* tau) override {
@@ -123,7 +129,7 @@ class LagrangianQueryWorkspace final : public QueryWorkspace {
 
  private:
   const LagrangianKernel& kernel_;
-  const Eigen::MatrixXd& states_;
+  const Eigen::MatrixXd states_;  // the training states transposed: each query reads them contiguously
   const Eigen::VectorXd& alpha_;
   double scale_;
   LagrangianKernel::PairScratch scratch_;
@@ -134,13 +140,13 @@ class LagrangianQueryWorkspace final : public QueryWorkspace {
 }  // namespace
 
 std::unique_ptr<QueryWorkspace> LagrangianEstimator::make_query_workspace() const {
-  return std::make_unique<LagrangianQueryWorkspace>(kernel_, states_by_column_, alpha_, scale_);
+  return std::make_unique<LagrangianQueryWorkspace>(kernel_, X_, alpha_, scale_);
 }
 
 LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorXd noise_variances, double torque_scale,
                                          Eigen::MatrixXd X, Eigen::VectorXd alpha)
     : kernel_(std::move(kernel)), noise_(std::move(noise_variances)), scale_(torque_scale), X_(std::move(X)),
-      states_by_column_(X_.transpose()), alpha_(std::move(alpha)) {
+      alpha_(std::move(alpha)) {
   const int n = kernel_.joints().size();
   if (noise_.size() != n || X_.cols() != 3 * n || alpha_.size() != X_.rows() * n || !(scale_ > 0.0))
     throw Error("LagrangianEstimator: inconsistent shapes (noise, training states, weights or scale)");
@@ -314,11 +320,7 @@ LagrangianEstimator LagrangianEstimator::with_variance() const {
                  "train on fewer rows to get variances");
   LagrangianEstimator out = *this;
   const Eigen::VectorXd noise = noise_ / (scale_ * scale_);
-  auto build = [&](Eigen::MatrixXd& K) {
-    kernel_.torque_gram_lower(X_, K);
-    for (Eigen::Index r = 0; r < X_.rows(); ++r)
-      for (int i = 0; i < n; ++i) K(r * n + i, r * n + i) += noise(i);
-  };
+  auto build = [&](Eigen::MatrixXd& K) { build_covariance(kernel_, X_, noise, K); };
   build(out.factor_);
   const CholeskyResult c = cholesky_with_jitter(out.factor_, build);
   if (!c.ok()) throw Error("lip variances: " + c.message);

@@ -44,11 +44,13 @@ Eigen::MatrixXd ParametricKernel::features(const Eigen::MatrixXd& Z) const {
   const int n = robot_->num_joints();
   if (Z.cols() < 3 * n) throw Error("parametric kernel: inputs have fewer than 3n columns");
   Eigen::MatrixXd Phi(Z.rows(), log_params_.size());
+  RegressorWorkspace workspace(*robot_);
+  Eigen::MatrixXd every_joint(n, log_params_.size());
+  Eigen::VectorXd x(3 * n);
   for (Eigen::Index r = 0; r < Z.rows(); ++r) {
-    const Eigen::VectorXd q = Z.row(r).segment(0, n).transpose();
-    const Eigen::VectorXd qd = Z.row(r).segment(n, n).transpose();
-    const Eigen::VectorXd qdd = Z.row(r).segment(2 * n, n).transpose();
-    Phi.row(r) = regressor(*robot_, q, qd, qdd, with_friction_).row(joint_);
+    x = Z.row(r).head(3 * n).transpose();
+    regressor_into(*robot_, x.data(), x.data() + n, x.data() + 2 * n, with_friction_, workspace, every_joint);
+    Phi.row(r) = every_joint.row(joint_);
   }
   return Phi;
 }

@@ -101,9 +101,6 @@ Eigen::MatrixXd inverse_dynamics(const RobotModel& robot, const Eigen::MatrixXd&
   return tau;
 }
 
-// The same recursion as KDL::ChainIdSolver_RNE (segment poses and unit twists
-// from KDL), with the body wrench replaced by its regressor in the standard
-// parameters, propagated link by link towards the base.
 struct RegressorWorkspace::Frames {
   std::vector<KDL::Frame> X;
   std::vector<KDL::Twist> S;
@@ -127,6 +124,9 @@ Eigen::MatrixXd regressor(const RobotModel& robot, const Eigen::VectorXd& q, con
   return Phi;
 }
 
+// The same recursion as KDL::ChainIdSolver_RNE (segment poses and unit twists
+// from KDL), with the body wrench replaced by its regressor in the standard
+// parameters, propagated link by link towards the base.
 void regressor_into(const RobotModel& robot, const double* q_data, const double* qd_data, const double* qdd_data,
                     bool with_friction, RegressorWorkspace& workspace, Eigen::Ref<Eigen::MatrixXd> Phi) {
   const int n = robot.num_joints();
@@ -169,9 +169,12 @@ Eigen::MatrixXd stacked_regressor(const RobotModel& robot, const Eigen::MatrixXd
   const int n = robot.num_joints();
   if (X.cols() != 3 * n) throw Error("inputs must have 3n = " + std::to_string(3 * n) + " columns (q, qd, qdd)");
   Eigen::MatrixXd Y(X.rows() * n, with_friction ? 12 * n : 10 * n);
-  for (Eigen::Index r = 0; r < X.rows(); ++r)
-    Y.middleRows(r * n, n) = regressor(robot, X.row(r).segment(0, n).transpose(), X.row(r).segment(n, n).transpose(),
-                                       X.row(r).segment(2 * n, n).transpose(), with_friction);
+  RegressorWorkspace workspace(robot);
+  Eigen::VectorXd x(3 * n);
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    x = X.row(r).transpose();
+    regressor_into(robot, x.data(), x.data() + n, x.data() + 2 * n, with_friction, workspace, Y.middleRows(r * n, n));
+  }
   return Y;
 }
 

@@ -80,7 +80,6 @@ class LagrangianEstimator final : public Estimator {
   Eigen::VectorXd noise_;  // in the torques' units squared
   double scale_ = 1.0;
   Eigen::MatrixXd X_;
-  Eigen::MatrixXd states_by_column_;  // X_ transposed: a single query reads each training state contiguously
   Eigen::VectorXd alpha_;
   Eigen::MatrixXd factor_;  // lower Cholesky factor of the scaled training covariance plus noise, or empty
 };
