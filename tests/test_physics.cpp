@@ -105,12 +105,23 @@ TEST(Physics, GipModelGivesGravityInertiaAndCoriolisCloseToKdl) {
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n);
   const Truth truth = kdl_terms(Q, QD);
   const double g_error = relative_error(gravity(*gip, Q), truth.g);
-  const double m_error = mean_relative_inertia_error(inertia(*gip, Q), truth.M);
+  const std::vector<Eigen::MatrixXd> M = inertia(*gip, Q), M_learned = inertia(*gip, Q, InertiaForm::AsLearned);
+  const double m_error = mean_relative_inertia_error(M, truth.M);
+  const double m_learned_error = mean_relative_inertia_error(M_learned, truth.M);
   const VelocityTerms v = velocity_terms(*gip, Q, QD);
   const double c_error = relative_error(v.coriolis, truth.coriolis);
-  std::printf("GIP relative errors: gravity %.3g, inertia %.3g, Coriolis %.3g\n", g_error, m_error, c_error);
+  std::printf("GIP relative errors: gravity %.3g, inertia %.3g (as learned %.3g), Coriolis %.3g\n", g_error, m_error,
+              m_learned_error, c_error);
   EXPECT_LT(g_error, 1e-3);
   EXPECT_LT(m_error, 1e-2);
+  // Each joint's GP learns one row of M: the rows as learned are not symmetric,
+  // and their symmetric part, the default, is closer to KDL's at every state.
+  for (size_t r = 0; r < M.size(); ++r) {
+    EXPECT_GT(diagnose_inertia(M_learned[r]).asymmetry, 1e-6);
+    EXPECT_LT((M[r] - 0.5 * (M_learned[r] + M_learned[r].transpose())).norm(), 1e-12 * M[r].norm());
+    EXPECT_LE((M[r] - truth.M[r]).norm(), (M_learned[r] - truth.M[r]).norm() * (1.0 + 1e-12));
+  }
+  EXPECT_LT(m_error, m_learned_error);
   EXPECT_LT(c_error, 3e-2);
   // GIP's velocity features are products qd_j qd_k: nothing odd in qd, so no friction.
   EXPECT_LT(v.friction.cwiseAbs().maxCoeff(), 1e-9 * (1.0 + v.coriolis.cwiseAbs().maxCoeff()));

@@ -44,7 +44,8 @@ std::vector<double> noise_ratios(const InverseDynamicsModel& m) {
 
 // The model's rigid-body terms against a robot's (KDL) at the test states.
 struct PhysicsComparison {
-  double gravity = 0.0, inertia = 0.0, coriolis = 0.0;  // relative errors (Frobenius, inertia averaged over states)
+  // Relative errors (Frobenius, inertia averaged over states); inertia_as_learned: of the rows before symmetrising.
+  double gravity = 0.0, inertia = 0.0, inertia_as_learned = 0.0, coriolis = 0.0;
   Eigen::MatrixXd table;                                // g, g_true, M, M_true per state
   std::vector<std::string> header;
 };
@@ -65,6 +66,7 @@ PhysicsComparison compare_physics(const Estimator& model, const RobotModel& robo
   const Eigen::MatrixXd g_true = rigid_body(zero, zero);
   const Eigen::MatrixXd g = gravity(model, Q);
   const std::vector<Eigen::MatrixXd> M = inertia(model, Q);
+  const std::vector<Eigen::MatrixXd> M_learned = inertia(model, Q, InertiaForm::AsLearned);
   std::vector<Eigen::MatrixXd> M_true(static_cast<size_t>(Q.rows()), Eigen::MatrixXd(n, n));
   for (int j = 0; j < n; ++j) {
     Eigen::MatrixXd unit = zero;
@@ -74,9 +76,11 @@ PhysicsComparison compare_physics(const Estimator& model, const RobotModel& robo
   }
   PhysicsComparison c;
   c.gravity = (g - g_true).norm() / std::max(g_true.norm(), 1e-300);
-  for (Eigen::Index r = 0; r < Q.rows(); ++r)
-    c.inertia += (M[static_cast<size_t>(r)] - M_true[static_cast<size_t>(r)]).norm() /
-                 std::max(M_true[static_cast<size_t>(r)].norm(), 1e-300) / static_cast<double>(Q.rows());
+  for (size_t r = 0; r < M.size(); ++r) {
+    const double weight = 1.0 / std::max(M_true[r].norm(), 1e-300) / static_cast<double>(Q.rows());
+    c.inertia += (M[r] - M_true[r]).norm() * weight;
+    c.inertia_as_learned += (M_learned[r] - M_true[r]).norm() * weight;
+  }
   const Eigen::MatrixXd coriolis_true = rigid_body(QD, zero) - g_true;
   c.coriolis = (velocity_terms(model, Q, QD).coriolis - coriolis_true).norm() / std::max(coriolis_true.norm(), 1e-300);
   for (int i = 1; i <= n; ++i) c.header.push_back("g" + std::to_string(i));
@@ -142,7 +146,8 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
   }
   if (physics) {
     j["physics_relative_error"] = {
-        {"gravity", physics->gravity}, {"inertia", physics->inertia}, {"coriolis", physics->coriolis}};
+        {"gravity", physics->gravity}, {"inertia", physics->inertia},
+        {"inertia_as_learned", physics->inertia_as_learned}, {"coriolis", physics->coriolis}};
     const std::string physics_csv = (fs::path(dir) / "physics.csv").string();
     write_csv(physics_csv, physics->header, physics->table);
     plots.push_back({"physics", physics_csv, "physics.png"});
@@ -208,8 +213,9 @@ Command add_evaluate(CLI::App& app) {
     for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
     if (physics)
-      std::printf(" relative error against %s: gravity %.3g, inertia %.3g (mean over states), Coriolis %.3g\n",
-                  a->physics.c_str(), physics->gravity, physics->inertia, physics->coriolis);
+      std::printf(" relative error against %s: gravity %.3g, inertia %.3g (mean over states; %.3g as learned, "
+                  "before symmetrising), Coriolis %.3g\n",
+                  a->physics.c_str(), physics->gravity, physics->inertia, physics->inertia_as_learned, physics->coriolis);
     if (!a->json.empty()) {
       nlohmann::json j;
       j["mse"] = std::vector<double>(acc.mse.data(), acc.mse.data() + acc.mse.size());
@@ -221,7 +227,8 @@ Command add_evaluate(CLI::App& app) {
       j["data"] = a->data;
       if (physics)
         j["physics_relative_error"] = {
-            {"gravity", physics->gravity}, {"inertia", physics->inertia}, {"coriolis", physics->coriolis}};
+            {"gravity", physics->gravity}, {"inertia", physics->inertia},
+        {"inertia_as_learned", physics->inertia_as_learned}, {"coriolis", physics->coriolis}};
       write_file_atomically(a->json, [&](std::ostream& out) { out << j.dump(2) << "\n"; });
     }
     if (!a->plots.empty())

@@ -31,9 +31,9 @@ Command add_physics(CLI::App& app) {
   app.description(
       "Rigid-body terms of a learned model (gip, gip-friction, gip+friction, lip, pp, fe): gravity g(q), the inertia matrix M(q)\n"
       "and, when the states have velocities, the Coriolis/centrifugal torque C(q, qd) qd and the friction\n"
-      "torque, all from the model's torque predictions; plus per row how physical M is (asymmetry, smallest\n"
-      "eigenvalue of its symmetric part). A lip model also gives its potential energy (up to a constant)\n"
-      "and, with velocities, its kinetic energy.");
+      "torque, all from the model's torque predictions. M is the symmetric part of the rows the joints'\n"
+      "models learn; per row, how physical they are: their asymmetry and the smallest eigenvalue of M.\n"
+      "A lip model also gives its potential energy (up to a constant) and, with velocities, its kinetic energy.");
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
   app.add_option("--data", a->data, "CSV of states: q1..qn, and qd1..qdn for the velocity terms (others ignored)")
       ->required()->check(CLI::ExistingFile);
@@ -50,6 +50,7 @@ Command add_physics(CLI::App& app) {
     const bool with_velocity = read_csv_header(a->data).has("qd1");
     const Eigen::MatrixXd g = gravity(*model, Q);
     const std::vector<Eigen::MatrixXd> M = inertia(*model, Q);
+    const std::vector<Eigen::MatrixXd> M_learned = inertia(*model, Q, InertiaForm::AsLearned);
     const Eigen::MatrixXd QD = with_velocity ? read_csv_columns(a->data, names("qd", n)) : Eigen::MatrixXd();
     VelocityTerms v;
     if (with_velocity) v = velocity_terms(*model, Q, QD);
@@ -88,7 +89,7 @@ Command add_physics(CLI::App& app) {
         table.row(r).segment(c + n, n) = v.friction.row(r);
         c += 2 * n;
       }
-      const InertiaDiagnostics d = diagnose_inertia(M[static_cast<size_t>(r)]);
+      const InertiaDiagnostics d = diagnose_inertia(M_learned[static_cast<size_t>(r)]);
       table(r, c) = d.asymmetry;
       table(r, c + 1) = d.min_eigenvalue;
       if (potential.size() > 0) table(r, c + 2) = potential(r);

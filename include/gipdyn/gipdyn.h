@@ -70,9 +70,12 @@ gipdyn_status gipdyn_predict(gipdyn_workspace* workspace, const double* q, const
                              int n, double* tau);
 /* g[n] = f(q, 0, 0). */
 gipdyn_status gipdyn_gravity(gipdyn_workspace* workspace, const double* q, int n, double* g);
-/* M[n * n], row-major: column j is f(q, 0, e_j) - g(q). */
+/* M[n * n], row-major: the symmetric part of the matrix whose column j is
+ * f(q, 0, e_j) - g(q) (the C++ inertia()'s default form). */
 gipdyn_status gipdyn_inertia(gipdyn_workspace* workspace, const double* q, int n, double* M);
-/* Forward dynamics of the learned robot: qdd[n] = M(q)^-1 (tau - f(q, qd, 0)). */
+/* Forward dynamics of the learned robot: qdd[n] = M(q)^-1 (tau - f(q, qd, 0)),
+ * with M as learned (not symmetrised), so that gipdyn_predict at (q, qd, qdd)
+ * gives back tau. */
 gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* workspace, const double* q, const double* qd,
                                       const double* tau, int n, double* qdd);
 

@@ -296,10 +296,14 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self._check_fitted()
         return self.model_.gravity(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
 
-    def inertia(self, q):
-        """Inertia matrices M(q): (N, n, n) for positions q of shape (N, n)."""
+    def inertia(self, q, symmetric=True):
+        """Inertia matrices M(q): (N, n, n) for positions q of shape (N, n).
+
+        Each joint's model learns one row of M; by default the result is the
+        symmetric part of those rows (never farther from the true, symmetric M
+        in Frobenius norm). symmetric=False gives the rows as learned."""
         self._check_fitted()
-        return self.model_.inertia(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
+        return self.model_.inertia(np.asfortranarray(_as_matrix("q", q, self.n_joints)), symmetric)
 
     def coriolis(self, q, qd):
         """Coriolis and centrifugal torques C(q, qd) qd: (N, n)."""

@@ -132,15 +132,15 @@ void add_physics_methods(py::class_<Holder, std::shared_ptr<Holder>>& cls) {
          py::arg("Q"))
       .def(
           "inertia",
-          [](const Holder& s, ConstRef Q) {
+          [](const Holder& s, ConstRef Q, bool symmetric) {
             std::vector<Eigen::MatrixXd> Ms;
             {
               py::gil_scoped_release release;
-              Ms = inertia(*s.estimator, Q);
+              Ms = inertia(*s.estimator, Q, symmetric ? InertiaForm::Symmetric : InertiaForm::AsLearned);
             }
             return stack_matrices(Ms, s.estimator->joints().size());
           },
-          py::arg("Q"))
+          py::arg("Q"), py::arg("symmetric") = true)
       .def(
           "velocity_terms",
           [](const Holder& s, ConstRef Q, ConstRef QD) {

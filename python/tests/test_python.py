@@ -210,6 +210,10 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
     M_true = np.stack([robot.inverse_dynamics(q, zero, np.tile(np.eye(4)[j], (20, 1))) - g_true for j in range(4)],
                       axis=2)
     assert relative_error(M, M_true) < 1e-3
+    # The default is the symmetric part of the rows the joints' GPs learned.
+    M_learned = est.inertia(q, symmetric=False)
+    assert np.abs(M_learned - M_learned.transpose(0, 2, 1)).max() > 0
+    np.testing.assert_allclose(M, 0.5 * (M_learned + M_learned.transpose(0, 2, 1)), rtol=0, atol=1e-12)
     assert relative_error(est.coriolis(q, qd), robot.inverse_dynamics(q, qd, zero) - g_true) < 1e-3
     np.testing.assert_allclose(est.friction(q, qd), 0.0, atol=1e-9)  # no friction columns: nothing odd in qd
     with pytest.raises(ValueError, match="cannot give gravity"):

@@ -182,7 +182,10 @@ gipdyn_status gipdyn_gravity(gipdyn_workspace* ws, const double* q, int n, doubl
   return ok();
 }
 
-gipdyn_status gipdyn_inertia(gipdyn_workspace* ws, const double* q, int n, double* M) {
+namespace {
+
+// The rows as the joints' models learn them (what forward dynamics inverts), or their symmetric part.
+gipdyn_status inertia_into(gipdyn_workspace* ws, const double* q, int n, double* M, bool symmetric) {
   if (const gipdyn_status s = check_query(ws, n, M); s != GIPDYN_OK) return s;
   if (!q) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q is NULL");
   if (const gipdyn_status s = check_physics(ws); s != GIPDYN_OK) return s;
@@ -196,7 +199,16 @@ gipdyn_status gipdyn_inertia(gipdyn_workspace* ws, const double* q, int n, doubl
     for (int i = 0; i < n; ++i)
       M[i * n + j] = ws->tau[static_cast<size_t>(i)] - ws->gravity[static_cast<size_t>(i)];
   }
+  if (symmetric)
+    for (int i = 0; i < n; ++i)
+      for (int j = i + 1; j < n; ++j) M[i * n + j] = M[j * n + i] = 0.5 * (M[i * n + j] + M[j * n + i]);
   return ok();
+}
+
+}  // namespace
+
+gipdyn_status gipdyn_inertia(gipdyn_workspace* ws, const double* q, int n, double* M) {
+  return inertia_into(ws, q, n, M, true);
 }
 
 gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* ws, const double* q, const double* qd, const double* tau,
@@ -205,7 +217,7 @@ gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* ws, const double* q, con
   if (!q || !qd || !tau) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q, qd or tau is NULL");
   if (!all_finite(qd, n) || !all_finite(tau, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "qd or tau holds NaN or Inf");
   double* M = ws->inertia.data();
-  if (const gipdyn_status s = gipdyn_inertia(ws, q, n, M); s != GIPDYN_OK) return s;
+  if (const gipdyn_status s = inertia_into(ws, q, n, M, false); s != GIPDYN_OK) return s;
   // The bias f(q, qd, 0): Coriolis, gravity and friction.
   for (int i = 0; i < n; ++i) ws->x[static_cast<size_t>(n + i)] = qd[i];
   if (const gipdyn_status s = predict_into(ws, ws->tau.data()); s != GIPDYN_OK) return s;

@@ -52,7 +52,8 @@ Eigen::MatrixXd gravity(const Estimator& estimator, const Eigen::Ref<const Eigen
   return estimator.predict(states(Q, zero, zero));
 }
 
-std::vector<Eigen::MatrixXd> inertia(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q) {
+std::vector<Eigen::MatrixXd> inertia(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
+                                     InertiaForm form) {
   require_physics(estimator);
   require_positions(estimator, Q, "positions");
   const Eigen::Index rows = Q.rows();
@@ -72,6 +73,7 @@ std::vector<Eigen::MatrixXd> inertia(const Estimator& estimator, const Eigen::Re
     Eigen::MatrixXd M(n, n);
     const Eigen::RowVectorXd g = tau.row(r * (n + 1));
     for (int j = 0; j < n; ++j) M.col(j) = (tau.row(r * (n + 1) + 1 + j) - g).transpose();
+    if (form == InertiaForm::Symmetric) M = (0.5 * (M + M.transpose())).eval();
     out.push_back(M);
   }
   return out;
@@ -105,7 +107,8 @@ Eigen::MatrixXd forward_dynamics(const Estimator& estimator, const Eigen::Ref<co
     throw Error("positions, velocities and torques have " + std::to_string(Q.rows()) + ", " +
                 std::to_string(QD.rows()) + " and " + std::to_string(TAU.rows()) + " rows; give one of each per state");
   const Eigen::MatrixXd bias = estimator.predict(states(Q, QD, Eigen::MatrixXd::Zero(Q.rows(), Q.cols())));
-  const std::vector<Eigen::MatrixXd> Ms = inertia(estimator, Q);
+  // The rows as learned, so that the accelerations reproduce the model's own torque predictions.
+  const std::vector<Eigen::MatrixXd> Ms = inertia(estimator, Q, InertiaForm::AsLearned);
   Eigen::MatrixXd QDD(Q.rows(), Q.cols());
   for (Eigen::Index r = 0; r < Q.rows(); ++r) {
     const Eigen::FullPivLU<Eigen::MatrixXd> lu(Ms[static_cast<size_t>(r)]);

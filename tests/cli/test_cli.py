@@ -263,6 +263,9 @@ def test_physics_gives_gravity_inertia_and_coriolis(trained, gipdyn_bin, tmp_pat
     assert rel(table[:, [col["coriolis1"], col["coriolis2"]]], c) < 4.5e-2
     assert np.abs(table[:, [col["friction1"], col["friction2"]]]).max() < 1e-9
     assert (table[:, col["M_min_eigenvalue"]] > 0).all()
+    # M is written symmetric; the asymmetry is that of the rows the two joints' GPs learned.
+    np.testing.assert_array_equal(table[:, col["M1_2"]], table[:, col["M2_1"]])
+    assert (table[:, col["M_asymmetry"]] > 0).all()
     # Positions only: no velocity terms.
     qonly = tmp_path / "q.csv"
     qonly.write_text("q1,q2\n0.1,0.2\n0.3,-0.4\n")

@@ -30,8 +30,17 @@ void require_physics(const Estimator& estimator);
 
 // Q: rows x n joint positions. Returns rows x n gravity torques.
 Eigen::MatrixXd gravity(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q);
+// Which inertia matrix inertia() returns. Each joint's model learns one row of
+// M, so the learned matrix is not exactly symmetric. Symmetric (the default)
+// returns its symmetric part (M + M^T) / 2: the true M is symmetric, so this is
+// never farther from it in Frobenius norm, and each off-diagonal entry averages
+// the two joints' independent estimates. AsLearned returns the rows as the
+// joints' models give them, for diagnose_inertia's asymmetry.
+enum class InertiaForm { Symmetric, AsLearned };
+
 // One n x n inertia matrix per row of Q.
-std::vector<Eigen::MatrixXd> inertia(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q);
+std::vector<Eigen::MatrixXd> inertia(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
+                                     InertiaForm form = InertiaForm::Symmetric);
 
 // The velocity terms at (Q, QD), rows x n each.
 struct VelocityTerms {
@@ -43,7 +52,8 @@ VelocityTerms velocity_terms(const Estimator& estimator, const Eigen::Ref<const 
 
 // Forward dynamics of the learned model: for every row, the accelerations that
 // the torques produce, qdd = M(q)^-1 (tau - f(q, qd, 0)) (f(q, qd, 0) holds
-// Coriolis, gravity and friction). Throws gipdyn::Error naming the first row
+// Coriolis, gravity and friction), with M as learned (InertiaForm::AsLearned), so
+// that the model's torque prediction at (q, qd, qdd) gives back qdd exactly. Throws gipdyn::Error naming the first row
 // whose learned M cannot be inverted.
 Eigen::MatrixXd forward_dynamics(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q,
                                  const Eigen::Ref<const Eigen::MatrixXd>& QD, const Eigen::Ref<const Eigen::MatrixXd>& TAU);
@@ -57,8 +67,9 @@ Eigen::MatrixXd integrate_forward_dynamics(const Estimator& estimator, const Eig
                                            const Eigen::VectorXd& qd0, const Eigen::Ref<const Eigen::MatrixXd>& TAU,
                                            double dt, Integrator integrator = Integrator::Rk4);
 
-// How physical a learned inertia matrix is: max |M - M^T| / max |M|, and the
-// smallest eigenvalue of (M + M^T) / 2 (positive for a physical M).
+// How physical a learned inertia matrix is: max |M - M^T| / max |M| (zero for
+// inertia()'s default symmetric form: pass the AsLearned one), and the smallest
+// eigenvalue of (M + M^T) / 2 (positive for a physical M).
 struct InertiaDiagnostics {
   double asymmetry = 0.0;
   double min_eigenvalue = 0.0;
