@@ -8,6 +8,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
+#include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
@@ -74,8 +75,11 @@ Eigen::VectorXd random_state(int n, std::mt19937_64& rng) {
   return x;
 }
 
-LagrangianKernel random_kernel(const std::string& joints, std::mt19937_64& rng) {
-  LagrangianKernel k(JointTypes::parse(joints));
+// "RRPR" or "RRPR+friction".
+LagrangianKernel random_kernel(const std::string& spec, std::mt19937_64& rng) {
+  const std::string suffix = "+friction";
+  const bool friction = spec.size() > suffix.size() && spec.compare(spec.size() - suffix.size(), suffix.size(), suffix) == 0;
+  LagrangianKernel k(JointTypes::parse(friction ? spec.substr(0, spec.size() - suffix.size()) : spec), friction);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Eigen::VectorXd p(k.num_params());
   for (Eigen::Index i = 0; i < p.size(); ++i) p(i) = u(rng);
@@ -104,6 +108,15 @@ TEST_P(LagrangianKernelTest, TorqueCovarianceIsTheLagrangeOperatorOnBothArgument
   for (int j = 0; j < n; ++j)
     numeric.col(j) = lagrange_operator(
         [&](const Eigen::VectorXd& q1, const Eigen::VectorXd& qd1) { return inner(q1, qd1)(j); }, x1, h);
+  // Friction is independent of the energies: joint m's own FrictionKernel on its velocity.
+  if (k.has_friction())
+    for (int m = 0; m < n; ++m) {
+      FrictionKernel f(0);
+      f.set_log_params(k.log_params().segment<FrictionKernel::kNumParams>(k.friction_offset() + FrictionKernel::kNumParams * m));
+      Eigen::MatrixXd K;
+      f.cross(Eigen::MatrixXd::Constant(1, 1, x1(n + m)), Eigen::MatrixXd::Constant(1, 1, x2(n + m)), K);
+      numeric(m, m) += K(0, 0);
+    }
   Eigen::MatrixXd block(n, n);
   k.torque_block(x1.data(), x2.data(), block);
   EXPECT_LT((block - numeric).cwiseAbs().maxCoeff(), 1e-5 * (1.0 + block.cwiseAbs().maxCoeff()))
@@ -186,7 +199,8 @@ TEST_P(LagrangianKernelTest, GramIsSymmetricPositiveSemidefiniteAndMatchesItsLow
   EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * eig.eigenvalues().maxCoeff());
 }
 
-INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest, ::testing::Values("R", "RR", "RRPR", "RPRRRR"));
+INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest, ::testing::Values("R", "RR", "RRPR", "RPRRRR", "R+friction",
+                                                                       "RRPR+friction"));
 
 TEST(LagrangianKernel, InitializeGivesEachEnergyHalfTheTargetVariance) {
   LagrangianKernel k(JointTypes::parse("RRP"));
@@ -237,6 +251,42 @@ TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
   // Training is deterministic.
   const FitResult again = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
   EXPECT_EQ(again.estimator->predict(test.X), r.estimator->predict(test.X));
+}
+
+// With friction the model keeps its name through a file, and the friction
+// term stays out of the energies: the kinetic energy is still zero at rest
+// and the energy estimates equal those of the same energies without it.
+TEST(LagrangianEstimator, WithFrictionSavesAndLoadsAndKeepsFrictionOutOfTheEnergies) {
+  SimulationOptions so;
+  so.samples = 60;
+  so.dt = 0.1;
+  so.seed = 1;
+  so.friction = true;
+  const SimulationResult train = simulate(scara_robot(), so), test = small_scara(2, 10);
+  EstimatorOptions o;
+  o.name = "lip+friction";
+  o.gp.optimizer.max_iterations = 30;
+  const FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  ASSERT_EQ(r.estimator->name(), "lip+friction");
+  const auto& a = dynamic_cast<const LagrangianEstimator&>(*r.estimator);
+  ASSERT_TRUE(a.kernel().has_friction());
+  EXPECT_EQ(a.kernel().param_names().back(), "friction.joint4.v_stribeck");
+  const std::string path = ::testing::TempDir() + "/lip_friction_roundtrip.gipdyn";
+  save_estimator(*r.estimator, path);
+  const auto loaded = load_estimator(path);
+  ASSERT_EQ(loaded->name(), "lip+friction");
+  EXPECT_EQ(loaded->predict(test.X), r.estimator->predict(test.X));
+  Eigen::MatrixXd rest = test.X;
+  rest.middleCols(4, 4).setZero();
+  EXPECT_LT(a.kinetic_energy(rest).cwiseAbs().maxCoeff(), 1e-12);
+  // The energies' covariances with the torques do not read the friction parameters.
+  LagrangianKernel without(JointTypes::parse("RRPR"));
+  without.set_log_params(a.kernel().log_params().head(without.num_params()));
+  const Eigen::MatrixXd X2 = train.X.topRows(5);
+  const Eigen::VectorXd x = test.X.row(0).transpose();
+  EXPECT_EQ(a.kernel().kinetic_torque_covariance(x.data(), X2), without.kinetic_torque_covariance(x.data(), X2));
+  EXPECT_EQ(a.kernel().potential_torque_covariance(x.data(), X2), without.potential_torque_covariance(x.data(), X2));
 }
 
 // Hyperparameters learned on a subsample are those of a fit on the subsample

@@ -177,27 +177,35 @@ TEST(Physics, LipModelGivesTermsAndEnergiesCloseToKdl) {
 }
 
 // The smooth friction term (FrictionKernel) separates the simulator's
-// viscous and Coulomb friction from the rigid-body torque: the odd part of the
-// learned model approaches the true friction although the true Coulomb term
-// is a sign, not a tanh.
-TEST(Physics, GipWithSmoothFrictionRecoversTheSimulatedFriction) {
+// viscous and Coulomb friction from the rigid-body torque, beside GIP's
+// per-joint kernels and beside LIP's energies: the odd part of the learned
+// model approaches the true friction although the true Coulomb term is a sign,
+// not a tanh, and the torque is far closer than the same model's without it.
+class SmoothFrictionTest : public ::testing::TestWithParam<std::string> {};
+
+TEST_P(SmoothFrictionTest, RecoversTheSimulatedFriction) {
+  const std::string plain_name = GetParam();
   const SimulationResult train = scara_data(11, 300, 0.01, true), test = scara_data(12, 40, 0.0, true);
   const int n = 4;
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n);
   const Truth truth = kdl_terms(Q, QD);
-  const auto smooth = test::fit_on_scara("gip+friction", train);
-  const auto plain = test::fit_on_scara("gip", train);
+  const auto smooth = test::fit_on_scara(plain_name + "+friction", train);
+  const auto plain = test::fit_on_scara(plain_name, train);
   const double f_error = relative_error(velocity_terms(*smooth, Q, QD).friction, truth.friction);
   const double g_error = relative_error(gravity(*smooth, Q), truth.g);
+  const double m_error = mean_relative_inertia_error(inertia(*smooth, Q), truth.M);
   const double tau_smooth = relative_error(smooth->predict(test.X), test.tau_true);
   const double tau_plain = relative_error(plain->predict(test.X), test.tau_true);
-  std::printf("gip+friction: friction error %.3g, gravity %.3g, torque %.3g (gip without friction: %.3g)\n", f_error,
-              g_error, tau_smooth, tau_plain);
-  // Measured 8.1e-4, 2.4e-4 and 1.9e-3 against 0.43.
+  std::printf("%s+friction: friction error %.3g, gravity %.3g, inertia %.3g, torque %.3g (without friction: %.3g)\n",
+              plain_name.c_str(), f_error, g_error, m_error, tau_smooth, tau_plain);
+  // Measured, gip: 8.1e-4, 2.4e-4, 3.0e-3 and 1.9e-3 against 0.43; lip: 2.0e-4, 9.0e-6, 2.1e-3 and 3.6e-4 against 0.54.
   EXPECT_LT(f_error, 1e-2);
   EXPECT_LT(g_error, 3e-3);
+  EXPECT_LT(m_error, 1e-2);
   EXPECT_LT(tau_smooth, 0.05 * tau_plain);
 }
+
+INSTANTIATE_TEST_SUITE_P(Estimators, SmoothFrictionTest, ::testing::Values("gip", "lip"));
 
 // Friction with a Stribeck bump and a constant torque offset on a pendulum,
 // neither of which the simulator or gip-friction's sign term has: the learned

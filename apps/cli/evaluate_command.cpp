@@ -183,7 +183,7 @@ Command add_evaluate(CLI::App& app) {
                  "Diagnostics folder: predicted vs measured torque over time, residual histograms and, for GP "
                  "models, the share of the output variance the model calls noise (PNG + diagnostics.json)");
   app.add_option("--physics", a->physics,
-                 "Compare the model's gravity, inertia and Coriolis torque (gip, gip-friction, gip+friction, lip, pp, fe) with "
+                 "Compare the model's gravity, inertia and Coriolis torque (gip, gip-friction, gip+friction, lip, lip+friction, pp, fe) with "
                  "this robot's (scara, ur10, a URDF or JSON file) at the test states: relative errors printed, "
                  "in --json, and with --plots as physics.csv and physics.png (estimated against true)");
   app.add_option("--plot-window", a->plot_window, "Rows shown in the torque-over-time plot")->capture_default_str();

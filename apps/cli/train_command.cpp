@@ -35,7 +35,9 @@ Command add_train(CLI::App& app) {
       ->required();
   app.add_option("--kernel", a->kernel,
                  "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp), lip (one GP "
-                 "over all joints with priors on the energies; train it on a few hundred rows), fe or nn; "
+                 "over all joints with priors on the energies; train it on a few hundred rows, or learn its hyperparameters "
+                 "on a few hundred with --hyperparameter-rows), lip+friction (lip plus each joint's smooth friction and "
+                 "offset), fe or nn; "
                  "fe, pp, sp need --robot")
       ->capture_default_str();
   app.add_option("--subsample", a->subsample,

@@ -378,14 +378,16 @@ class LagrangianGP(InverseDynamicsGP):
 
     Parameters: joints, optimizer, max_iter, restarts, seed, min_noise,
     learning_rate, verbose, gradient_tolerance, hyperparameter_rows, as
-    InverseDynamicsGP's.
+    InverseDynamicsGP's; friction=True adds each joint's smooth friction and
+    torque offset beside the energies (the estimator lip+friction).
     """
 
     def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
                  restarts=_DEFAULTS.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row,
-                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows):
+                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows, friction=False):
         self.joints = joints
+        self.friction = friction
         self.optimizer = optimizer
         self.max_iter = max_iter
         self.restarts = restarts
@@ -404,7 +406,8 @@ class LagrangianGP(InverseDynamicsGP):
 
     def fit(self, X, Y):
         X, Y = self._training_arrays(X, Y)
-        self.model_ = _core.train_lagrangian(X, Y, str(self.joints), self.train_options(), bool(self.verbose))
+        self.model_ = _core.train_lagrangian(X, Y, str(self.joints), self.train_options(), bool(self.verbose),
+                                             bool(self.friction))
         self._set_fitted_attributes()
         if self.training_report_ and self.training_report_[0]["status"] != "converged":
             warnings.warn("the optimiser stopped before it converged (see training_report_); raise max_iter",
@@ -455,7 +458,7 @@ class LagrangianGP(InverseDynamicsGP):
     def load(cls, path):
         """Load a lip model written by `save` or by `gipdyn train --kernel lip`."""
         model = _core.LagrangianModel.load(str(path))
-        est = cls(joints=model.joints)
+        est = cls(joints=model.joints, friction=model.estimator == "lip+friction")
         est.model_ = model
         est._set_fitted_attributes()
         return est

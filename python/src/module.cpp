@@ -177,10 +177,10 @@ struct LagrangianModel {
 };
 
 std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const std::string& joints,
-                                                  const TrainOptions& options, bool verbose) {
+                                                  const TrainOptions& options, bool verbose, bool friction) {
   const JointTypes jt = JointTypes::parse(joints);
   LagrangianEstimator::FitOutcome r = fit_without_gil(
-      verbose, [&](const ProgressCallback& cb) { return LagrangianEstimator::fit(X, Y, jt, options, cb); });
+      verbose, [&](const ProgressCallback& cb) { return LagrangianEstimator::fit(X, Y, jt, options, cb, friction); });
   auto m = std::make_shared<LagrangianModel>();
   m->estimator = std::move(r.estimator);
   m->report = r.report.joints;
@@ -404,13 +404,16 @@ PYBIND11_MODULE(_core, m) {
   add_physics_methods(lagrangian_class);
   lagrangian_class
       .def_property_readonly("joints", [](const LagrangianModel& s) { return s.estimator->joints().str(); })
+      .def_property_readonly("estimator", [](const LagrangianModel& s) { return s.estimator->name(); })
       .def_property_readonly("num_training_samples",
                              [](const LagrangianModel& s) { return s.estimator->training_inputs().rows(); })
       .def_property_readonly("noise_variances", [](const LagrangianModel& s) { return s.estimator->noise_variances(); })
       .def_property_readonly("hyperparameters",
                              [](const LagrangianModel& s) {
                                py::dict d;
-                               for (const auto& [name, value] : s.estimator->summary()["hyperparameters"].items())
+                               // Named: a range-for over a temporary's member would read a destroyed object.
+                               const nlohmann::json summary = s.estimator->summary();
+                               for (const auto& [name, value] : summary.at("hyperparameters").items())
                                  d[py::str(name)] = value.get<double>();
                                return d;
                              })
@@ -465,7 +468,7 @@ PYBIND11_MODULE(_core, m) {
         return m;
       });
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
-        py::arg("verbose") = false);
+        py::arg("verbose") = false, py::arg("friction") = false);
   m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("verbose") = false);
   m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "

@@ -409,13 +409,44 @@ def test_lagrangian_gp_energies_physics_and_files(scara, tmp_path):
     np.testing.assert_allclose(loaded.predict(test["X"][:5], return_std=True)[1], std, rtol=1e-8)
 
 
+def test_lagrangian_gp_with_friction_learns_a_pendulums_friction(tmp_path):
+    # A pendulum with viscous and smoothed Coulomb friction: friction=True learns it beside the energies,
+    # the plain LIP cannot (friction is not conservative), and the model file keeps the friction term.
+    rng = np.random.default_rng(5)
+
+    def pendulum(rows):
+        q, qd, qdd = rng.uniform(-np.pi, np.pi, rows), rng.uniform(-2, 2, rows), rng.uniform(-3, 3, rows)
+        tau = 0.3 * qdd + 2.0 * np.cos(q) + 0.4 * qd + 0.5 * np.tanh(qd / 0.05)
+        return np.column_stack([q, qd, qdd]), tau[:, None]
+
+    X, tau = pendulum(120)
+    Xt, taut = pendulum(40)
+    tau = tau + 0.01 * rng.standard_normal(tau.shape)
+    smooth = gipdyn.LagrangianGP(joints="R", friction=True).fit(X, tau)
+    plain = gipdyn.LagrangianGP(joints="R").fit(X, tau)
+    assert smooth.model_.estimator == "lip+friction" and plain.model_.estimator == "lip"
+    assert "friction.joint1.s_viscous" in smooth.hyperparameters_
+    assert not any(name.startswith("friction") for name in plain.hyperparameters_)
+
+    def relative_error(model):
+        return np.linalg.norm(model.predict(Xt) - taut) / np.linalg.norm(taut)
+
+    assert relative_error(smooth) < 0.1 * relative_error(plain)
+    np.testing.assert_allclose(smooth.gravity(Xt[:, :1]), 2.0 * np.cos(Xt[:, :1]), rtol=0, atol=0.05)
+    path = tmp_path / "lip_friction.gipdyn"
+    smooth.save(path)
+    loaded = gipdyn.LagrangianGP.load(path)
+    assert loaded.friction and loaded.model_.estimator == "lip+friction"
+    np.testing.assert_array_equal(loaded.predict(Xt), smooth.predict(Xt))
+
+
 def test_lagrangian_gp_hyperparameters_from_a_subsample(scara):
     # Hyperparameters as a fit on the subsample alone, the model conditioned on every row.
     train, test = scara
     X, tau = train["X"][:90], train["tau"][:90]
     full = gipdyn.LagrangianGP(joints="RRPR", max_iter=20, hyperparameter_rows=30).fit(X, tau)
     sub = gipdyn.LagrangianGP(joints="RRPR", max_iter=20).fit(X[::3], tau[::3])
-    assert full.hyperparameters_ == sub.hyperparameters_
+    assert full.hyperparameters_ == sub.hyperparameters_ and "potential.joint1.bias" in full.hyperparameters_
     assert all(r["hyperparameter_rows"] == 30 for r in full.training_report_)
     assert not np.allclose(full.predict(test["X"][:5]), sub.predict(test["X"][:5]))
 

@@ -11,6 +11,7 @@ const std::vector<std::string>& estimator_names() {
   static const std::vector<std::string> names = [] {
     std::vector<std::string> n = kernel_names();
     n.push_back("lip");
+    n.push_back("lip+friction");
     n.push_back("fe");
     n.push_back("nn");
     return n;
@@ -22,7 +23,7 @@ void require_known_estimator(const std::string& name) { require_one_of(name, est
 
 EstimatorFamily estimator_family(const std::string& name) {
   require_known_estimator(name);
-  if (name == "lip") return EstimatorFamily::Lagrangian;
+  if (name == "lip" || name == "lip+friction") return EstimatorFamily::Lagrangian;
   if (name == "fe") return EstimatorFamily::Fisherian;
   if (name == "nn") return EstimatorFamily::NeuralNetwork;
   return EstimatorFamily::Gp;
@@ -33,7 +34,9 @@ bool is_gp_estimator(const std::string& name) {
   return std::find(k.begin(), k.end(), name) != k.end();
 }
 
-bool is_kernel_estimator(const std::string& name) { return is_gp_estimator(name) || name == "lip"; }
+bool is_kernel_estimator(const std::string& name) {
+  return is_gp_estimator(name) || name == "lip" || name == "lip+friction";
+}
 
 bool estimator_needs_robot(const std::string& name) { return name == "fe" || kernel_needs_robot(name); }
 

@@ -36,7 +36,7 @@ FitResult fit_gp(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eige
 
 FitResult fit_lagrangian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                          const JointTypes& joints, const ProgressCallback& progress) {
-  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.train_options(), progress);
+  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.train_options(), progress, o.name == "lip+friction");
   FitResult result;
   result.report = std::move(r.report);
   result.estimator = std::move(r.estimator);

@@ -154,7 +154,7 @@ LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorX
 
 LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                                                          const JointTypes& joints, const TrainOptions& o,
-                                                         const ProgressCallback& progress) {
+                                                         const ProgressCallback& progress, bool friction) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
@@ -194,7 +194,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   for (int i = 0; i < n; ++i)
     joint_variance(i) = std::max(Yh.col(i).squaredNorm() / static_cast<double>(Yh.rows()) / (scale * scale), 1e-12);
 
-  LagrangianKernel kernel(joints);
+  LagrangianKernel kernel(joints, friction);
   kernel.initialize(Xh, 1.0);
   const int P = kernel.num_params();
   Eigen::VectorXd x0(P + n);
@@ -240,7 +240,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
     if (progress)
       cb = [&](const ProgressEvent& optimizer_event) {
         ProgressEvent e = optimizer_event;
-        e.estimator = "lip";
+        e.estimator = friction ? "lip+friction" : "lip";
         e.restart = r;
         e.rows = static_cast<long>(Xh.rows());
         e.seconds = seconds();
@@ -371,7 +371,7 @@ Eigen::VectorXd LagrangianEstimator::potential_energy(const Eigen::Ref<const Eig
 
 ModelContainer LagrangianEstimator::to_container() const {
   ModelContainer c;
-  c.header["estimator"] = "lip";
+  c.header["estimator"] = name();
   c.header["joints"] = joints().str();
   c.header["torque_scale"] = scale_;
   c.header["param_names"] = kernel_.param_names();
@@ -386,7 +386,7 @@ nlohmann::json LagrangianEstimator::summary() const {
   nlohmann::json params;
   const auto names = kernel_.param_names();
   for (size_t k = 0; k < names.size(); ++k) params[names[k]] = std::exp(kernel_.log_params()(static_cast<Eigen::Index>(k)));
-  return {{"estimator", "lip"},
+  return {{"estimator", name()},
           {"training_rows", X_.rows()},
           {"noise_variances", std::vector<double>(noise_.data(), noise_.data() + noise_.size())},
           {"torque_scale", scale_},
@@ -395,7 +395,7 @@ nlohmann::json LagrangianEstimator::summary() const {
 
 LagrangianEstimator LagrangianEstimator::from_container(const ModelContainer& c, const std::string& what) {
   const JointTypes joints = JointTypes::parse(c.header.at("joints").get<std::string>());
-  LagrangianKernel kernel(joints);
+  LagrangianKernel kernel(joints, c.header.at("estimator").get<std::string>() == "lip+friction");
   const Eigen::MatrixXd& p = c.array("log_params", what);
   const Eigen::MatrixXd& noise = c.array("noise_variances", what);
   const Eigen::MatrixXd& X = c.array("training_states", what);

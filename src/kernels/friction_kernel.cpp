@@ -21,38 +21,36 @@ void FrictionKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) 
   log_params_ = p;
 }
 
-namespace {
-
-// (1, v, tanh(v / v_c), exp(-(v / v_r)^2) tanh(v / v_c)) from the inverse velocities.
-Eigen::Vector4d friction_features(double v, double inv_vc, double inv_vr) {
-  const double c = std::tanh(v * inv_vc), u = v * inv_vr;
-  return {1.0, v, c, std::exp(-u * u) * c};
+Eigen::Vector4d friction_features(double v, double log_vc, double log_vr, Eigen::Vector4d* d_log_vc,
+                                  Eigen::Vector4d* d_log_vr) {
+  const double a = v * std::exp(-log_vc), u = v * std::exp(-log_vr);
+  const double c = std::tanh(a), e = std::exp(-u * u);
+  // d tanh(v / v_c) / d log v_c = -(v / v_c) sech^2; d exp(-(v / v_r)^2) / d log v_r = 2 u^2 e.
+  if (d_log_vc) {
+    const double dc = -a * (1.0 - c * c);
+    *d_log_vc << 0.0, 0.0, dc, e * dc;
+  }
+  if (d_log_vr) *d_log_vr << 0.0, 0.0, 0.0, 2.0 * u * u * e * c;
+  return {1.0, v, c, e * c};
 }
 
-}  // namespace
-
 Eigen::Vector4d FrictionKernel::features(double v) const {
-  return friction_features(v, std::exp(-log_params_(kCoulombVelocity)), std::exp(-log_params_(kStribeckVelocity)));
+  return friction_features(v, log_params_(kCoulombVelocity), log_params_(kStribeckVelocity));
 }
 
 void FrictionKernel::feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F, Eigen::MatrixXd* dF_vc,
                                     Eigen::MatrixXd* dF_vr) const {
   const Eigen::Index N = Z.rows();
   F.resize(N, 4);
-  if (dF_vc) dF_vc->setZero(N, 4);
-  if (dF_vr) dF_vr->setZero(N, 4);
-  const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
+  if (dF_vc) dF_vc->resize(N, 4);
+  if (dF_vr) dF_vr->resize(N, 4);
+  Eigen::Vector4d d_vc, d_vr;
   for (Eigen::Index i = 0; i < N; ++i) {
-    const double v = Z(i, column_), a = v * inv_vc, u = v * inv_vr;
-    const double c = std::tanh(a), e = std::exp(-u * u);
-    F.row(i) << 1.0, v, c, e * c;
-    // d tanh(v / v_c) / d log v_c = -(v / v_c) sech^2; d exp(-(v / v_r)^2) / d log v_r = 2 u^2 e.
-    const double dc = -a * (1.0 - c * c);
-    if (dF_vc) {
-      (*dF_vc)(i, 2) = dc;
-      (*dF_vc)(i, 3) = e * dc;
-    }
-    if (dF_vr) (*dF_vr)(i, 3) = 2.0 * u * u * e * c;
+    F.row(i) = friction_features(Z(i, column_), log_params_(kCoulombVelocity), log_params_(kStribeckVelocity),
+                                 dF_vc ? &d_vc : nullptr, dF_vr ? &d_vr : nullptr)
+                   .transpose();
+    if (dF_vc) dF_vc->row(i) = d_vc.transpose();
+    if (dF_vr) dF_vr->row(i) = d_vr.transpose();
   }
 }
 

@@ -6,6 +6,7 @@
 #include <thread>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/kernels/friction_kernel.hpp"
 
 // Notation (docs/method.md section 11). For one pair of states x1 = (q1, qd1,
 // qdd1), x2 = (q2, qd2, qdd2) and a position kernel p(q1, q2) = prod_m p_m:
@@ -214,7 +215,7 @@ struct LagrangianKernel::PairTerms {
         suffix(static_cast<size_t>(n) + 1) {}
 };
 
-LagrangianKernel::LagrangianKernel(JointTypes joints) : joints_(std::move(joints)), n_(joints_.size()) {
+LagrangianKernel::LagrangianKernel(JointTypes joints, bool friction) : joints_(std::move(joints)), n_(joints_.size()) {
   int offset = num_velocity_weights();
   for (int m = 0; m < n_; ++m) {
     kinetic_offset_.push_back(offset);
@@ -224,6 +225,10 @@ LagrangianKernel::LagrangianKernel(JointTypes joints) : joints_(std::move(joints
   for (int m = 0; m < n_; ++m) {
     potential_joint_.push_back(offset);
     offset += factor_size(m);
+  }
+  if (friction) {
+    friction_offset_ = offset;
+    offset += FrictionKernel::kNumParams * n_;
   }
   log_params_ = Eigen::VectorXd::Zero(offset);
   set_log_params(log_params_);
@@ -247,6 +252,10 @@ std::vector<std::string> LagrangianKernel::param_names() const {
     for (int f = 1; f <= 2; ++f)
       factor_names(m, "kinetic.joint" + std::to_string(m + 1) + ".factor" + std::to_string(f));
   for (int m = 0; m < n_; ++m) factor_names(m, "potential.joint" + std::to_string(m + 1));
+  if (has_friction())
+    for (int m = 0; m < n_; ++m)
+      for (const auto& name : FrictionKernel(2 * n_ + m, "friction.joint" + std::to_string(m + 1)).param_names())
+        names.push_back(name);
   return names;
 }
 
@@ -316,6 +325,30 @@ void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTe
   subtract_twice_outer_transposed(t.g, qd1, c7, K);
   subtract_twice_outer_transposed(h8, qd1, b, K);
   K.noalias() += U * t.H + t.HV;
+  if (has_friction())
+    for (int m = 0; m < n; ++m) K(m, m) += friction_covariance(m, qd1(m), qd2(m));
+}
+
+double LagrangianKernel::friction_covariance(int m, double v1, double v2) const {
+  const int o = friction_offset_ + FrictionKernel::kNumParams * m;
+  const double log_vc = log_params_(o + FrictionKernel::kCoulombVelocity);
+  const double log_vr = log_params_(o + FrictionKernel::kStribeckVelocity);
+  const Eigen::Vector4d f1 = friction_features(v1, log_vc, log_vr), f2 = friction_features(v2, log_vc, log_vr);
+  return (params_.segment<4>(o).array() * f1.array() * f2.array()).sum();
+}
+
+void LagrangianKernel::add_friction_gradient(int m, double v1, double v2, double w,
+                                             Eigen::Ref<Eigen::VectorXd> grad) const {
+  const int o = friction_offset_ + FrictionKernel::kNumParams * m;
+  const double log_vc = log_params_(o + FrictionKernel::kCoulombVelocity);
+  const double log_vr = log_params_(o + FrictionKernel::kStribeckVelocity);
+  Eigen::Vector4d dc1, dr1, dc2, dr2;
+  const Eigen::Vector4d f1 = friction_features(v1, log_vc, log_vr, &dc1, &dr1);
+  const Eigen::Vector4d f2 = friction_features(v2, log_vc, log_vr, &dc2, &dr2);
+  const Eigen::Array4d s = params_.segment<4>(o).array();
+  grad.segment<4>(o) += (w * s * f1.array() * f2.array()).matrix();
+  grad(o + FrictionKernel::kCoulombVelocity) += w * (s * (dc1.array() * f2.array() + f1.array() * dc2.array())).sum();
+  grad(o + FrictionKernel::kStribeckVelocity) += w * (s * (dr1.array() * f2.array() + f1.array() * dr2.array())).sum();
 }
 
 LagrangianKernel::PairScratch::PairScratch(const LagrangianKernel& kernel)
@@ -432,6 +465,7 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
     const Jet dv = jet_sensitivity(t.potential, pot, m);
     const int po = potential_joint_[static_cast<size_t>(m)];
     for (int p = 0; p < fs; ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, q1, q2));
+    if (has_friction()) add_friction_gradient(m, qd1(m), qd2(m), W(m, m), grad);
   }
 }
 
@@ -523,6 +557,8 @@ void LagrangianKernel::initialize(const Eigen::MatrixXd& X, double target_varian
     assemble_block(x.data(), x.data(), t, block);
     potential += t.HV.trace();
     kinetic += block.trace() - t.HV.trace();
+    if (has_friction())
+      for (int m = 0; m < n_; ++m) kinetic -= friction_covariance(m, x(n_ + m), x(n_ + m));
   }
   const double count = static_cast<double>(std::max<Eigen::Index>(rows, 1) * n_);
   kinetic /= count;
@@ -534,6 +570,12 @@ void LagrangianKernel::initialize(const Eigen::MatrixXd& X, double target_varian
     for (int m = 0; m < n_; ++m)
       p.segment(potential_joint_[static_cast<size_t>(m)], factor_size(m)).array() += per_factor;
   }
+  if (has_friction())
+    for (int m = 0; m < n_; ++m) {
+      FrictionKernel friction(n_ + m);
+      friction.initialize(X, 0.25 * target_variance);
+      p.segment<FrictionKernel::kNumParams>(friction_offset_ + FrictionKernel::kNumParams * m) = friction.log_params();
+    }
   set_log_params(p);
 }
 

@@ -315,6 +315,17 @@ def test_lip_trains_and_gives_energies(tmp_path, gipdyn_bin):
             "--hyperparameter-rows", "50", "--out", str(tmp_path / "lip50.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "learned on 50 rows" in r.stdout, r.stdout
+    # With each joint's friction beside the energies: named as such in the file, physics and energies still there.
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "lip+friction",
+            "--hyperparameter-rows", "50", "--out", str(tmp_path / "lipf.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "saved lip+friction model" in r.stdout, r.stdout
+    r = run(gipdyn_bin, "physics", "--model", str(tmp_path / "lipf.gipdyn"), "--data", str(tmp_path / "test.csv"),
+            "--out", str(tmp_path / "physics_f.csv"))
+    assert r.returncode == 0, r.stderr
+    header, table = read_table(tmp_path / "physics_f.csv")
+    assert "friction1" in header and header[-2:] == ["potential_energy", "kinetic_energy"]
+    assert rel(table[:, [col["g1"], col["g2"]]], g) < 1e-2
 
 
 def test_evaluate_compares_physics_with_the_robot(tmp_path, gipdyn_bin):

@@ -38,10 +38,12 @@ class LagrangianEstimator final : public Estimator {
   // per-joint GPs: kernel and scaling are ignored, and mean, prior and
   // warm_start_rows must be left at their defaults (gipdyn::Error otherwise). Throws
   // gipdyn::Error for bad data or a system too large for the memory available.
+  // friction: add each joint's smooth friction and offset term beside the
+  // energies (LagrangianKernel), the estimator "lip+friction".
   static FitOutcome fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
-                        const TrainOptions& options, const ProgressCallback& progress = {});
+                        const TrainOptions& options, const ProgressCallback& progress = {}, bool friction = false);
 
-  std::string name() const override { return "lip"; }
+  std::string name() const override { return kernel_.has_friction() ? "lip+friction" : "lip"; }
   const JointTypes& joints() const override { return kernel_.joints(); }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
   // Single queries make no heap allocation: one n x n block per training row.

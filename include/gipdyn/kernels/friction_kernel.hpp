@@ -16,6 +16,11 @@
 
 namespace gipdyn {
 
+// The four features (1, v, c(v), r(v)) of one velocity v for the given log v_c
+// and log v_r, and, where asked, their derivatives in log v_c and log v_r.
+Eigen::Vector4d friction_features(double v, double log_vc, double log_vr, Eigen::Vector4d* d_log_vc = nullptr,
+                                  Eigen::Vector4d* d_log_vr = nullptr);
+
 class FrictionKernel final : public Kernel {
  public:
   // column: the velocity's column in the feature matrix Z.

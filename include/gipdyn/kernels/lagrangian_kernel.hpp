@@ -19,6 +19,11 @@
 // gradient with respect to the log-hyperparameters, and the covariance of
 // each energy with the torques (to estimate T and V from torque data alone).
 //
+// With friction, each joint's torque gets an independent dissipative term
+// beside the Lagrangian ones, the smooth Stribeck friction and offset of
+// kernels/friction_kernel.hpp on its own velocity: it adds
+// k_f,i(qd1_i, qd2_i) to cov(tau_i(x1), tau_i(x2)) and nothing to the energies.
+//
 // States are rows x = (q, qd, qdd) of length 3n; covariance matrices of many
 // states are sample-major: entry (r n + i, s n + j) is cov(tau_i(x_r), tau_j(x_s)).
 #include <Eigen/Dense>
@@ -34,11 +39,13 @@ class LagrangianKernel {
   struct PairTerms;
 
  public:
-  explicit LagrangianKernel(JointTypes joints);
+  explicit LagrangianKernel(JointTypes joints, bool friction = false);
 
   const JointTypes& joints() const { return joints_; }
+  bool has_friction() const { return friction_offset_ >= 0; }
   int num_params() const { return static_cast<int>(log_params_.size()); }
-  // "kinetic.velocity.w1_2", "kinetic.joint2.factor1.l_cos", "potential.joint1.bias", ...
+  // "kinetic.velocity.w1_2", "kinetic.joint2.factor1.l_cos", "potential.joint1.bias", ...,
+  // and with friction "friction.joint1.s_offset", ... (FrictionKernel's six per joint).
   std::vector<std::string> param_names() const;
   const Eigen::VectorXd& log_params() const { return log_params_; }
   // Throws gipdyn::Error unless the length is num_params() and every entry is finite.
@@ -77,13 +84,16 @@ class LagrangianKernel {
   // Data-driven start: every position factor is 1 on the diagonal (weights
   // share it with the bias), then the velocity weights and the potential's
   // factors are scaled so that each energy's torques have a prior variance of
-  // about target_variance / 2 on the states X.
+  // about target_variance / 2 on the states X; friction starts as
+  // FrictionKernel::initialize with target_variance / 4 on each joint.
   void initialize(const Eigen::MatrixXd& X, double target_variance);
 
   // Indices into log_params().
   int num_velocity_weights() const { return n_ * (n_ + 1) / 2; }
   int kinetic_position_offset() const { return num_velocity_weights(); }
   int potential_offset() const { return potential_offset_; }
+  // First friction parameter (joint m's start at friction_offset() + 6 m), or -1.
+  int friction_offset() const { return friction_offset_; }
 
  private:
   // Per-joint jets of the position kernels for one pair of states.
@@ -96,10 +106,14 @@ class LagrangianKernel {
   void add_pair_gradient(const double* x1, const double* x2, const Eigen::Ref<const Eigen::MatrixXd>& W, PairTerms& t,
                          Eigen::Ref<Eigen::VectorXd> grad) const;
   int factor_size(int joint) const { return joints_.is_revolute(joint) ? 3 : 2; }
+  // Joint m's friction covariance k_f,m(v1, v2), and its gradient (times w) into grad.
+  double friction_covariance(int m, double v1, double v2) const;
+  void add_friction_gradient(int m, double v1, double v2, double w, Eigen::Ref<Eigen::VectorXd> grad) const;
 
   JointTypes joints_;
   int n_ = 0;
   int potential_offset_ = 0;
+  int friction_offset_ = -1;
   std::vector<int> kinetic_offset_;    // per joint: its first factor's bias; the second factor follows
   std::vector<int> potential_joint_;   // per joint: its factor's bias
   Eigen::VectorXd log_params_;
