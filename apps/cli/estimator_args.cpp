@@ -33,6 +33,11 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
                  "GP: learn the hyperparameters on a constant-step subsample of this many rows, then condition "
                  "the model on every row (with --inducing: 10^6 rows in minutes); 0: all rows")
       ->capture_default_str();
+  app.add_option("--hyperparameter-objective", hyperparameter_objective,
+                 "GP with --inducing and --hyperparameter-rows: what the hyperparameters minimise on the "
+                 "subsample, bound (the sparse GP's variational bound) or exact (the subsample's exact NLL, "
+                 "O(rows^3) per evaluation; docs/method.md section 14)")
+      ->capture_default_str();
   app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str();
   app.add_option("--restarts", restarts, "GP: extra optimiser runs from perturbed starts; the best NLL is kept")
       ->capture_default_str();
@@ -99,6 +104,8 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--warm-start-rows")) o.gp.warm_start_rows = warm_start_rows;
   if (given("--inducing")) o.gp.inducing_points = inducing;
   if (given("--hyperparameter-rows")) o.gp.hyperparameter_rows = hyperparameter_rows;
+  if (given("--hyperparameter-objective"))
+    o.gp.hyperparameter_objective = parse_hyperparameter_objective(hyperparameter_objective);
   if (given("--gradient-tolerance")) o.gp.gradient_tolerance_per_row = gradient_tolerance;
   if (given("--seed")) {
     o.gp.seed = seed;

@@ -16,6 +16,7 @@ struct EstimatorArgs {
   int max_iter = OptimizerOptions{}.max_iterations, restarts = TrainOptions{}.restarts, threads = 0;
   int warm_start_rows = TrainOptions{}.warm_start_rows, inducing = TrainOptions{}.inducing_points;
   int hyperparameter_rows = TrainOptions{}.hyperparameter_rows;
+  std::string hyperparameter_objective = to_string(TrainOptions{}.hyperparameter_objective);
   double gradient_tolerance = TrainOptions{}.gradient_tolerance_per_row;
   std::uint64_t seed = 0;
   double min_noise = 1e-8, learning_rate = 0.01;

@@ -14,6 +14,7 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::threads", "--threads"},
       {"TrainOptions::warm_start_rows", "--warm-start-rows"},
       {"TrainOptions::hyperparameter_rows", "--hyperparameter-rows"},
+      {"TrainOptions::hyperparameter_objective", "--hyperparameter-objective"},
       {"TrainOptions::inducing_points", "--inducing"},
       {"TrainOptions::nll_backend", "--distributed"},
       {"TrackingOptions::position_noise", "--position-noise"},

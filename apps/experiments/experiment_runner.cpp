@@ -118,6 +118,10 @@ nlohmann::json base_options_json(const EstimatorOptions& b) {
           {"nn_lr", b.nn.learning_rate}};
   // Only when set, so folders written before mean functions existed still resume.
   if (b.gp.mean != MeanKind::Zero) j["mean"] = to_string(b.gp.mean);
+  if (b.gp.inducing_points > 0) j["inducing"] = b.gp.inducing_points;
+  if (b.gp.hyperparameter_rows > 0) j["hyperparameter_rows"] = b.gp.hyperparameter_rows;
+  if (b.gp.hyperparameter_objective != HyperparameterObjective::SparseBound)
+    j["hyperparameter_objective"] = to_string(b.gp.hyperparameter_objective);
   return j;
 }
 

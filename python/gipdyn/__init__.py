@@ -111,7 +111,10 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     many inducing rows chosen among the training rows, hyperparameters by
     Titsias' variational bound: for data too long for the exact GP; 0: exact),
     hyperparameter_rows (learn the hyperparameters on a constant-step
-    subsample of this many rows, then condition on every row; 0: all rows)
+    subsample of this many rows, then condition on every row; 0: all rows),
+    hyperparameter_objective (with inducing and hyperparameter_rows: "bound",
+    the sparse GP's variational bound on the subsample, or "exact", the
+    subsample's exact NLL)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
@@ -135,7 +138,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
                  inducing=_DEFAULTS.inducing_points, distributed=False,
-                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows):
+                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows,
+                 hyperparameter_objective=_DEFAULTS.hyperparameter_objective):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -159,6 +163,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.inducing = inducing
         self.distributed = distributed
         self.hyperparameter_rows = hyperparameter_rows
+        self.hyperparameter_objective = hyperparameter_objective
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -184,6 +189,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.warm_start_rows = int(self.warm_start_rows)
         o.inducing_points = int(self.inducing)
         o.hyperparameter_rows = int(self.hyperparameter_rows)
+        o.hyperparameter_objective = str(self.hyperparameter_objective)
         if self.distributed:
             o.nll_backend = _core.distributed_backend()
             o.keep_factor = False  # spread over the processes; predict(return_std=True) rebuilds it

@@ -47,6 +47,7 @@ const FieldNames& python_field_names() {
       {"TrainOptions::threads", "threads"},
       {"TrainOptions::warm_start_rows", "warm_start_rows"},
       {"TrainOptions::hyperparameter_rows", "hyperparameter_rows"},
+      {"TrainOptions::hyperparameter_objective", "hyperparameter_objective"},
       {"TrainOptions::inducing_points", "inducing"},
       {"TrainOptions::nll_backend", "distributed"},
       {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
@@ -335,6 +336,8 @@ PYBIND11_MODULE(_core, m) {
       py::arg("name"), "The GP TrainOptions of a named preset (gipdyn/estimators/presets.hpp)");
   string_property(train_options, "scaling", &TrainOptions::scaling, &parse_output_scaling, &to_string);
   string_property(train_options, "mean", &TrainOptions::mean, &parse_mean_kind, &to_string);
+  string_property(train_options, "hyperparameter_objective", &TrainOptions::hyperparameter_objective,
+                  &parse_hyperparameter_objective, &to_string);
 
   py::class_<Model, std::shared_ptr<Model>> model_class(m, "Model");
   add_physics_methods(model_class);

@@ -81,6 +81,16 @@ def test_hyperparameters_from_a_subsample_and_the_model_from_every_row(scara):
     assert est.model_.num_data_rows == 200
     with pytest.raises(ValueError, match="hyperparameter_rows must be 0 or at least"):
         gipdyn.InverseDynamicsGP(joints="RRPR", hyperparameter_rows=2).fit(train["X"], train["tau"])
+    # The subsample's exact NLL instead of the bound: other hyperparameters, the same rows in the model.
+    exact = gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, hyperparameter_rows=100, max_iter=30,
+                                     hyperparameter_objective="exact").fit(train["X"], train["tau"])
+    assert exact.train_options().hyperparameter_objective == "exact"
+    assert exact.model_.num_data_rows == 200
+    assert exact.hyperparameters_ != est.hyperparameters_
+    with pytest.raises(ValueError, match="hyperparameter_objective: unknown objective 'fast'"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", hyperparameter_objective="fast").fit(train["X"], train["tau"])
+    with pytest.raises(ValueError, match="needs hyperparameter_rows"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, hyperparameter_objective="exact").fit(train["X"], train["tau"])
 
 
 def test_partial_fit_with_refit_reoptimises_from_the_current_hyperparameters(scara):

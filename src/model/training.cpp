@@ -16,6 +16,16 @@
 
 namespace gipdyn {
 
+std::string to_string(HyperparameterObjective o) {
+  return o == HyperparameterObjective::Exact ? "exact" : "bound";
+}
+
+HyperparameterObjective parse_hyperparameter_objective(const std::string& s) {
+  if (s == "exact") return HyperparameterObjective::Exact;
+  if (s == "bound") return HyperparameterObjective::SparseBound;
+  throw Error("TrainOptions::hyperparameter_objective: unknown objective '" + s + "' (bound or exact)");
+}
+
 void TrainOptions::validate() const {
   optimizer.validate();
   if (restarts < 0 || restarts > 1000) throw Error("TrainOptions::restarts must be between 0 and 1000");
@@ -32,6 +42,9 @@ void TrainOptions::validate() const {
   if (hyperparameter_rows < 0) throw Error("TrainOptions::hyperparameter_rows must be >= 0 (0: all rows)");
   if (hyperparameter_rows > 0 && hyperparameter_rows < static_cast<int>(kMinTrainingRows))
     throw Error("TrainOptions::hyperparameter_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+  if (inducing_points > 0 && hyperparameter_objective == HyperparameterObjective::Exact && hyperparameter_rows == 0)
+    throw Error("TrainOptions::hyperparameter_objective exact with inducing points needs TrainOptions::hyperparameter_rows "
+                "(the exact NLL of every row is what the sparse GP avoids): set it, e.g. to 1000");
   if (inducing_points > 0 && mean != MeanKind::Zero)
     throw Error("TrainOptions::mean must be zero with inducing points (TrainOptions::inducing_points)");
   if (!(gradient_tolerance_per_row >= 0.0)) throw Error("TrainOptions::gradient_tolerance_per_row must be >= 0");
@@ -109,6 +122,8 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
   std::normal_distribution<double> normal(0.0, 1.0);
 
+  const bool exact_objective = o.hyperparameter_objective == HyperparameterObjective::Exact &&
+                               o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
   // One optimisation of the NLL on the rows (Xr, Zr, yr).
   // all_rows: (Xr, Zr, yr) are the hyperparameter rows, not the warm-start subsample.
   auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
@@ -116,8 +131,8 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
       // A warm-start subsample is small: the exact NLL there, in this process;
-      // the sparse bound or the backend on all rows.
-      NllEvaluation e = Zm && all_rows ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
+      // the sparse bound (unless asked for the exact NLL) or the backend on all rows.
+      NllEvaluation e = Zm && all_rows && !exact_objective ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
                         : o.nll_backend && all_rows
                             ? o.nll_backend->evaluate(*trial, x(P), Zr, yr, true, nullptr, o.jitter)
                             : evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);

@@ -73,3 +73,13 @@ def test_hyperparameter_rows_learn_on_a_subsample_and_keep_every_row(tmp_path, g
     r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--hyperparameter-rows", "-1",
             "--out", str(tmp_path / "bad.gipdyn"))
     assert r.returncode == 1 and "--hyperparameter-rows must be >= 0" in r.stderr, r.stderr
+    # The subsample's exact NLL instead of the bound; it needs the subsample.
+    r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--inducing", "60",
+            "--hyperparameter-rows", "100", "--hyperparameter-objective", "exact", "--max-iter", "30",
+            "--out", str(tmp_path / "exact.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--inducing", "60",
+            "--hyperparameter-objective", "exact", "--out", str(tmp_path / "bad.gipdyn"))
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1 and "needs --hyperparameter-rows" in lines[0], r.stderr
+    assert not (tmp_path / "bad.gipdyn").exists()

@@ -19,6 +19,20 @@
 
 namespace gipdyn {
 
+// What the hyperparameters of a sparse GP learned on a subsample
+// (TrainOptions::hyperparameter_rows) minimise.
+enum class HyperparameterObjective {
+  // Titsias' bound on the model's inducing rows: the objective the model itself has.
+  SparseBound,
+  // The exact NLL of the subsample's rows, O(H^3) per evaluation: no bound
+  // slack, so none of the bound's all-noise optima that the trace term creates
+  // when the inducing rows cannot represent a joint (docs/method.md section 14).
+  Exact,
+};
+std::string to_string(HyperparameterObjective o);
+// "bound" or "exact"; throws gipdyn::Error naming the field otherwise.
+HyperparameterObjective parse_hyperparameter_objective(const std::string& s);
+
 struct TrainOptions {
   std::string kernel = "gip";
   // The nominal robot for model-based kernels (pp, sp); required by them, ignored by the others.
@@ -53,6 +67,10 @@ struct TrainOptions {
   // of one per evaluation. How a sparse GP learns from 10^6 rows in minutes
   // (docs/training.md). 0 (the default): optimise on all rows.
   int hyperparameter_rows = 0;
+  // With inducing points and hyperparameter_rows: the objective on the
+  // subsample. Exact needs hyperparameter_rows (the exact NLL of every row is
+  // what a sparse GP avoids); without inducing points the objective is always exact.
+  HyperparameterObjective hyperparameter_objective = HyperparameterObjective::SparseBound;
   // A joint's optimisation has converged when the projected |dNLL/dlog theta|_inf
   // at its best point is at most this times the number of rows (the NLL and its
   // gradient grow with the rows); it sets OptimizerOptions::gradient_tolerance.
