@@ -21,9 +21,13 @@ void FrictionKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) 
   log_params_ = p;
 }
 
-Eigen::Vector4d friction_features(double v, double log_vc, double log_vr, Eigen::Vector4d* d_log_vc,
-                                  Eigen::Vector4d* d_log_vr) {
-  const double a = v * std::exp(-log_vc), u = v * std::exp(-log_vr);
+namespace {
+
+// friction_features from the inverse velocities 1 / v_c and 1 / v_r, which a
+// loop over rows computes once.
+Eigen::Vector4d features_from_inverse(double v, double inv_vc, double inv_vr, Eigen::Vector4d* d_log_vc,
+                                      Eigen::Vector4d* d_log_vr) {
+  const double a = v * inv_vc, u = v * inv_vr;
   const double c = std::tanh(a), e = std::exp(-u * u);
   // d tanh(v / v_c) / d log v_c = -(v / v_c) sech^2; d exp(-(v / v_r)^2) / d log v_r = 2 u^2 e.
   if (d_log_vc) {
@@ -32,6 +36,13 @@ Eigen::Vector4d friction_features(double v, double log_vc, double log_vr, Eigen:
   }
   if (d_log_vr) *d_log_vr << 0.0, 0.0, 0.0, 2.0 * u * u * e * c;
   return {1.0, v, c, e * c};
+}
+
+}  // namespace
+
+Eigen::Vector4d friction_features(double v, double log_vc, double log_vr, Eigen::Vector4d* d_log_vc,
+                                  Eigen::Vector4d* d_log_vr) {
+  return features_from_inverse(v, std::exp(-log_vc), std::exp(-log_vr), d_log_vc, d_log_vr);
 }
 
 Eigen::Vector4d FrictionKernel::features(double v) const {
@@ -45,9 +56,9 @@ void FrictionKernel::feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F
   if (dF_vc) dF_vc->resize(N, 4);
   if (dF_vr) dF_vr->resize(N, 4);
   Eigen::Vector4d d_vc, d_vr;
+  const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
   for (Eigen::Index i = 0; i < N; ++i) {
-    F.row(i) = friction_features(Z(i, column_), log_params_(kCoulombVelocity), log_params_(kStribeckVelocity),
-                                 dF_vc ? &d_vc : nullptr, dF_vr ? &d_vr : nullptr)
+    F.row(i) = features_from_inverse(Z(i, column_), inv_vc, inv_vr, dF_vc ? &d_vc : nullptr, dF_vr ? &d_vr : nullptr)
                    .transpose();
     if (dF_vc) dF_vc->row(i) = d_vc.transpose();
     if (dF_vr) dF_vr->row(i) = d_vr.transpose();
@@ -92,7 +103,7 @@ void FrictionKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<E
                          KernelScratch& /*scratch*/) const {
   const Eigen::Vector4d w = features(z[column_]).cwiseProduct(Eigen::Vector4d(log_params_.head<4>().array().exp()));
   const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
-  for (Eigen::Index i = 0; i < Z.rows(); ++i) out(i) = w.dot(friction_features(Z(i, column_), inv_vc, inv_vr));
+  for (Eigen::Index i = 0; i < Z.rows(); ++i) out(i) = w.dot(features_from_inverse(Z(i, column_), inv_vc, inv_vr, nullptr, nullptr));
 }
 
 void FrictionKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
