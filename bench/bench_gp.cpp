@@ -225,6 +225,26 @@ void BM_UpdateOneSample(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints, one sample in, the oldest out");
 }
 
+// Online learning of a sparse model (N training rows, M inducing rows): one
+// sample in, nothing out; the cost is O(M^2) per joint, independent of N.
+void BM_AddOneSampleSparse(benchmark::State& state) {
+  use_single_threaded_blas();
+  const int robot = static_cast<int>(state.range(0)), N = static_cast<int>(state.range(1));
+  const Problem& p = problem(robot, N);
+  TrainOptions o;
+  o.inducing_points = static_cast<int>(state.range(2));
+  o.optimizer.max_iterations = 3;  // the cost does not depend on the hyperparameter values
+  InverseDynamicsModel m = train_model(p.X, p.Y, p.joints, o).model.with_variance();
+  const Problem& stream = problem(robot, 1000);
+  Eigen::Index row = 0;
+  for (auto _ : state) {
+    m = std::move(m).updated(stream.X.row(row), stream.Y.row(row));
+    row = (row + 1) % stream.X.rows();
+    benchmark::DoNotOptimize(m.joint_gp(0).alpha().data());
+  }
+  state.SetLabel(label(robot) + " all joints, sparse, one sample in");
+}
+
 void BM_Train(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   int evaluations = 0;
@@ -314,6 +334,9 @@ BENCHMARK(BM_PredictOneMeanPresetReal)->Apply(sizes)->Unit(benchmark::kMicroseco
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanCApi)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_UpdateOneSample)->Apply(sizes)->Unit(benchmark::kMillisecond);
+BENCHMARK(BM_AddOneSampleSparse)
+    ->ArgsProduct({{4, 6}, {4000}, {100, 300, 1000}})
+    ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_LipGram)->Apply(lip_sizes);
 BENCHMARK(BM_LipGradient)->Apply(lip_sizes);
 BENCHMARK(BM_LipPredictOne)->Apply(lip_sizes)->Unit(benchmark::kMicrosecond);

@@ -197,15 +197,33 @@ TEST(SparseGp, GreedySelectionIsDeterministicDistinctAndStopsAtTheFeatureSpaceRa
             std::string::npos);
 }
 
-TEST(SparseGp, ASparseGpRefusesOnlineUpdates) {
-  Problem p = make_problem("R", "rbf", 30, 91);
+// Adding rows online, with the inducing rows and hyperparameters fixed, gives
+// the batch fit on all rows: the same alpha, the same factor of A.
+TEST(SparseGp, AddingRowsOnlineEqualsTheBatchFitOnAllRows) {
+  Problem p = make_problem("RR", "gip", 120, 91);
+  const double log_noise = std::log(0.05);
   SparseGpWorkspace ws;
-  const Eigen::MatrixXd Zm = rows_of(p.Z, 3);
-  const SparsePosterior post = fit_sparse(*p.kernel, std::log(0.05), p.Z, p.y, Zm, ws);
-  ASSERT_TRUE(post.status.ok());
-  GpRegressor gp(p.kernel->clone(), std::log(0.05));
-  gp.set_sparse_state(post.alpha, post.jitter, post.objective, post.inducing_factor, post.posterior_factor);
+  const Eigen::MatrixXd Zm = rows_of(p.Z.topRows(80), 4);  // the inducing rows come from the first rows only
+  const SparsePosterior first = fit_sparse(*p.kernel, log_noise, p.Z.topRows(80), p.y.head(80), Zm, ws);
+  ASSERT_TRUE(first.status.ok());
+  GpRegressor gp(p.kernel->clone(), log_noise);
+  gp.set_sparse_state(first.alpha, first.jitter, first.objective, first.inducing_factor, first.posterior_factor);
+  ASSERT_TRUE(gp.add_rows_sparse(Zm, p.Z.middleRows(80, 1), p.y.segment(80, 1)).ok());  // one row
+  ASSERT_TRUE(gp.add_rows_sparse(Zm, p.Z.bottomRows(39), p.y.tail(39)).ok());           // then a batch
+  const SparsePosterior all = fit_sparse(*p.kernel, log_noise, p.Z, p.y, Zm, ws);
+  ASSERT_TRUE(all.status.ok());
+  EXPECT_GT((all.alpha - first.alpha).norm(), 1e-3 * all.alpha.norm());  // the new rows matter
+  EXPECT_LT((gp.alpha() - all.alpha).norm(), 1e-8 * all.alpha.norm());
+  const Eigen::MatrixXd La = gp.posterior_factor().triangularView<Eigen::Lower>();
+  const Eigen::MatrixXd La_batch = all.posterior_factor.triangularView<Eigen::Lower>();
+  EXPECT_LT((La - La_batch).norm(), 1e-8 * La_batch.norm());
+
+  // A sparse GP keeps no rows to drop: the exact GP's update refuses it.
   EXPECT_NE(error_of([&] { gp.update(0, Zm, 0, Eigen::VectorXd::Zero(Zm.rows())); }).find("sparse"), std::string::npos);
+  EXPECT_NE(error_of([&] { gp.add_rows_sparse(Zm.topRows(3), p.Z.topRows(2), p.y.head(2)); }).find("inducing rows"),
+            std::string::npos);
+  GpRegressor exact(p.kernel->clone(), log_noise);
+  EXPECT_NE(error_of([&] { exact.add_rows_sparse(Zm, p.Z.topRows(2), p.y.head(2)); }).find("sparse"), std::string::npos);
 }
 
 // TrainOptions::hyperparameter_rows: the optimiser sees a constant-step

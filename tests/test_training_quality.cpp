@@ -143,7 +143,7 @@ TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {
 // A sparse GP on an eighth of the rows as inducing points: as accurate as the
 // exact GP here (the 2R arm's GIP features span 150 directions, the motion is
 // smooth), a bound above the exact optimum, a model file that restores it, and
-// no online updates.
+// online rows (no window).
 TEST(TrainingQuality, SparseGpMatchesTheExactGpAndSurvivesItsModelFile) {
   TrainOptions o;
   o.threads = 1;
@@ -181,7 +181,26 @@ TEST(TrainingQuality, SparseGpMatchesTheExactGpAndSurvivesItsModelFile) {
   EXPECT_LT((tau - mean2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-10 * mean2.cwiseAbs().maxCoeff());
   EXPECT_LT((stddev - sd2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-8 * sd2.cwiseAbs().maxCoeff() + 1e-12);
 
-  EXPECT_NE(test::error_of([&] { (void)m.updated(Xtest.topRows(3), mean.topRows(3)); }).find("sparse"),
+  // Online rows: one at a time gives what one batch gives (GpRegressor::add_rows_sparse
+  // equals the batch fit, test_sparse_gp), and a window is refused.
+  const Eigen::MatrixXd Xnew = two_link_trajectory(60, 0.15, 6);
+  const Eigen::MatrixXd Ynew = two_link_torques(Xnew);
+  const InverseDynamicsModel batch = m.updated(Xnew, Ynew);
+  EXPECT_EQ(batch.num_data_rows(), 860);
+  EXPECT_EQ(batch.num_training_samples(), 100);
+  InverseDynamicsModel one_by_one = m;
+  for (Eigen::Index i = 0; i < Xnew.rows(); ++i)
+    one_by_one = std::move(one_by_one).updated(Xnew.row(i), Ynew.row(i));
+  const Eigen::MatrixXd from_batch = batch.predict(Xtest), from_rows = one_by_one.predict(Xtest);
+  EXPECT_GT((from_batch - m.predict(Xtest)).cwiseAbs().maxCoeff(), 1e-6 * from_batch.cwiseAbs().maxCoeff());
+  // 1e-6, not 1e-8: A's condition number (GIP features, a small learned
+  // noise) amplifies the rounding of a sum taken in another order.
+  EXPECT_LT((from_rows - from_batch).cwiseAbs().maxCoeff(), 1e-6 * from_batch.cwiseAbs().maxCoeff());
+  Eigen::MatrixXd unused, sd_batch, sd_rows;
+  batch.predict(Xtest, unused, &sd_batch);
+  one_by_one.predict(Xtest, unused, &sd_rows);
+  EXPECT_LT((sd_rows - sd_batch).cwiseAbs().maxCoeff(), 1e-8 * sd_batch.cwiseAbs().maxCoeff() + 1e-12);
+  EXPECT_NE(test::error_of([&] { (void)m.updated(Xtest.topRows(3), mean.topRows(3), 200); }).find("window"),
             std::string::npos);
   EXPECT_NE(test::error_of([&] { (void)m.training_targets(); }).find("sparse"), std::string::npos);
 }

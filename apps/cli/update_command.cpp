@@ -1,5 +1,5 @@
 // `gipdyn update`: add new samples to a trained GP model with its hyperparameters
-// fixed (O(N^2) per sample), optionally as a sliding window over the newest rows,
+// fixed (O(N^2) per sample; a sparse model O(M^2)), optionally as a sliding window over the newest rows (exact models),
 // and optionally refit the hyperparameters on the kept rows afterwards.
 #include <cstdio>
 #include <memory>
@@ -53,7 +53,11 @@ Command add_update(CLI::App& app) {
     require_memory(8.0 * rows * rows * (model->num_joints() + 1), "updating a model of " +
                    std::to_string(static_cast<long>(rows)) + " rows", "use --window to keep fewer rows");
     InverseDynamicsModel updated = model->updated(data.X, data.tau, a->window);
-    if (!a->quiet)
+    if (!a->quiet && updated.is_sparse())
+      std::printf("updated %s with %ld rows of %s (hyperparameters and %d inducing rows fixed): %ld data rows\n",
+                  a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
+                  static_cast<long>(updated.num_data_rows()));
+    else if (!a->quiet)
       std::printf("updated %s with %ld rows of %s (hyperparameters fixed): %d training rows%s\n", a->model.c_str(),
                   static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
                   a->window > 0 ? (", window " + std::to_string(a->window)).c_str() : "");

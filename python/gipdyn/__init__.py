@@ -242,8 +242,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     def partial_fit(self, X, Y, window=0, refit=False):
         """Online learning: add the rows of (X, Y) to the fitted model with its
-        hyperparameters fixed (O(N^2) per row; the first call, on an unfitted
-        estimator, is fit(X, Y)). window > 0 keeps only the newest window rows.
+        hyperparameters fixed (O(N^2) per row, a sparse model's O(M^2); the
+        first call, on an unfitted estimator, is fit(X, Y)). window > 0 keeps
+        only the newest window rows (exact models only).
         refit=True then re-optimises the hyperparameters on the kept rows,
         starting from the current ones (minutes at a few thousand rows): for
         when the robot has changed more than new data at old hyperparameters

@@ -66,8 +66,17 @@ def test_sparse_gp_from_python(scara, tmp_path):
     assert (est.nmse(test["X"], test["tau_true"]) < [2e-2, 8e-2, 4e-4, 0.4]).all()
     again = pickle.loads(pickle.dumps(est))
     assert np.allclose(again.predict(test["X"]), pred, rtol=1e-10, atol=1e-12)
-    with pytest.raises(ValueError, match="sparse"):
-        est.partial_fit(test["X"][:5], test["tau"][:5])
+    # Online rows through the fixed inducing rows: one at a time as in one batch.
+    batch = pickle.loads(pickle.dumps(est)).partial_fit(test["X"][:20], test["tau"][:20])
+    for i in range(20):
+        est.partial_fit(test["X"][i:i + 1], test["tau"][i:i + 1])
+    assert est.model_.num_data_rows == 220 and est.model_.num_training_samples == 60
+    assert not np.allclose(est.predict(test["X"]), pred, rtol=1e-6, atol=1e-9)
+    # To 1e-5 of each joint's scale: A's condition number amplifies the rounding of sums in another order.
+    from_batch = batch.predict(test["X"])
+    assert (np.abs(est.predict(test["X"]) - from_batch).max(axis=0) <= 1e-5 * np.abs(from_batch).max(axis=0)).all()
+    with pytest.raises(ValueError, match="window"):
+        est.partial_fit(test["X"][:5], test["tau"][:5], window=100)
     with pytest.raises(ValueError, match="inducing"):
         gipdyn.InverseDynamicsGP(joints="RRPR", inducing=-1).fit(train["X"], train["tau"])
 

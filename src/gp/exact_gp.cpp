@@ -7,6 +7,19 @@
 namespace gipdyn {
 namespace {
 
+// L L^T + x x^T -> L' L'^T in place (Givens rotations, O(n^2)); x is consumed.
+void rank_one_update(Eigen::Ref<Eigen::MatrixXd> L, Eigen::Ref<Eigen::VectorXd> x) {
+  const Eigen::Index n = L.rows();
+  for (Eigen::Index k = 0; k < n; ++k) {
+    const double r = std::hypot(L(k, k), x(k)), cos = r / L(k, k), sin = x(k) / L(k, k);
+    L(k, k) = r;
+    const Eigen::Index rest = n - k - 1;
+    if (rest == 0) break;
+    L.col(k).tail(rest) = (L.col(k).tail(rest) + sin * x.tail(rest)) / cos;
+    x.tail(rest) = cos * x.tail(rest) - sin * L.col(k).tail(rest);
+  }
+}
+
 void build_covariance(const Kernel& kernel, double noise_variance, const Eigen::MatrixXd& Z, Eigen::MatrixXd& K,
                       KernelScratch& scratch) {
   K.resize(Z.rows(), Z.rows());
@@ -137,6 +150,7 @@ GpRegressor::GpRegressor(const GpRegressor& other)
       y_(other.y_),
       L_(other.L_),
       La_(other.La_),
+      sparse_b_(other.sparse_b_),
       jitter_(other.jitter_),
       nll_(other.nll_) {}
 
@@ -152,6 +166,7 @@ CholeskyResult GpRegressor::fit(const Eigen::MatrixXd& Z, const Eigen::VectorXd&
   nll_ = solve_and_nll(ws.K, y, alpha_);
   y_ = y;
   La_.resize(0, 0);
+  sparse_b_.resize(0);
   jitter_ = chol.jitter;
   if (keep_factor) {
     L_ = ws.K.triangularView<Eigen::Lower>();
@@ -168,6 +183,7 @@ void GpRegressor::set_state(const Eigen::VectorXd& alpha, double jitter, double 
   nll_ = nll;
   L_.resize(0, 0);
   La_.resize(0, 0);
+  sparse_b_.resize(0);
 }
 
 void GpRegressor::set_sparse_state(const Eigen::VectorXd& alpha, double jitter, double objective,
@@ -219,18 +235,10 @@ CholeskyResult GpRegressor::update(Eigen::Index drop, const Eigen::MatrixXd& Z, 
   // the arithmetic. Dropping the oldest rows: K22 = L21 L21^T + L22 L22^T, so
   // the kept block's factor is L22 updated by each column of L21.
   if (drop > 0) {
-    auto L22 = L_.bottomRightCorner(kept, kept);
     Eigen::VectorXd x(kept);
     for (Eigen::Index c = 0; c < drop; ++c) {
       x = L_.block(drop, c, kept, 1);
-      for (Eigen::Index k = 0; k < kept; ++k) {
-        const double r = std::hypot(L22(k, k), x(k)), cos = r / L22(k, k), sin = x(k) / L22(k, k);
-        L22(k, k) = r;
-        const Eigen::Index rest = kept - k - 1;
-        if (rest == 0) break;
-        L22.col(k).tail(rest) = (L22.col(k).tail(rest) + sin * x.tail(rest)) / cos;
-        x.tail(rest) = cos * x.tail(rest) - sin * L22.col(k).tail(rest);
-      }
+      rank_one_update(L_.bottomRightCorner(kept, kept), x);
     }
     // Move the kept block to the top left: each destination precedes its
     // source in column-major order, so a forward pass never overwrites a source.
@@ -271,6 +279,44 @@ CholeskyResult GpRegressor::update(Eigen::Index drop, const Eigen::MatrixXd& Z, 
   nll_ = nll;
   CholeskyResult r;
   r.jitter = jitter_;
+  return r;
+}
+
+CholeskyResult GpRegressor::add_rows_sparse(const Eigen::MatrixXd& Zm, const Eigen::MatrixXd& Zadded,
+                                            const Eigen::VectorXd& yadded) {
+  if (!is_sparse()) throw Error("GpRegressor::add_rows_sparse needs a sparse GP; use update for an exact one");
+  const Eigen::Index M = La_.rows();
+  if (Zm.rows() != M || Zadded.rows() != yadded.size() || Zadded.cols() != Zm.cols())
+    throw Error("GpRegressor::add_rows_sparse: " + std::to_string(Zm.rows()) + " inducing rows for a factor of " +
+                std::to_string(M) + ", " + std::to_string(Zadded.rows()) + " new rows for " +
+                std::to_string(yadded.size()) + " targets");
+  const double s = std::exp(log_noise_);
+  // A beta = b = Kmn y with beta = s alpha.
+  if (sparse_b_.size() != M) {  // once: from a fit or a file, which keep only A's factor and alpha
+    const Eigen::VectorXd t = La_.triangularView<Eigen::Lower>().transpose() * alpha_;
+    sparse_b_ = La_.triangularView<Eigen::Lower>() * t;
+    sparse_b_ *= s;
+  }
+  Eigen::VectorXd b = sparse_b_;
+  Eigen::MatrixXd Kam;
+  kernel_->cross(Zadded, Zm, Kam);  // added x M
+  b.noalias() += Kam.transpose() * yadded;
+  sparse_b_ = b;
+  Eigen::VectorXd x(M);
+  for (Eigen::Index i = 0; i < Kam.rows(); ++i) {
+    x = Kam.row(i).transpose() / std::sqrt(s);
+    rank_one_update(La_, x);
+  }
+  La_.triangularView<Eigen::Lower>().solveInPlace(b);
+  La_.triangularView<Eigen::Lower>().transpose().solveInPlace(b);
+  CholeskyResult r;
+  r.jitter = jitter_;
+  if (!b.allFinite() || !La_.allFinite()) {
+    r.status = CholeskyResult::Status::NonFinite;
+    r.message = "the sparse GP's weights with the new rows are not finite";
+    return r;
+  }
+  alpha_ = b / s;
   return r;
 }
 

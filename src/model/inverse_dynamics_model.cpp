@@ -150,9 +150,9 @@ namespace {
 void check_new_samples(const InverseDynamicsModel& m, const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
                        const Eigen::Ref<const Eigen::MatrixXd>& Ynew, Eigen::Index window) {
   const int n = m.num_joints();
-  if (m.is_sparse())
-    throw Error("online updates need an exact GP model; this one is sparse (" + std::to_string(m.num_training_samples()) +
-                " inducing points): train it again on the old and new rows");
+  if (m.is_sparse() && window > 0)
+    throw Error("window: a sparse model keeps only its " + std::to_string(m.num_training_samples()) +
+                " inducing rows, not the rows to drop; use window 0 (keep every row) or an exact GP model");
   if (Xnew.cols() != 3 * n || Ynew.cols() != n)
     throw Error("new samples need " + std::to_string(3 * n) + " input and " + std::to_string(n) +
                 " torque columns for this " + m.joints().str() + " model; got " + std::to_string(Xnew.cols()) + " and " +
@@ -196,6 +196,16 @@ void InverseDynamicsModel::update_in_place(const Eigen::Ref<const Eigen::MatrixX
   const Eigen::Index drop = window > 0 ? std::min<Eigen::Index>(X_.rows(), std::max<Eigen::Index>(0, total - window)) : 0;
 
   use_single_threaded_blas();
+  if (is_sparse()) {  // the inducing rows stay; the new rows enter through A and alpha
+    const Eigen::MatrixXd Znew = features_.compute(Xnew);
+    for (int j = 0; j < n; ++j) {
+      const Eigen::VectorXd fresh = ((Ynew.col(j).array() - y_offset_(j)) / y_scale_(j)).matrix();
+      const CholeskyResult r = gps_[static_cast<size_t>(j)].add_rows_sparse(Z_, Znew, fresh);
+      if (!r.ok()) throw Error("joint " + std::to_string(j + 1) + ": " + r.message);
+    }
+    data_rows_ += Xnew.rows();
+    return;
+  }
   const Eigen::Index kept = X_.rows() - drop;
   Eigen::MatrixXd X(kept + added, 3 * n);
   X << X_.bottomRows(kept), Xnew.bottomRows(added);
@@ -216,6 +226,7 @@ void InverseDynamicsModel::update_in_place(const Eigen::Ref<const Eigen::MatrixX
   }
   X_ = std::move(X);
   Z_ = std::move(Z);
+  data_rows_ = X_.rows();
 }
 
 PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)

@@ -52,11 +52,18 @@ def test_sparse_training_refuses_bad_sizes_and_updates(tmp_path, gipdyn_bin):
     model = tmp_path / "m.gipdyn"
     assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--inducing", "20", "--max-iter", "10",
                "--quiet", "--out", str(model)).returncode == 0
-    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(data), "--out", str(tmp_path / "u.gipdyn"))
+    # New rows enter through the fixed inducing rows; a window would need the old rows.
+    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(data), "--window", "60",
+            "--out", str(tmp_path / "u.gipdyn"))
     assert r.returncode != 0
     lines = r.stderr.strip().splitlines()
-    assert len(lines) == 1 and "sparse" in lines[0], r.stderr
+    assert len(lines) == 1 and "sparse model keeps only its 20 inducing rows" in lines[0], r.stderr
     assert not (tmp_path / "u.gipdyn").exists()
+    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(data), "--out", str(tmp_path / "u.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "100 data rows" in r.stdout, r.stdout
+    h = header(tmp_path / "u.gipdyn")
+    assert h["num_data_rows"] == 100 and h["num_training_samples"] == 20, h
 
 
 def test_hyperparameter_rows_learn_on_a_subsample_and_keep_every_row(tmp_path, gipdyn_bin):

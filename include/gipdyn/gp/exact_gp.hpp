@@ -86,7 +86,7 @@ class GpRegressor {
   // A sparse GP (gp/sparse_gp.hpp), conditioned through its inducing rows Zm,
   // which then take the place of Z everywhere: alpha, the factor of Kmm (the
   // jitter includes its eps) and that of A, which only the training data can
-  // give. Its variance adds |A^-1/2 k*|^2; it cannot be updated online.
+  // give. Its variance adds |A^-1/2 k*|^2; add_rows_sparse adds rows online.
   void set_sparse_state(const Eigen::VectorXd& alpha, double jitter, double objective,
                         Eigen::MatrixXd inducing_factor, Eigen::MatrixXd posterior_factor);
   bool is_sparse() const { return La_.size() > 0; }
@@ -104,6 +104,13 @@ class GpRegressor {
   // order, then the added ones. Works in the factor's own buffer; on a status
   // other than Ok the factor is dropped and the GP must not be used.
   CholeskyResult update(Eigen::Index drop, const Eigen::MatrixXd& Z, Eigen::Index added, const Eigen::VectorXd& y);
+  // The sparse GP's online learning, inducing rows Zm and hyperparameters
+  // fixed: conditions on the new rows (Zadded, yadded) as well as on every
+  // row before, A += Kmn' Kn'm / s (one rank-1 update of A's factor per row)
+  // and alpha = A^-1 (Kmn y + Kmn' y') / s. O(M^2) per row, whatever the number
+  // of rows already in; rows cannot be dropped, since the GP does not keep them.
+  CholeskyResult add_rows_sparse(const Eigen::MatrixXd& Zm, const Eigen::MatrixXd& Zadded,
+                                 const Eigen::VectorXd& yadded);
 
   void predict_mean(const Eigen::MatrixXd& Zstar, const Eigen::MatrixXd& Z, Eigen::VectorXd& mean) const;
   // Latent (noise-free) predictive variance; requires has_factor().
@@ -134,6 +141,9 @@ class GpRegressor {
   Eigen::VectorXd y_;
   Eigen::MatrixXd L_;  // lower Cholesky factor of K (empty until needed)
   Eigen::MatrixXd La_;  // sparse GPs only: lower Cholesky factor of A
+  // Sparse GPs after add_rows_sparse: Kmn y, kept so that a stream of added
+  // rows does not lose precision recovering it from A's factor and alpha.
+  Eigen::VectorXd sparse_b_;
   double jitter_ = 0.0;
   double nll_ = 0.0;
 };

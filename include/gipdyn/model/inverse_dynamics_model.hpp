@@ -84,6 +84,9 @@ class InverseDynamicsModel {
   // a kernel matrix that is not positive definite with the new rows (naming
   // the joint). Refit the hyperparameters (train_model on training_targets())
   // when the robot has changed more than new data can express.
+  // A sparse model conditions on the new rows through its fixed inducing rows:
+  // O(M^2) per row, whatever N (GpRegressor::add_rows_sparse); it keeps no
+  // rows to drop, so its window must be 0.
   // The && overload (std::move(model).updated(...)) reuses the model's factors
   // instead of copying them: use it in a loop of updates.
   InverseDynamicsModel updated(const Eigen::Ref<const Eigen::MatrixXd>& Xnew,
