@@ -63,6 +63,9 @@ Command add_experiment(CLI::App& app) {
   a->add_option("--noise", acc->config.noise_std, "Torque noise standard deviation")->capture_default_str();
   a->add_option("--estimators", acc->estimators, estimator_help)->capture_default_str();
   a->add_option("--out", acc->config.out, "Output folder: nmse.csv, summary.md, nmse_boxplot.png")->required();
+  a->add_flag("--warm-start-runs", acc->config.warm_start_runs,
+              "GP: runs after the first start from the first run's learned hyperparameters (kept in "
+              "OUT/warm_starts.json) instead of the data-driven start");
   a->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   acc->est.add_to(*a, false, false);  // the experiment's --seed drives everything
 

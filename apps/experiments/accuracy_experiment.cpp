@@ -30,9 +30,12 @@ void AccuracyConfig::validate() const {
 
 nlohmann::json AccuracyConfig::to_json() const {
   // Not `runs`: an experiment may be extended with more runs.
-  return {{"experiment", "accuracy"}, {"robot", robot},   {"samples", samples},
-          {"seed", seed},             {"dt", dt},         {"noise", noise_std},  {"estimators", estimators},
-          {"options", base_options_json(base)}};
+  nlohmann::json j = {{"experiment", "accuracy"}, {"robot", robot},   {"samples", samples},
+                      {"seed", seed},             {"dt", dt},         {"noise", noise_std},  {"estimators", estimators},
+                      {"options", base_options_json(base)}};
+  // Only when on, so that the folders of earlier versions (cold starts) still resume.
+  if (warm_start_runs) j["warm_start_runs"] = true;
+  return j;
 }
 
 ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const ProgressCallback& progress) {
@@ -53,6 +56,7 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
       else ++outcome.units_skipped;
   if (outcome.units_skipped > 0)
     note(progress, "resuming: " + std::to_string(outcome.units_skipped) + " fits already recorded in " + c.out);
+  WarmStarts warm_starts(c.out);
   const auto t0 = Clock::now();
   for (int r = 1; r <= c.runs; ++r) {
     bool all_done = true;
@@ -74,9 +78,11 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
       note(progress, "[run " + std::to_string(r) + "/" + std::to_string(c.runs) + "] " + e + ": fitting " +
                  std::to_string(c.samples) + " samples (elapsed " +
                  duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
-      const FitAndPredict f =
-          fit_and_predict(options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r)), train.X, train.tau,
-                          joints, test.X);
+      EstimatorOptions options = options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r));
+      const std::vector<Eigen::VectorXd>* start = c.warm_start_runs && r > 1 ? warm_starts.find(e) : nullptr;
+      if (start) options.gp.initial_log_params = *start;
+      const FitAndPredict f = fit_and_predict(options, train.X, train.tau, joints, test.X);
+      if (c.warm_start_runs && r == 1) warm_starts.store(e, f.log_params);
       const Eigen::VectorXd nmse = f.ok ? compute_accuracy(test.tau_true, f.prediction).nmse
                                         : Eigen::VectorXd::Constant(n, std::nan(""));
       std::vector<std::vector<std::string>> rows;

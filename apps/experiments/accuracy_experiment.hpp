@@ -23,6 +23,9 @@ struct AccuracyConfig {
   double noise_std = 0.01;
   std::vector<std::string> estimators{"fe", "pp", "sp", "gip", "rbf", "nn"};
   EstimatorOptions base;    // options of every estimator (name and robot prior are set per fit)
+  // GP estimators: runs after the first start from the first run's learned
+  // hyperparameters (OUT/warm_starts.json) instead of the data-driven start.
+  bool warm_start_runs = false;
   std::string out;
   void validate() const;
   nlohmann::json to_json() const;

@@ -81,6 +81,7 @@ FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::Matr
     out.message = r.report.message;
     out.report = r.report;
     if (out.ok) out.prediction = r.estimator->predict(Xtest);
+    if (out.ok && r.estimator->gp_model()) out.log_params = learned_log_params(*r.estimator->gp_model());
     if (out.ok && !out.prediction.allFinite()) {
       out.ok = false;
       out.message = "predictions contain NaN or Inf";
@@ -90,6 +91,35 @@ FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::Matr
   }
   out.seconds = std::chrono::duration<double>(Clock::now() - t0).count();
   return out;
+}
+
+WarmStarts::WarmStarts(std::string out) : path_((fs::path(out) / "warm_starts.json").string()) {
+  if (!fs::exists(path_)) return;
+  try {
+    std::ifstream in(path_);
+    const nlohmann::json j = nlohmann::json::parse(in);
+    for (const auto& [estimator, joints] : j.items())
+      for (const auto& v : joints) {
+        const std::vector<double> x = v.get<std::vector<double>>();
+        starts_[estimator].push_back(Eigen::Map<const Eigen::VectorXd>(x.data(), static_cast<Eigen::Index>(x.size())));
+      }
+  } catch (const std::exception&) {
+    throw Error("'" + path_ + "' is unreadable; delete it (the fits after the first then start cold) or use another --out");
+  }
+}
+
+const std::vector<Eigen::VectorXd>* WarmStarts::find(const std::string& estimator) const {
+  const auto it = starts_.find(estimator);
+  return it == starts_.end() ? nullptr : &it->second;
+}
+
+void WarmStarts::store(const std::string& estimator, const std::vector<Eigen::VectorXd>& log_params) {
+  if (log_params.empty()) return;
+  starts_[estimator] = log_params;
+  nlohmann::json j = nlohmann::json::object();
+  for (const auto& [e, joints] : starts_)
+    for (const auto& x : joints) j[e].push_back(std::vector<double>(x.data(), x.data() + x.size()));
+  write_file_atomically(path_, [&](std::ostream& o) { o << j.dump(2) << "\n"; });
 }
 
 EstimatorOptions options_for(const EstimatorOptions& base, const std::string& name, const RobotPrior& prior,

@@ -51,6 +51,9 @@ struct FitAndPredict {
   double seconds = 0.0;
   Eigen::MatrixXd prediction;
   FitReport report;  // how the fit went, per joint for GP estimators
+  // GP estimators: per joint, the learned [kernel log-parameters, log noise
+  // variance] (learned_log_params); empty for the others.
+  std::vector<Eigen::VectorXd> log_params;
 };
 // Fits and predicts Xtest; every error becomes a message (an experiment goes on).
 FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
@@ -83,6 +86,23 @@ void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key
 // (e.g. {{"run", "3"}}); the same key columns must be used for every call on one folder.
 void record_fit_report(const std::string& out, const std::vector<std::pair<std::string, std::string>>& key,
                        const std::string& estimator, const FitAndPredict& fit);
+
+// Warm starts between the fits of one experiment: per estimator, the
+// hyperparameters one of its fits ended at, kept in OUT/warm_starts.json so
+// that a resumed experiment starts its later fits from the same point.
+class WarmStarts {
+ public:
+  // Reads OUT/warm_starts.json when it exists.
+  explicit WarmStarts(std::string out);
+  // Null when `estimator` has none.
+  const std::vector<Eigen::VectorXd>* find(const std::string& estimator) const;
+  // Keeps log_params for `estimator` (nothing when empty) and rewrites the file.
+  void store(const std::string& estimator, const std::vector<Eigen::VectorXd>& log_params);
+
+ private:
+  std::string path_;
+  std::map<std::string, std::vector<Eigen::VectorXd>> starts_;
+};
 
 // Draws a plot into the outcome: the PNG on success, a warning otherwise.
 void plot_into(ExperimentOutcome& outcome, const std::string& kind, const std::string& input, const std::string& png);

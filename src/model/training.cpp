@@ -361,6 +361,18 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   return result;
 }
 
+std::vector<Eigen::VectorXd> learned_log_params(const InverseDynamicsModel& model) {
+  std::vector<Eigen::VectorXd> out;
+  for (int j = 0; j < model.num_joints(); ++j) {
+    const GpRegressor& gp = model.joint_gp(j);
+    const Eigen::VectorXd p = gp.kernel().log_params();
+    Eigen::VectorXd x(p.size() + 1);
+    x << p, gp.log_noise_variance();
+    out.push_back(x);
+  }
+  return out;
+}
+
 TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& options,
                         const ProgressCallback& progress) {
   if (model.is_sparse())
@@ -371,14 +383,7 @@ TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& o
   o.robot_prior = model.robot_prior();
   o.scaling = model.output_scaling();
   o.mean = model.mean_kind();
-  o.initial_log_params.clear();
-  for (int j = 0; j < model.num_joints(); ++j) {
-    const GpRegressor& gp = model.joint_gp(j);
-    const Eigen::VectorXd p = gp.kernel().log_params();
-    Eigen::VectorXd x(p.size() + 1);
-    x << p, gp.log_noise_variance();
-    o.initial_log_params.push_back(x);
-  }
+  o.initial_log_params = learned_log_params(model);
   return train_model(exact.training_inputs(), exact.training_targets(), model.joints(), o, progress);
 }
 

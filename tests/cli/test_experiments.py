@@ -1,5 +1,6 @@
 """The experiment commands on tiny configurations: files, columns, plots, resume, refusal of mixed settings."""
 import csv
+import json
 import os
 import subprocess
 
@@ -82,6 +83,35 @@ def test_accuracy_writes_documented_files_and_resumes(tmp_path, gipdyn_bin):
     r = accuracy(gipdyn_bin, out, 3)
     assert r.returncode == 0, r.stderr
     assert "4 fit(s) done, 8 already recorded" in r.stdout
+
+
+def test_accuracy_warm_start_runs_from_the_first_runs_hyperparameters(tmp_path, gipdyn_bin):
+    def e1(out, runs, *extra):
+        r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", str(runs), "--samples", "200",
+                "--dt", "0.1", "--seed", "5", "--estimators", "fe,gip", "--out", str(out), "--max-iter", "30",
+                *extra)
+        assert r.returncode == 0, r.stderr
+        return {(x["run"], x["estimator"], x["joint"]): x for x in rows(out / "fit_reports.csv")}
+
+    cold = e1(tmp_path / "cold", 2)
+    warm = e1(tmp_path / "warm", 2, "--warm-start-runs")
+    # Run 1 is the same fit; its learned hyperparameters are kept for the GP estimator only.
+    for j in "1234":
+        assert warm[("1", "gip", j)]["nll"] == cold[("1", "gip", j)]["nll"]
+    starts = json.loads((tmp_path / "warm" / "warm_starts.json").read_text())
+    assert list(starts) == ["gip"] and len(starts["gip"]) == 4
+    for j, x in enumerate(starts["gip"], start=1):
+        assert np.isclose(np.exp(x[-1]), float(warm[("1", "gip", str(j))]["noise_variance"]), rtol=1e-12)
+    # Run 2 starts there, not at the data-driven start.
+    assert any(warm[("2", "gip", j)]["nll"] != cold[("2", "gip", j)]["nll"] for j in "1234")
+    assert json.loads((tmp_path / "warm" / "config.json").read_text())["warm_start_runs"] is True
+    assert "warm_start_runs" not in json.loads((tmp_path / "cold" / "config.json").read_text())
+
+    # A resumed experiment reads the kept start back exactly: run 3 equals a fresh three-run experiment's.
+    resumed = e1(tmp_path / "warm", 3, "--warm-start-runs")
+    fresh = e1(tmp_path / "fresh", 3, "--warm-start-runs")
+    for j in "1234":
+        assert resumed[("3", "gip", j)]["nll"] == fresh[("3", "gip", j)]["nll"]
 
 
 def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):

@@ -113,6 +113,11 @@ struct TrainResult {
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
                         const TrainOptions& options, const ProgressCallback& progress = {});
 
+// Per joint, a model's [kernel log-parameters, log noise variance]: the
+// TrainOptions::initial_log_params that start a training where this model's
+// ended (refit_model; warm starts between similar data sets).
+std::vector<Eigen::VectorXd> learned_log_params(const InverseDynamicsModel& model);
+
 // Re-optimises every joint's hyperparameters on the model's own rows
 // (training_inputs(), training_targets()), starting from its current ones:
 // the periodic refit of online learning, for when the robot has changed more
