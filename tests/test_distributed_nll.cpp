@@ -138,7 +138,9 @@ TEST(DistributedNll, TrainingGivesTheSingleProcessModel) {
     for (int j = 0; j < 2; ++j) {
       const JointReport &s = single.report.joints[j], &d = dist.report.joints[j];
       EXPECT_NEAR(d.nll, s.nll, tol * std::abs(s.nll)) << "joint " << j + 1 << ", " << max_evaluations;
-      if (max_evaluations == 12) EXPECT_EQ(d.evaluations, s.evaluations);
+      if (max_evaluations == 12) {
+        EXPECT_EQ(d.evaluations, s.evaluations);
+      }
       EXPECT_EQ(d.status, s.status) << "joint " << j + 1 << ", " << max_evaluations;
     }
   }

@@ -222,7 +222,9 @@ TEST(Training, ShiftedConstantStepSubsamplesInterleave) {
     ASSERT_EQ(idx.size(), 4u);
     for (size_t k = 0; k < idx.size(); ++k) {
       ++seen[static_cast<size_t>(idx[k])];
-      if (k > 0) EXPECT_GT(idx[k], idx[k - 1]);
+      if (k > 0) {
+        EXPECT_GT(idx[k], idx[k - 1]);
+      }
     }
   }
   EXPECT_EQ(seen, std::vector<int>(12, 1));

@@ -297,14 +297,17 @@ TEST(HyperparameterRows, LearnOnASubsampleAndConditionOnEveryRow) {
         EXPECT_EQ(jr.status, OptimizerResult::Status::Converged) << label << " joint " << j;
         EXPECT_LE(jr.grad_norm, 80 * 1e-5) << label << " joint " << j << "\n" << r.report.brief_report();
       }
-      if (jr.grad_norm <= 80 * 1e-5)
+      if (jr.grad_norm <= 80 * 1e-5) {
         EXPECT_LT(on_subsample.gradient.head(P).cwiseAbs().maxCoeff(), 80 * 1e-5 * 1.01) << label << " joint " << j;
+      }
       if (c.inducing == 0) exact_gp_params.push_back(gp.kernel().log_params());
       // The same objective on the same rows from the same start: the exact GP's hyperparameters.
-      if (c.inducing > 0 && c.objective == HyperparameterObjective::Exact)
+      if (c.inducing > 0 && c.objective == HyperparameterObjective::Exact) {
         EXPECT_LT((gp.kernel().log_params() - exact_gp_params[static_cast<size_t>(j)]).cwiseAbs().maxCoeff(), 1e-9);
-      if (c.objective == HyperparameterObjective::Exact)  // a different optimum from the bound's
+      }
+      if (c.objective == HyperparameterObjective::Exact) {  // a different optimum from the bound's
         EXPECT_GT((gp.kernel().log_params() - bound_params[static_cast<size_t>(j)]).cwiseAbs().maxCoeff(), 1e-3);
+      }
     }
   }
   TrainOptions exact_on_all_rows;
