@@ -85,11 +85,27 @@ TEST(CApi, TorqueGravityAndInertiaMatchTheCppApi) {
     // The batch path sums k(x*, X) alpha in another order, and |alpha| amplifies
     // the last bits: agreement to rounding, on the scale of the torques.
     const double scale = 1.0 + expected.row(r).cwiseAbs().maxCoeff() + G.row(r).cwiseAbs().maxCoeff();
+    // Rounding grows with sum_i |alpha_i k(x*, x_i)|, which cancels to the
+    // prediction (as in test_model): at the state, at (q, 0, 0) and at (q, 0, e_k).
+    auto rounding = [&](int j, Eigen::VectorXd state) {
+      Eigen::MatrixXd Kq;
+      t.model.joint_gp(j).kernel().cross(t.model.features().compute(state.transpose()), t.model.training_features(), Kq);
+      return 1e-14 * t.model.output_scale()(j) * Kq.row(0).transpose().cwiseProduct(t.model.joint_gp(j).alpha()).cwiseAbs().sum();
+    };
+    Eigen::VectorXd at_rest = x;
+    at_rest.tail(4).setZero();
     for (int j = 0; j < 2; ++j) {
+      const double r_tau = rounding(j, x), r_g = rounding(j, at_rest);
+      double r_m = 0.0;
+      for (int k = 0; k < 2; ++k) {
+        Eigen::VectorXd unit = at_rest;
+        unit(4 + k) = 1.0;
+        r_m = std::max(r_m, rounding(j, unit));
+      }
       EXPECT_EQ(tau[j], cpp_tau[j]);  // same path, model read back bit for bit
-      EXPECT_NEAR(tau[j], expected(r, j), 1e-6 * scale);
-      EXPECT_NEAR(g[j], G(r, j), 1e-6 * scale);
-      for (int k = 0; k < 2; ++k) EXPECT_NEAR(M[j * 2 + k], Ms[static_cast<size_t>(r)](j, k), 1e-6 * scale);
+      EXPECT_NEAR(tau[j], expected(r, j), 1e-6 * scale + r_tau);
+      EXPECT_NEAR(g[j], G(r, j), 1e-6 * scale + r_g);
+      for (int k = 0; k < 2; ++k) EXPECT_NEAR(M[j * 2 + k], Ms[static_cast<size_t>(r)](j, k), 1e-6 * scale + r_m + r_g);
       // The torques the model predicts for (q, qd, qdd) give back qdd (M^-1 amplifies rounding).
       EXPECT_NEAR(qdd[j], x(4 + j), 1e-3 * (1.0 + std::abs(x(4 + j))));
       EXPECT_NEAR(qdd[j], QDD(r, j), 1e-3 * (1.0 + std::abs(x(4 + j))));

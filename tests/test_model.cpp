@@ -161,6 +161,7 @@ TEST(Training, OptionErrorsNameTheFieldAndFrontEndsRenameIt) {
       {[](TrainOptions& o) { o.min_noise_fraction = -1; }, "TrainOptions::min_noise_fraction"},
       {[](TrainOptions& o) { o.threads = -2; }, "TrainOptions::threads"},
       {[](TrainOptions& o) { o.optimizer.max_iterations = 0; }, "OptimizerOptions::max_iterations"},
+      {[](TrainOptions& o) { o.optimizer.lbfgs_memory = 0; }, "OptimizerOptions::lbfgs_memory"},
       {[](TrainOptions& o) { o.prior.width = 0; }, "HyperparameterPrior::width"},
       {[](TrainOptions& o) { o.kernel = "pp"; }, "TrainOptions::robot_prior"},
   };

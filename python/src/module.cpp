@@ -265,6 +265,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("f_relative_tolerance", &OptimizerOptions::f_relative_tolerance)
       .def_readwrite("gradient_tolerance", &OptimizerOptions::gradient_tolerance)
       .def_readwrite("adam_learning_rate", &OptimizerOptions::adam_learning_rate)
+      .def_readwrite("lbfgs_memory", &OptimizerOptions::lbfgs_memory)
       .def("validate", &OptimizerOptions::validate);
 
   py::class_<HyperparameterPrior>(m, "HyperparameterPrior")

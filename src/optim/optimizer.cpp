@@ -47,6 +47,7 @@ void OptimizerOptions::validate() const {
   if (max_iterations < 1) throw Error("OptimizerOptions::max_iterations must be at least 1");
   if (!(f_relative_tolerance >= 0.0)) throw Error("OptimizerOptions::f_relative_tolerance must be >= 0");
   if (!(gradient_tolerance >= 0.0)) throw Error("OptimizerOptions::gradient_tolerance must be >= 0");
+  if (lbfgs_memory < 1) throw Error("OptimizerOptions::lbfgs_memory must be at least 1");
   if (!(adam_learning_rate > 0.0)) throw Error("OptimizerOptions::adam_learning_rate must be > 0");
   if (!(adam_beta1 >= 0.0 && adam_beta1 < 1.0 && adam_beta2 >= 0.0 && adam_beta2 < 1.0))
     throw Error("OptimizerOptions::adam_beta1 and adam_beta2 must lie in [0, 1)");
@@ -139,7 +140,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   }
   opt.set_maxeval(max_eval);
   opt.set_ftol_rel(o.f_relative_tolerance);
-  opt.set_vector_storage(10);
+  opt.set_vector_storage(static_cast<unsigned>(o.lbfgs_memory));
   std::vector<double> x(x0.data(), x0.data() + n);
   double f = 0.0;
   nlopt::result result = nlopt::FAILURE;
