@@ -85,13 +85,9 @@ TEST(CApi, TorqueGravityAndInertiaMatchTheCppApi) {
     // The batch path sums k(x*, X) alpha in another order, and |alpha| amplifies
     // the last bits: agreement to rounding, on the scale of the torques.
     const double scale = 1.0 + expected.row(r).cwiseAbs().maxCoeff() + G.row(r).cwiseAbs().maxCoeff();
-    // Rounding grows with sum_i |alpha_i k(x*, x_i)|, which cancels to the
-    // prediction (as in test_model): at the state, at (q, 0, 0) and at (q, 0, e_k).
-    auto rounding = [&](int j, Eigen::VectorXd state) {
-      Eigen::MatrixXd Kq;
-      t.model.joint_gp(j).kernel().cross(t.model.features().compute(state.transpose()), t.model.training_features(), Kq);
-      return 1e-14 * t.model.output_scale()(j) * Kq.row(0).transpose().cwiseProduct(t.model.joint_gp(j).alpha()).cwiseAbs().sum();
-    };
+    // Plus the rounding of the predictions behind each: the torque at the state,
+    // g at (q, 0, 0), M's columns at (q, 0, e_k) minus g.
+    auto rounding = [&](int j, const Eigen::VectorXd& state) { return test::prediction_rounding(t.model, j, state); };
     Eigen::VectorXd at_rest = x;
     at_rest.tail(4).setZero();
     for (int j = 0; j < 2; ++j) {

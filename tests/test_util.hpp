@@ -8,6 +8,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/joint_types.hpp"
+#include "gipdyn/model/inverse_dynamics_model.hpp"
 
 namespace gipdyn::test {
 
@@ -16,6 +17,16 @@ inline std::string test_name(const std::string& name) {
   std::string clean;
   for (char c : name) clean += c == '-' ? std::string("_") : c == '+' ? std::string("_plus_") : std::string(1, c);
   return clean;
+}
+
+// Rounding to allow between two paths that predict joint j at the raw state x
+// and sum k(x, x_i) alpha_i in different orders: it grows with
+// sum_i |alpha_i k(x, x_i)|, which cancels to the prediction (by 1e9 for some
+// gip-envelope+friction fits), in the units of the torque.
+inline double prediction_rounding(const InverseDynamicsModel& model, int j, const Eigen::VectorXd& x) {
+  Eigen::MatrixXd Kq;
+  model.joint_gp(j).kernel().cross(model.features().compute(x.transpose()), model.training_features(), Kq);
+  return 1e-14 * model.output_scale()(j) * Kq.row(0).transpose().cwiseProduct(model.joint_gp(j).alpha()).cwiseAbs().sum();
 }
 
 // Random raw inputs (q, qd, qdd) for a joint string: revolute q in [-pi, pi],
