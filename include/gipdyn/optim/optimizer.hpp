@@ -23,7 +23,7 @@ struct OptimizerOptions {
   double gradient_tolerance = 1e-5;    // stop when the best point's projected max |grad| is <= it
   // L-BFGS: correction pairs kept (NLopt's vector storage). About the number of
   // hyperparameters of a GIP kernel (38 for a SCARA): against NLopt's usual 10 it
-  // halves the evaluations to the same NLL (docs/training.md).
+  // needs 2-3.3x fewer evaluations to the same NLL (docs/training.md).
   int lbfgs_memory = 40;
   double adam_learning_rate = 0.01;
   double adam_beta1 = 0.9;
