@@ -13,7 +13,8 @@ struct EstimatorArgs {
   std::string optimizer = "lbfgs", scaling = "standardize", mean = "zero", robot, nn_hidden, prior = "none";
   double prior_width = 2.0;
   // Library defaults, so that --help shows what the library does.
-  int max_iter = OptimizerOptions{}.max_iterations, restarts = TrainOptions{}.restarts, threads = 0;
+  int max_iter = OptimizerOptions{}.max_iterations, lbfgs_memory = OptimizerOptions{}.lbfgs_memory;
+  int restarts = TrainOptions{}.restarts, threads = 0;
   int warm_start_rows = TrainOptions{}.warm_start_rows, inducing = TrainOptions{}.inducing_points;
   int hyperparameter_rows = TrainOptions{}.hyperparameter_rows;
   std::string hyperparameter_objective = to_string(TrainOptions{}.hyperparameter_objective);

@@ -25,6 +25,7 @@ const FieldNames& cli_field_names() {
       {"HyperparameterPrior::width", "--prior-width"},
       {"OptimizerOptions::kind", "--optimizer"},
       {"OptimizerOptions::max_iterations", "--max-iter"},
+      {"OptimizerOptions::lbfgs_memory", "--lbfgs-memory"},
       {"OptimizerOptions::adam_learning_rate", "--lr"},
       {"NeuralNetworkOptions::hidden", "--nn-hidden"},
       {"NeuralNetworkOptions::epochs", "--nn-epochs"},

@@ -135,6 +135,9 @@ EstimatorOptions options_for(const EstimatorOptions& base, const std::string& na
 nlohmann::json base_options_json(const EstimatorOptions& b) {
   nlohmann::json j = {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
           {"max_iter", b.gp.optimizer.max_iterations},
+          // Always written: a folder from before the option existed ran with 10 pairs and must not resume
+          // with another optimiser's fits mixed into its tables.
+          {"lbfgs_memory", b.gp.optimizer.lbfgs_memory},
           {"restarts", b.gp.restarts},
           {"warm_start_rows", b.gp.warm_start_rows},
           {"gradient_tolerance", b.gp.gradient_tolerance_per_row},

@@ -1,3 +1,4 @@
+import json
 import os
 import shutil
 
@@ -18,6 +19,12 @@ def two_link_torques(q, qd, qdd):
     t1 = M11 * qdd[:, 0] + M12 * qdd[:, 1] + h * qd[:, 1] ** 2 + 2 * h * qd[:, 0] * qd[:, 1] + g1
     t2 = M12 * qdd[:, 0] + M22 * qdd[:, 1] - h * qd[:, 0] ** 2 + g2
     return np.stack([t1, t2], 1)
+
+
+def model_header(path):
+    """The JSON header of a model file, which follows the container's binary preamble."""
+    raw = path.read_bytes()
+    return json.JSONDecoder().raw_decode(raw[raw.index(b"{"):].decode("latin-1"))[0]
 
 
 def write_dataset(path, rows, seed, noise=0.01, shuffle_columns=False):

@@ -6,7 +6,7 @@ import subprocess
 import numpy as np
 import pytest
 
-from conftest import two_link_torques, write_dataset
+from conftest import model_header, two_link_torques, write_dataset
 
 
 def run(binary, *args):
@@ -111,6 +111,7 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("bad joint string", HEADER + ROWS, "RX", [], "'X'"),
         ("unknown estimator", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown estimator"),
         ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "--optimizer 'sgd' is unknown; choose lbfgs or adam"),
+        ("no L-BFGS memory", HEADER + ROWS, "RR", ["--lbfgs-memory", "0"], "--lbfgs-memory must be at least 1"),
     ],
 )
 def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, message):
@@ -123,6 +124,21 @@ def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, mes
     assert message in lines[0], r.stderr
     assert not out.exists()
     assert [p.name for p in tmp_path.iterdir()] == ["bad.csv"]  # no temporary left behind
+
+
+def test_lbfgs_memory_reaches_the_optimiser(trained, tmp_path, gipdyn_bin):
+    # One correction pair makes L-BFGS take another path than the default 40 on the same data and start.
+    d, _, _ = trained
+    evaluations = {}
+    for memory in ["1", "40"]:
+        out = tmp_path / f"m{memory}.gipdyn"
+        r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--joints", "RR", "--out", str(out),
+                "--max-iter", "80", "--lbfgs-memory", memory, "--quiet")
+        assert r.returncode == 0, r.stderr
+        evaluations[memory] = [j["training"]["evaluations"] for j in model_header(out)["joint_models"]]
+    default = [j["training"]["evaluations"] for j in model_header(d / "m.gipdyn")["joint_models"]]
+    assert evaluations["40"] == default
+    assert evaluations["1"] != default
 
 
 def test_missing_data_file(tmp_path, gipdyn_bin):

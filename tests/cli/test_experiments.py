@@ -121,6 +121,14 @@ def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
             "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST)
     assert r.returncode != 0
     assert "other settings" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    # Another optimiser memory is another setting: its fits must not join the folder's tables.
+    assert json.loads((out / "config.json").read_text())["options"]["lbfgs_memory"] == 40
+    before = (out / "nmse.csv").read_text()
+    r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "2", "--samples", "200",
+            "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST,
+            "--lbfgs-memory", "10")
+    assert r.returncode != 0 and "other settings" in r.stderr, r.stderr
+    assert (out / "nmse.csv").read_text() == before
 
 
 def test_data_efficiency_writes_gmse_table_and_plot(tmp_path, gipdyn_bin):

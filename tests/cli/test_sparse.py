@@ -1,16 +1,9 @@
 """`gipdyn train --inducing M`: a sparse GP from the command line, its model file
 in predict/evaluate, and the refusals."""
-import json
-
 import numpy as np
 
-from conftest import write_dataset
+from conftest import model_header, write_dataset
 from test_cli import run
-
-
-def header(path):  # the container's JSON header follows its binary preamble
-    raw = path.read_bytes()
-    return json.JSONDecoder().raw_decode(raw[raw.index(b"{"):].decode("latin-1"))[0]
 
 
 def test_sparse_training_predicts_with_its_inducing_rows_only(tmp_path, gipdyn_bin):
@@ -22,7 +15,7 @@ def test_sparse_training_predicts_with_its_inducing_rows_only(tmp_path, gipdyn_b
     assert r.returncode == 0, r.stderr
     assert "sparse GP with 120 inducing rows" in r.stdout
     assert "sparse GP: 120 inducing rows for 600 training rows" in r.stdout
-    h = header(model)
+    h = model_header(model)
     assert h["format_version"] == 3 and h["approximation"] == "vfe"
     assert h["num_training_samples"] == 120 and h["num_data_rows"] == 600
     assert {"name": "posterior_factor2", "rows": 120, "cols": 120} in h["arrays"]
@@ -62,7 +55,7 @@ def test_sparse_training_refuses_bad_sizes_and_updates(tmp_path, gipdyn_bin):
     r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(data), "--out", str(tmp_path / "u.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "100 data rows" in r.stdout, r.stdout
-    h = header(tmp_path / "u.gipdyn")
+    h = model_header(tmp_path / "u.gipdyn")
     assert h["num_data_rows"] == 100 and h["num_training_samples"] == 20, h
 
 
@@ -74,7 +67,7 @@ def test_hyperparameter_rows_learn_on_a_subsample_and_keep_every_row(tmp_path, g
             "--hyperparameter-rows", "100", "--max-iter", "30", "--out", str(model))
     assert r.returncode == 0, r.stderr
     assert "hyperparameters learned on 100 rows (a constant-step subsample)" in r.stdout
-    h = header(model)
+    h = model_header(model)
     assert h["num_data_rows"] == 400
     assert all(j["training"]["hyperparameter_rows"] == 100 for j in h["joint_models"]), h["joint_models"]
     r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--hyperparameter-rows", "-1",

@@ -1,9 +1,8 @@
 """`gipdyn update`: new samples into a GP model, hyperparameters fixed."""
-import json
 
 import numpy as np
 
-from conftest import write_dataset
+from conftest import model_header, write_dataset
 from test_cli import run
 
 
@@ -28,11 +27,7 @@ def test_update_learns_the_new_rows_and_keeps_the_hyperparameters(tmp_path, gipd
     after = predict(gipdyn_bin, updated, new, tmp_path / "p1.csv")
     err = lambda p: np.mean((p["tau1_hat"] - truth["tau1_true"]) ** 2)
     assert err(after) < 0.5 * err(before)  # the new rows are now training rows
-    def header(path):  # the container's JSON header follows its binary preamble
-        raw = path.read_bytes()
-        return json.JSONDecoder().raw_decode(raw[raw.index(b"{"):].decode("latin-1"))[0]
-
-    assert header(updated)["joint_models"][0]["log_params"] == header(model)["joint_models"][0]["log_params"]
+    assert model_header(updated)["joint_models"][0]["log_params"] == model_header(model)["joint_models"][0]["log_params"]
     r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--window", "40", "--out", str(window))
     assert r.returncode == 0, r.stderr
     assert "40 training rows, window 40" in r.stdout
@@ -70,11 +65,7 @@ def test_update_refit_reoptimises_the_hyperparameters(tmp_path, gipdyn_bin):
     assert r.returncode == 0, r.stderr
     assert "refitting the hyperparameters on 100 rows" in r.stdout and "NLL" in r.stdout
 
-    def header(path):
-        raw = path.read_bytes()
-        return json.JSONDecoder().raw_decode(raw[raw.index(b"{"):].decode("latin-1"))[0]
-
-    h = header(refit)
+    h = model_header(refit)
     assert h["num_training_samples"] == 100
-    assert h["joint_models"][0]["log_params"] != header(model)["joint_models"][0]["log_params"]
+    assert h["joint_models"][0]["log_params"] != model_header(model)["joint_models"][0]["log_params"]
     assert h["joint_models"][0]["training"]["evaluations"] > 0
