@@ -13,8 +13,9 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
-#include <tuple>
 #include <string>
+#include <tuple>
+#include <vector>
 
 #include "gipdyn/features.hpp"
 #include "gipdyn/gipdyn.h"
@@ -248,14 +249,19 @@ void BM_AddOneSampleSparse(benchmark::State& state) {
 void BM_Train(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   int evaluations = 0;
+  std::vector<int> per_joint(p.joints.size(), 0);
   for (auto _ : state) {
     TrainOptions o;  // the defaults: gip, L-BFGS to convergence, joints in parallel
     o.keep_factor = false;
     const TrainResult r = train_model(p.X, p.Y, p.joints, o);
     if (!r.report.ok()) state.SkipWithError(r.report.message.c_str());
-    for (const auto& j : r.report.joints) evaluations += j.evaluations;
+    for (std::size_t j = 0; j < r.report.joints.size() && j < per_joint.size(); ++j) {
+      evaluations += r.report.joints[j].evaluations;
+      per_joint[j] += r.report.joints[j].evaluations;
+    }
   }
   state.counters["nll_evals"] = evaluations;
+  for (std::size_t j = 0; j < per_joint.size(); ++j) state.counters["evals_j" + std::to_string(j + 1)] = per_joint[j];
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip, default options, all joints");
 }
 
