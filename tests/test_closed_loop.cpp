@@ -121,7 +121,16 @@ TEST(ClosedLoop, BadInputIsNamed) {
   o.kp = Eigen::VectorXd::Constant(4, 1e9);  // far too stiff for 1 ms steps
   o.kd = Eigen::VectorXd::Constant(4, 1e7);
   EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
-                .find("diverged"),
+                .find("diverged at step"),
+            std::string::npos);
+  // The message names the setting that made the gains: explicit gains, or the bandwidth.
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("lower the gains (TrackingOptions::kp and kd)"),
+            std::string::npos);
+  o = TrackingOptions();
+  o.bandwidth = 1e5;
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("lower the gains (TrackingOptions::bandwidth)"),
             std::string::npos);
 }
 

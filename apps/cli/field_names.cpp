@@ -17,6 +17,8 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::hyperparameter_objective", "--hyperparameter-objective"},
       {"TrainOptions::inducing_points", "--inducing"},
       {"TrainOptions::nll_backend", "--distributed"},
+      {"TrackingOptions::bandwidth", "--bandwidth"},
+      {"TrackingOptions::dt", "--dt"},
       {"TrackingOptions::position_noise", "--position-noise"},
       {"TrackingOptions::velocity_noise", "--velocity-noise"},
       {"TrainOptions::gradient_tolerance_per_row", "--gradient-tolerance"},

@@ -23,9 +23,9 @@ namespace gipdyn {
 
 void ControlConfig::validate() const {
   if (!(seconds > 0.0) || !(dt > 0.0) || seconds / dt > 1e7)
-    throw Error("ControlConfig: seconds and dt must be > 0, with at most 10^7 control steps");
-  if (!(bandwidth > 0.0)) throw Error("ControlConfig: bandwidth must be > 0");
-  if (out.empty()) throw Error("ControlConfig: out (the output folder) is required");
+    throw Error("--seconds and --dt must be > 0, with at most 10^7 control steps");
+  if (!(bandwidth > 0.0)) throw Error("--bandwidth must be > 0 (rad/s)");
+  if (out.empty()) throw Error("--out is required: the folder for the experiment's files");
 }
 
 nlohmann::json ControlConfig::to_json() const {

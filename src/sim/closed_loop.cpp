@@ -81,8 +81,9 @@ TrackingResult run_loop(const RobotModel& robot, const Eigen::MatrixXd& referenc
     qd += options.dt * qdd;
     q += options.dt * qd;
     if (!q.allFinite() || !qd.allFinite() || qd.cwiseAbs().maxCoeff() > 1e6)
-      throw Error("the closed loop diverged at step " + std::to_string(k + 1) +
-                  ": lower the gains (TrackingOptions::kp, kd, bandwidth) or the control period (TrackingOptions::dt)");
+      throw Error("the closed loop diverged at step " + std::to_string(k + 1) + ": lower the gains (" +
+                  (options.kp.size() > 0 ? "TrackingOptions::kp and kd" : "TrackingOptions::bandwidth") +
+                  ") or the control period (TrackingOptions::dt)");
   }
   const Eigen::MatrixXd error = (reference.leftCols(n) - r.q).cwiseAbs();
   r.rms_error = (error.array().square().colwise().mean()).sqrt().transpose();

@@ -59,3 +59,16 @@ def test_control_experiment_with_sensor_noise(tmp_path, gipdyn_bin):
     lines = r.stderr.strip().splitlines()
     assert len(lines) == 1 and "--velocity-noise must be" in lines[0], r.stderr
     assert not (tmp_path / "bad").exists()
+
+
+def test_control_experiment_names_its_flags_in_errors(tmp_path, gipdyn_bin):
+    args = ["experiment", "control", "--robot", "scara", "--seconds", "0.2", "--seed", "3", "--quiet"]
+    r = run(gipdyn_bin, *args, "--bandwidth", "-1", "--out", str(tmp_path / "bad"))
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1 and "--bandwidth must be > 0" in lines[0], r.stderr
+    assert not (tmp_path / "bad").exists()
+    # Gains far too stiff for 1 ms steps: every controller loses the robot, and the advice names the flags.
+    r = run(gipdyn_bin, *args, "--bandwidth", "1e5", "--out", str(tmp_path / "stiff"))
+    assert r.returncode == 2, r.stderr
+    assert "lower the gains (--bandwidth) or the control period (--dt)" in r.stderr, r.stderr
+    assert "TrackingOptions" not in r.stderr
