@@ -106,10 +106,13 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
       results.emplace_back(name, track());
       line = "  " + per_joint(name + " RMS error", results.back().second.rms_error);
     } catch (const Error& e) {
-      // A controller that loses the robot is a result, not a reason to stop.
-      diverged.emplace_back(name, e.what());
-      outcome.warnings.push_back(name + ": " + e.what());
-      line = "  " + name + ": " + e.what();
+      // A controller that loses the robot is a result, not a reason to stop. The summary is read
+      // beside this command's flags, which set the tracking options it names.
+      const std::string why =
+          rename_fields(e.what(), {{"TrackingOptions::bandwidth", "--bandwidth"}, {"TrackingOptions::dt", "--dt"}});
+      diverged.emplace_back(name, why);
+      outcome.warnings.push_back(name + ": " + why);
+      line = "  " + name + ": " + why;
     }
     if (progress) {
       ProgressEvent e;

@@ -72,3 +72,6 @@ def test_control_experiment_names_its_flags_in_errors(tmp_path, gipdyn_bin):
     assert r.returncode == 2, r.stderr
     assert "lower the gains (--bandwidth) or the control period (--dt)" in r.stderr, r.stderr
     assert "TrackingOptions" not in r.stderr
+    summary = (tmp_path / "stiff" / "summary.md").read_text()
+    assert "| true-model | diverged |" in summary and "lower the gains (--bandwidth)" in summary
+    assert "TrackingOptions" not in summary
