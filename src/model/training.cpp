@@ -6,11 +6,13 @@
 #include <cmath>
 #include <limits>
 #include <mutex>
+#include <optional>
 #include <random>
 #include <thread>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
+#include "gipdyn/gp/weight_space_nll.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 
@@ -128,12 +130,20 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   // all_rows: (Xr, Zr, yr) are the hyperparameter rows, not the warm-start subsample.
   auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
                       const Eigen::VectorXd& start, int restart) {
+    const bool sparse = Zm && all_rows && !exact_objective, distributed = o.nll_backend && all_rows;
+    // The exact NLL of a finite feature expansion (PP) in weight space: the same
+    // value and gradient without the O(N^3) factorisation.
+    std::optional<WeightSpaceNll> weight_space;
+    Eigen::MatrixXd Phi;
+    if (!sparse && !distributed && mean.kind() == MeanKind::Zero && kernel->weight_space_features(Zr, Phi))
+      weight_space.emplace(std::move(Phi), yr);
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial->set_log_params(x.head(P));
       // A warm-start subsample is small: the exact NLL there, in this process;
       // the sparse bound (unless asked for the exact NLL) or the backend on all rows.
-      NllEvaluation e = Zm && all_rows && !exact_objective ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
-                        : o.nll_backend && all_rows
+      NllEvaluation e = weight_space ? weight_space->evaluate(x.head(P), x(P))
+                        : sparse     ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
+                        : distributed
                             ? o.nll_backend->evaluate(*trial, x(P), Zr, yr, true, nullptr, o.jitter)
                             : evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
       if (!e.ok()) return false;

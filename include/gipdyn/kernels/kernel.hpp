@@ -73,6 +73,11 @@ class Kernel {
                    KernelScratch& scratch) const;
   // k(z, z).
   virtual double self(const double* z, int feature_dim) const;
+  // Kernels that are exactly k(z, z') = phi(z) diag(exp(log_params())) phi(z')^T, one
+  // log-variance per feature in parameter order, put the features of every row of Z
+  // into Phi and return true; training then evaluates the NLL in weight space
+  // (gp/weight_space_nll.hpp). The default: false, Phi untouched.
+  virtual bool weight_space_features(const Eigen::MatrixXd& /*Z*/, Eigen::MatrixXd& /*Phi*/) const { return false; }
 };
 
 }  // namespace gipdyn

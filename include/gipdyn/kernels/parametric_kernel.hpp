@@ -38,6 +38,10 @@ class ParametricKernel final : public Kernel {
 
   // Regressor rows of the kernel's joint for every row of Z (reads the first 3n columns).
   Eigen::MatrixXd features(const Eigen::MatrixXd& Z) const;
+  bool weight_space_features(const Eigen::MatrixXd& Z, Eigen::MatrixXd& Phi) const override {
+    Phi = features(Z);
+    return true;
+  }
 
  private:
   std::shared_ptr<const RobotModel> robot_;
