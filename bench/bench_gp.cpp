@@ -23,6 +23,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
+#include "gipdyn/gp/weight_space_nll.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -104,6 +105,43 @@ void BM_NllGradient(benchmark::State& state) { nll_gradient(state, "gip"); }
 void BM_NllGradientGipFriction(benchmark::State& state) { nll_gradient(state, "gip+friction"); }
 // GIP times the RBF envelope (EnvelopeKernel): two kernel matrices and their product per evaluation.
 void BM_NllGradientGipEnvelope(benchmark::State& state) { nll_gradient(state, "gip-envelope"); }
+
+// PP (a prior on the rigid-body parameters, rank 40 on the SCARA and 60 on the UR10): the exact
+// NLL on the N x N matrix against the weight-space evaluation that training uses for it.
+JointSetup pp_setup(const benchmark::State& state) {
+  JointSetup s = joint_setup(state);
+  RobotPrior prior;
+  prior.robot = std::make_shared<const RobotModel>(state.range(0) == 4 ? scara_robot() : ur10_robot());
+  s.kernel = make_kernel("pp", FeatureMap(s.p.joints), 0, prior);
+  s.kernel->initialize(s.p.Z, 1.0);
+  return s;
+}
+
+void BM_NllGradientPpExact(benchmark::State& state) {
+  JointSetup s = pp_setup(state);
+  GpWorkspace ws;
+  for (auto _ : state) {
+    const NllEvaluation e = evaluate_nll(*s.kernel, s.log_noise, s.p.Z, s.y, true, ws);
+    if (!e.ok()) state.SkipWithError(e.message.c_str());
+    benchmark::DoNotOptimize(e.gradient.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " pp, N x N");
+}
+
+void BM_NllGradientPpWeightSpace(benchmark::State& state) {
+  JointSetup s = pp_setup(state);
+  Eigen::MatrixXd Phi;
+  s.kernel->weight_space_features(s.p.Z, Phi);
+  const WeightSpaceNll weight_space(Phi, s.y);
+  const Eigen::VectorXd log_s = s.kernel->log_params();
+  for (auto _ : state) {
+    const NllEvaluation e = weight_space.evaluate(log_s, s.log_noise);
+    if (!e.ok()) state.SkipWithError(e.message.c_str());
+    benchmark::DoNotOptimize(e.gradient.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " pp, weight space, r = " +
+                 std::to_string(Phi.cols()));
+}
 
 // One sparse (VFE) bound + gradient evaluation with M inducing rows (range 2)
 // chosen by greedy variance: O(N M^2), against the exact GP's O(N^3).
@@ -335,6 +373,8 @@ BENCHMARK(BM_NllGradient)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipFriction)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipEnvelope)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
+BENCHMARK(BM_NllGradientPpExact)->Apply(sizes);
+BENCHMARK(BM_NllGradientPpWeightSpace)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanPresetReal)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanVariance)->Apply(sizes)->Unit(benchmark::kMicrosecond);
