@@ -142,6 +142,42 @@ TEST(RbfKernel, ValueAndGradients) {
   expect_contractions_match(*k, Z1, "rbf");
 }
 
+// A lengthscale far below the inputs' size (the optimiser tries such points on
+// logs with repeated rows): |a|^2 + |b|^2 - 2 a.b of the scaled inputs would
+// cancel to noise, and the matrix would not even be positive semidefinite.
+TEST(RbfKernel, TinyLengthscalesKeepDistancesExactAndTheMatrixPositiveDefinite) {
+  RbfKernel k({0, 1}, {"a", "b"});
+  Eigen::MatrixXd Z(8, 2);
+  Z << 1.5, -2.0, 1.5, -2.0, 1.5 + 1e-8, -2.0, 1.5 + 3e-8, -2.0 + 2e-8,  //
+      -0.7, 0.3, -0.7, 0.3, 0.9, -2.0, 1.5, -2.0 + 1e-8;
+  for (const double lengthscale : {1e-7, 1e-8}) {
+    k.set_log_params(Eigen::Vector3d(0.3, std::log(lengthscale), std::log(lengthscale)));
+    Eigen::MatrixXd K;
+    k.cross(Z, Z, K);
+    const double variance = std::exp(0.3);
+    Eigen::MatrixXd W = Eigen::MatrixXd::Random(8, 8);
+    W = (W + W.transpose()).eval();
+    Eigen::Vector3d reference = Eigen::Vector3d::Zero();
+    for (Eigen::Index i = 0; i < 8; ++i)
+      for (Eigen::Index j = 0; j < 8; ++j) {
+        const double da = (Z(i, 0) - Z(j, 0)) / lengthscale, db = (Z(i, 1) - Z(j, 1)) / lengthscale;
+        const double kij = variance * std::exp(-0.5 * (da * da + db * db));
+        EXPECT_NEAR(K(i, j), kij, 1e-6 * variance) << "lengthscale " << lengthscale << ", entry " << i << "," << j;
+        reference += W(i, j) * kij * Eigen::Vector3d(1.0, da * da, db * db);
+      }
+    Eigen::MatrixXd noisy = K;
+    noisy.diagonal().array() += 1e-6 * variance;
+    EXPECT_EQ(noisy.llt().info(), Eigen::Success) << "lengthscale " << lengthscale;
+
+    KernelScratch scratch;
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(3), g_cross = g;
+    k.contract(Z, W, g, scratch);
+    k.contract_cross(Z, Z, W, g_cross, scratch);
+    EXPECT_LT((g - reference).norm(), 1e-6 * reference.norm()) << "lengthscale " << lengthscale;
+    EXPECT_LT((g_cross - reference).norm(), 1e-6 * reference.norm()) << "lengthscale " << lengthscale;
+  }
+}
+
 // docs/method.md section 12 written out: offset, viscous, tanh Coulomb and Stribeck.
 TEST(FrictionKernel, ValueGradientsAndFastPathsMatchTheFormula) {
   const FeatureMap fm(JointTypes::parse("RRPR"));

@@ -1,5 +1,6 @@
 #include "gipdyn/kernels/rbf_kernel.hpp"
 
+#include <algorithm>
 #include <cmath>
 
 #include "gipdyn/error.hpp"
@@ -39,12 +40,33 @@ Eigen::MatrixXd RbfKernel::scaled(const Eigen::MatrixXd& Z) const {
   return S;
 }
 
+bool RbfKernel::scaled_pair(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& S1,
+                            Eigen::MatrixXd& S2) const {
+  S1 = scaled(Z1);
+  S2 = scaled(Z2);
+  if (S1.rows() == 0 || S2.rows() == 0) return true;
+  // The expansion's rounding is about eps * max |s|^2 in the squared distance,
+  // that is eps * max |s|^2 / 2 relative in k: keep it below about 1e-10. (No
+  // centring to shrink |s|: a shift that depends on the rows would round a
+  // block of a distributed matrix differently from the whole.)
+  constexpr double kLargestSafeSquaredNorm = 1e6;
+  return std::max(S1.rowwise().squaredNorm().maxCoeff(), S2.rowwise().squaredNorm().maxCoeff()) <=
+         kLargestSafeSquaredNorm;
+}
+
 void RbfKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
-  const Eigen::MatrixXd S1 = scaled(Z1), S2 = scaled(Z2);
+  Eigen::MatrixXd S1, S2;
+  const bool expand = scaled_pair(Z1, Z2, S1, S2);
   K.resize(Z1.rows(), Z2.rows());
-  K.noalias() = -2.0 * S1 * S2.transpose();
-  K.colwise() += S1.rowwise().squaredNorm();
-  K.rowwise() += S2.rowwise().squaredNorm().transpose();
+  if (expand) {
+    K.noalias() = -2.0 * S1 * S2.transpose();
+    K.colwise() += S1.rowwise().squaredNorm();
+    K.rowwise() += S2.rowwise().squaredNorm().transpose();
+  } else {
+    K.setZero();
+    for (Eigen::Index j = 0; j < K.cols(); ++j)
+      for (Eigen::Index d = 0; d < S1.cols(); ++d) K.col(j).array() += (S1.col(d).array() - S2(j, d)).square();
+  }
   K = (std::exp(log_params_(0)) * (-0.5 * K.array().max(0.0)).exp()).matrix();
 }
 
@@ -67,12 +89,17 @@ void RbfKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd
 
 void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                          KernelScratch& scratch) const {
-  // With M = W o K: sum_ij M_ij (s_id - s_jd)^2 = 2 sum_i s_id^2 (M 1)_i - 2 s_d^T M s_d.
+  // With M = W o K: sum_ij M_ij (s_id - s_jd)^2 = 2 sum_i s_id^2 (M 1)_i - 2 s_d^T M s_d,
+  // or summed directly where that expansion would cancel (scaled_pair).
+  Eigen::MatrixXd S, unused;
+  if (!scaled_pair(Z, Z, S, unused)) {
+    contract_cross(Z, Z, W, grad, scratch);
+    return;
+  }
   Eigen::MatrixXd& M = scratch.a;
   cross(Z, Z, M);
   M.array() *= W.array();
   grad(0) += M.sum();
-  const Eigen::MatrixXd S = scaled(Z);
   const Eigen::VectorXd r = M.rowwise().sum();
   Eigen::MatrixXd& MS = scratch.b;
   MS.noalias() = M * S;
@@ -82,12 +109,19 @@ void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eig
 
 void RbfKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  // With M = W o K: sum_ij M_ij (a_id - b_jd)^2 = a_d^2 . M 1 + b_d^2 . M^T 1 - 2 a_d^T M b_d.
+  // With M = W o K: sum_ij M_ij (a_id - b_jd)^2 = a_d^2 . M 1 + b_d^2 . M^T 1 - 2 a_d^T M b_d,
+  // or summed directly where that expansion would cancel (scaled_pair).
   Eigen::MatrixXd& M = scratch.a;
   cross(Z1, Z2, M);
   M.array() *= W.array();
   grad(0) += M.sum();
-  const Eigen::MatrixXd A = scaled(Z1), B = scaled(Z2);
+  Eigen::MatrixXd A, B;
+  if (!scaled_pair(Z1, Z2, A, B)) {
+    for (Eigen::Index j = 0; j < M.cols(); ++j)
+      for (Eigen::Index d = 0; d < A.cols(); ++d)
+        grad(1 + d) += (M.col(j).array() * (A.col(d).array() - B(j, d)).square()).sum();
+    return;
+  }
   const Eigen::VectorXd rows = M.rowwise().sum(), cols = M.colwise().sum().transpose();
   Eigen::MatrixXd& MB = scratch.b;
   MB.noalias() = M * B;
