@@ -10,6 +10,9 @@
 #include <filesystem>
 #include <fstream>
 #include <iterator>
+#if defined(__x86_64__) || defined(__SSE2__)
+#include <xmmintrin.h>
+#endif
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/atomic_file.hpp"
@@ -94,6 +97,28 @@ TEST(Training, SameSeedSameModelWhateverTheThreads) {
   const TrainResult c = train_model(X, Y, joints, o);
   EXPECT_NE(a.report.joints[0].restart_nlls[1], c.report.joints[0].restart_nlls[1]);  // restarts depend on the seed
 }
+
+#if defined(__x86_64__) || defined(__SSE2__)
+// Training flushes subnormal numbers to zero on its threads (they made NLL
+// evaluations with tiny lengthscales 16x slower) and must hand the caller's
+// floating-point mode back untouched, also when it throws.
+TEST(Training, LeavesTheCallersFloatingPointModeAsItWas) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, 40, 44);
+  const Eigen::MatrixXd Y = two_link_torques(X);
+  TrainOptions o;
+  o.optimizer.max_iterations = 10;
+  o.threads = 1;
+  const unsigned before = _mm_getcsr();
+  ASSERT_EQ(before & 0x8040u, 0u);
+  EXPECT_TRUE(train_model(X, Y, joints, o).report.ok());
+  EXPECT_EQ(_mm_getcsr(), before);
+  Eigen::MatrixXd bad = Y;
+  bad(3, 1) = std::nan("");
+  EXPECT_THROW(train_model(X, bad, joints, o), Error);
+  EXPECT_EQ(_mm_getcsr(), before);
+}
+#endif
 
 TEST(Training, AdamLowersTheNll) {
   const JointTypes joints = JointTypes::parse("RR");
