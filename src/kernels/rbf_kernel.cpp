@@ -40,10 +40,7 @@ Eigen::MatrixXd RbfKernel::scaled(const Eigen::MatrixXd& Z) const {
   return S;
 }
 
-bool RbfKernel::scaled_pair(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& S1,
-                            Eigen::MatrixXd& S2) const {
-  S1 = scaled(Z1);
-  S2 = scaled(Z2);
+bool RbfKernel::expansion_is_accurate(const Eigen::MatrixXd& S1, const Eigen::MatrixXd& S2) {
   if (S1.rows() == 0 || S2.rows() == 0) return true;
   // The expansion's rounding is about eps * max |s|^2 in the squared distance,
   // that is eps * max |s|^2 / 2 relative in k: keep it below about 1e-10. (No
@@ -55,10 +52,9 @@ bool RbfKernel::scaled_pair(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2
 }
 
 void RbfKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
-  Eigen::MatrixXd S1, S2;
-  const bool expand = scaled_pair(Z1, Z2, S1, S2);
+  const Eigen::MatrixXd S1 = scaled(Z1), S2 = scaled(Z2);
   K.resize(Z1.rows(), Z2.rows());
-  if (expand) {
+  if (expansion_is_accurate(S1, S2)) {
     K.noalias() = -2.0 * S1 * S2.transpose();
     K.colwise() += S1.rowwise().squaredNorm();
     K.rowwise() += S2.rowwise().squaredNorm().transpose();
@@ -90,9 +86,9 @@ void RbfKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd
 void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                          KernelScratch& scratch) const {
   // With M = W o K: sum_ij M_ij (s_id - s_jd)^2 = 2 sum_i s_id^2 (M 1)_i - 2 s_d^T M s_d,
-  // or summed directly where that expansion would cancel (scaled_pair).
-  Eigen::MatrixXd S, unused;
-  if (!scaled_pair(Z, Z, S, unused)) {
+  // or summed directly where that expansion would cancel (expansion_is_accurate).
+  const Eigen::MatrixXd S = scaled(Z);
+  if (!expansion_is_accurate(S, S)) {
     contract_cross(Z, Z, W, grad, scratch);
     return;
   }
@@ -110,13 +106,13 @@ void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eig
 void RbfKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
   // With M = W o K: sum_ij M_ij (a_id - b_jd)^2 = a_d^2 . M 1 + b_d^2 . M^T 1 - 2 a_d^T M b_d,
-  // or summed directly where that expansion would cancel (scaled_pair).
+  // or summed directly where that expansion would cancel (expansion_is_accurate).
   Eigen::MatrixXd& M = scratch.a;
   cross(Z1, Z2, M);
   M.array() *= W.array();
   grad(0) += M.sum();
-  Eigen::MatrixXd A, B;
-  if (!scaled_pair(Z1, Z2, A, B)) {
+  const Eigen::MatrixXd A = scaled(Z1), B = scaled(Z2);
+  if (!expansion_is_accurate(A, B)) {
     for (Eigen::Index j = 0; j < M.cols(); ++j)
       for (Eigen::Index d = 0; d < A.cols(); ++d)
         grad(1 + d) += (M.col(j).array() * (A.col(d).array() - B(j, d)).square()).sum();

@@ -35,13 +35,11 @@ class RbfKernel final : public Kernel {
 
  private:
   Eigen::MatrixXd scaled(const Eigen::MatrixXd& Z) const;  // Z[:, cols] / ell
-  // Z1 and Z2 scaled, and whether |a - b|^2 = |a|^2 + |b|^2 - 2 a.b (one matrix
-  // product) is accurate for them: it is not
-  // when a lengthscale is tiny against the inputs (scaled values of 1e8 leave
-  // nothing of a distance of 1 after cancellation), so callers then sum the
-  // squared differences directly.
-  bool scaled_pair(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& S1,
-                   Eigen::MatrixXd& S2) const;
+  // Whether |a - b|^2 = |a|^2 + |b|^2 - 2 a.b (one matrix product) is accurate
+  // for the scaled inputs S1, S2: it is not when a lengthscale is tiny against
+  // the inputs (scaled values of 1e8 leave nothing of a distance of 1 after
+  // cancellation), so callers then sum the squared differences directly.
+  static bool expansion_is_accurate(const Eigen::MatrixXd& S1, const Eigen::MatrixXd& S2);
 
   std::vector<int> columns_;
   std::vector<std::string> labels_;
