@@ -15,6 +15,7 @@
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/features.hpp"
+#include "gipdyn/floating_point.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/gp/weight_space_nll.hpp"

@@ -1,10 +1,5 @@
 #include "gipdyn/model/training.hpp"
 
-#if defined(__x86_64__) || defined(__SSE2__)
-#include <xmmintrin.h>
-#define GIPDYN_HAVE_MXCSR 1
-#endif
-
 #include <algorithm>
 #include <atomic>
 #include <chrono>
@@ -16,6 +11,7 @@
 #include <thread>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/floating_point.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/gp/weight_space_nll.hpp"
 #include "gipdyn/memory.hpp"
@@ -72,28 +68,6 @@ void TrainOptions::validate() const {
 }
 
 namespace {
-
-// Kernel values such as exp(-0.5 d^2) underflow into subnormal numbers when a
-// lengthscale is tiny (real logs, docs/training.md), and x86 arithmetic on
-// subnormals is 10-100x slower: an RBF fit on 250 UR10 rows took 21 ms an NLL
-// evaluation instead of 1.3 ms. Values below 2.2e-308 do not matter to an NLL,
-// so training threads flush them to zero, and restore the caller's mode.
-class FlushSubnormalsToZero {
- public:
-#ifdef GIPDYN_HAVE_MXCSR
-  FlushSubnormalsToZero() : saved_(_mm_getcsr()) { _mm_setcsr(saved_ | 0x8040u); }  // FTZ and DAZ
-  ~FlushSubnormalsToZero() { _mm_setcsr(saved_); }
-#else
-  FlushSubnormalsToZero() = default;
-#endif
-  FlushSubnormalsToZero(const FlushSubnormalsToZero&) = delete;
-  FlushSubnormalsToZero& operator=(const FlushSubnormalsToZero&) = delete;
-
- private:
-#ifdef GIPDYN_HAVE_MXCSR
-  unsigned saved_;
-#endif
-};
 
 struct JointOutcome {
   JointReport report;
