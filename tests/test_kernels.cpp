@@ -142,6 +142,31 @@ TEST(RbfKernel, ValueAndGradients) {
   expect_contractions_match(*k, Z1, "rbf");
 }
 
+// The control-loop mean k(z, Z) alpha through a plan (the friction part folded
+// into four weights) must equal the kernel row dotted with alpha, for every
+// kernel with a friction part and for one without; an empty plan falls back.
+TEST(MeanPlan, PlannedMeanEqualsTheRowDottedWithAlpha) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  const Eigen::MatrixXd Z = fm.compute(random_inputs(fm.joints(), 30, 81));
+  const Eigen::MatrixXd Zq = fm.compute(random_inputs(fm.joints(), 5, 82));
+  const Eigen::VectorXd alpha = random_vector(30, -2.0, 2.0, 83);
+  for (const char* name : {"gip-envelope+friction", "gip+friction", "gip+friction+rbf", "gip+rbf"}) {
+    auto k = make_kernel(name, fm, 1);
+    k->set_log_params(random_vector(k->num_params(), -0.5, 0.5, 84));
+    MeanPlan plan, empty;
+    k->plan_mean(Z, alpha, plan);
+    Eigen::VectorXd krow(30), row(30);
+    KernelScratch scratch;
+    for (int q = 0; q < 5; ++q) {
+      const Eigen::VectorXd z = Zq.row(q).transpose();
+      k->row(z.data(), Z, row, scratch);
+      const double expected = row.dot(alpha), scale = row.cwiseProduct(alpha).cwiseAbs().sum();
+      EXPECT_NEAR(k->mean_one(z.data(), Z, alpha, plan, krow, scratch), expected, 1e-13 * scale) << name;
+      EXPECT_NEAR(k->mean_one(z.data(), Z, alpha, empty, krow, scratch), expected, 1e-13 * scale) << name;
+    }
+  }
+}
+
 // A lengthscale far below the inputs' size (the optimiser tries such points on
 // logs with repeated rows): |a|^2 + |b|^2 - 2 a.b of the scaled inputs would
 // cancel to noise, and the matrix would not even be positive semidefinite.

@@ -291,7 +291,8 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
   for (const auto& [kernel, mean] : {std::pair{"gip", MeanKind::Zero}, std::pair{"gip-friction", MeanKind::Zero},
                                      std::pair{"rbf", MeanKind::Zero}, std::pair{"gip", MeanKind::Linear},
                                      std::pair{"rbf", MeanKind::Constant}, std::pair{"gip+rbf", MeanKind::Zero},
-                                     std::pair{"gip-envelope+friction", MeanKind::Zero}}) {
+                                     std::pair{"gip-envelope+friction", MeanKind::Zero},
+                                     std::pair{"gip+friction", MeanKind::Linear}}) {
     InverseDynamicsModel m = small_model(kernel, 40, 46, 40, mean);
     const fs::path path = temp_dir() / (std::string(kernel) + "_" + to_string(mean) + ".gipdyn");
     save_model(m, path.string());
@@ -331,6 +332,10 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
       EXPECT_NEAR(tau(j), mb(3, j), 1e-7 * (1 + std::abs(mb(3, j))) + test::prediction_rounding(loaded, j, x)) << kernel;
       EXPECT_NEAR(sd(j), sb(3, j), 1e-5 * sb(3, j) + 1e-9) << kernel;
     }
+    // The mean alone takes the planned path (friction folded into its weights).
+    ws.predict(x.data(), tau.data());
+    for (int j = 0; j < 2; ++j)
+      EXPECT_NEAR(tau(j), mb(3, j), 1e-7 * (1 + std::abs(mb(3, j))) + test::prediction_rounding(loaded, j, x)) << kernel;
   }
 }
 

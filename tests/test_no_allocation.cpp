@@ -105,7 +105,7 @@ TEST(NoAllocation, InterpositionSeesAllocations) {
 }
 
 TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
-  for (const char* kernel : {"gip", "gip-friction", "rbf"}) {
+  for (const char* kernel : {"gip", "gip-friction", "rbf", "gip-envelope+friction", "gip+friction+rbf"}) {
     const JointTypes joints = JointTypes::parse("RRPR");
     const Eigen::MatrixXd X = test::random_inputs(joints, 80, 61);
     const Eigen::MatrixXd Y = Eigen::MatrixXd::Random(80, 4);

@@ -152,11 +152,17 @@ void combine_child_rows(const std::vector<std::unique_ptr<Kernel>>& children, co
                         const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out, KernelScratch& scratch,
                         Combine&& combine) {
   children[0]->row(z, Z, out, scratch);
-  Eigen::VectorXd part(Z.rows());
+  // This level's buffer, sized once: a control-loop query allocates nothing.
+  const size_t level = scratch.child_level;
+  if (scratch.child_rows.size() <= level) scratch.child_rows.resize(level + 1);
+  Eigen::VectorXd& part = scratch.child_rows[level];
+  part.resize(Z.rows());
+  ++scratch.child_level;
   for (size_t c = 1; c < children.size(); ++c) {
     children[c]->row(z, Z, part, scratch);
     combine(out, part);
   }
+  --scratch.child_level;
 }
 
 void ProductKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
@@ -175,6 +181,20 @@ void SumKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen:
                     KernelScratch& scratch) const {
   combine_child_rows(children_, z, Z, out, scratch,
                      [](Eigen::Ref<Eigen::VectorXd> acc, const Eigen::VectorXd& part) { acc += part; });
+}
+
+void SumKernel::plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const {
+  plan = MeanPlan{};
+  plan.parts.resize(children_.size());
+  for (size_t c = 0; c < children_.size(); ++c) children_[c]->plan_mean(Z, alpha, plan.parts[c]);
+}
+
+double SumKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,
+                           const MeanPlan& plan, Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const {
+  if (plan.parts.size() != children_.size()) return Kernel::mean_one(z, Z, alpha, plan, krow, scratch);
+  double mean = 0.0;
+  for (size_t c = 0; c < children_.size(); ++c) mean += children_[c]->mean_one(z, Z, alpha, plan.parts[c], krow, scratch);
+  return mean;
 }
 
 double SumKernel::self(const double* z, int feature_dim) const {

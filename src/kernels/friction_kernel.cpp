@@ -106,6 +106,19 @@ void FrictionKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<E
   for (Eigen::Index i = 0; i < Z.rows(); ++i) out(i) = w.dot(features_from_inverse(Z(i, column_), inv_vc, inv_vr, nullptr, nullptr));
 }
 
+void FrictionKernel::plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const {
+  Eigen::MatrixXd F;
+  feature_matrix(Z, F);
+  plan = MeanPlan{};
+  plan.weights = (F.transpose() * alpha).cwiseProduct(log_params_.head<4>().array().exp().matrix());
+}
+
+double FrictionKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,
+                                const MeanPlan& plan, Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const {
+  if (plan.weights.size() != 4) return Kernel::mean_one(z, Z, alpha, plan, krow, scratch);
+  return features(z[column_]).dot(plan.weights);
+}
+
 void FrictionKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
                                      Eigen::MatrixXd& dK) const {
   if (p < 0 || p >= kNumParams) throw Error("FrictionKernel: parameter index out of range");

@@ -26,6 +26,16 @@ void Kernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::Ve
   out = K.row(0).transpose();
 }
 
+void Kernel::plan_mean(const Eigen::MatrixXd& /*Z*/, const Eigen::VectorXd& /*alpha*/, MeanPlan& plan) const {
+  plan = MeanPlan{};
+}
+
+double Kernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,
+                        const MeanPlan& /*plan*/, Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const {
+  row(z, Z, krow, scratch);
+  return krow.dot(alpha);
+}
+
 void Kernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                             Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
   const Eigen::Index n1 = Z1.rows(), n2 = Z2.rows();

@@ -243,6 +243,12 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
     gip_kernels_.push_back(&model.gip_kernels()[static_cast<size_t>(j)]);
     alphas_.push_back(&model.joint_gp(j).alpha());
   }
+  if (gip_kernels_.empty()) {
+    mean_plans_.resize(static_cast<size_t>(model.num_joints()));
+    for (int j = 0; j < model.num_joints(); ++j)
+      model.joint_gp(j).kernel().plan_mean(model.training_features(), model.joint_gp(j).alpha(),
+                                           mean_plans_[static_cast<size_t>(j)]);
+  }
   // Warm up every buffer the kernels use, so later calls do not allocate.
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
   Eigen::VectorXd tau(model.num_joints());
@@ -257,7 +263,10 @@ void PredictionWorkspace::predict(const double* x, double* tau) {
   if (!gip_kernels_.empty()) {
     GipKernel::dot_rows(gip_kernels_, alphas_, z_.data(), Z, f_, scratch_);
   } else {
-    for (int j = 0; j < m.num_joints(); ++j) f_(j) = m.joint_gp(j).predict_mean_one(z_.data(), Z, krow_, scratch_);
+    for (int j = 0; j < m.num_joints(); ++j) {
+      const GpRegressor& gp = m.joint_gp(j);
+      f_(j) = gp.kernel().mean_one(z_.data(), Z, gp.alpha(), mean_plans_[static_cast<size_t>(j)], krow_, scratch_);
+    }
   }
   for (int j = 0; j < m.num_joints(); ++j)
     tau[j] = m.output_offset()(j) + m.output_scale()(j) * (f_(j) + m.joint_mean(j).evaluate_one(x));

@@ -89,6 +89,10 @@ class SumKernel final : public CompositeKernel {
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
   double self(const double* z, int feature_dim) const override;
+  // One plan per child: a finite expansion among them (friction) costs O(features) a query.
+  void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
+  double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,
+                  Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const override;
 
  private:
   std::vector<double> shares_;

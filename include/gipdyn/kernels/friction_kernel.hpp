@@ -42,6 +42,10 @@ class FrictionKernel final : public Kernel {
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
   double self(const double* z, int feature_dim) const override;
+  // Rank 4: k(z, Z) alpha = (s .* f(z)) . (F^T alpha), F folded once.
+  void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
+  double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,
+                  Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const override;
 
   // Each of the four terms starts with a quarter of target_variance (its weight
   // divided by the mean square of its feature); v_c starts at 5 % and v_r at

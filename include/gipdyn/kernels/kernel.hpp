@@ -6,11 +6,21 @@
 // Inputs are feature matrices Z with one sample per row (see features.hpp);
 // a kernel reads the columns it was built with.
 #include <Eigen/Dense>
+#include <deque>
 #include <memory>
 #include <string>
 #include <vector>
 
 namespace gipdyn {
+
+// The predictive mean of one query, k(z, Z) alpha, prepared once for a fixed
+// (Z, alpha) by Kernel::plan_mean. A finite feature expansion folds alpha into
+// its feature weights, so a query costs O(features) instead of N kernel values;
+// a sum keeps one plan per child.
+struct MeanPlan {
+  Eigen::VectorXd weights;
+  std::vector<MeanPlan> parts;
+};
 
 // Caller-owned buffers a kernel may use, so that repeated evaluations (one per
 // optimiser step, one per control-loop query) reuse memory. One per thread.
@@ -19,6 +29,11 @@ namespace gipdyn {
 struct KernelScratch {
   Eigen::MatrixXd a, b, c, d;
   Eigen::VectorXd v, w;
+  // Composite kernels' child rows in row(), one per nesting level (a product
+  // inside a sum). A deque, so that a deeper level's first use does not move
+  // the buffers of the levels above it.
+  std::deque<Eigen::VectorXd> child_rows;
+  size_t child_level = 0;
 };
 
 class Kernel {
@@ -73,6 +88,13 @@ class Kernel {
                    KernelScratch& scratch) const;
   // k(z, z).
   virtual double self(const double* z, int feature_dim) const;
+  // k(z, Z) alpha for one query, through a plan that plan_mean made for the same
+  // Z, alpha and hyperparameters (the model's, fixed once trained). krow (size
+  // N) is a buffer. The defaults: no plan, and row() dotted with alpha; they do
+  // not allocate where row() does not.
+  virtual void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const;
+  virtual double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,
+                          const MeanPlan& plan, Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const;
   // Kernels that are exactly k(z, z') = phi(z) diag(exp(log_params())) phi(z')^T, one
   // log-variance per feature in parameter order, put the features of every row of Z
   // into Phi and return true; training then evaluates the NLL in weight space

@@ -137,6 +137,8 @@ class PredictionWorkspace {
   // Set when the model has GIP kernels: the fused all-joints mean path.
   std::vector<const GipKernel*> gip_kernels_;
   std::vector<const Eigen::VectorXd*> alphas_;
+  // Otherwise one mean plan per joint (Kernel::plan_mean), made here: the model is fixed.
+  std::vector<MeanPlan> mean_plans_;
 };
 
 }  // namespace gipdyn
