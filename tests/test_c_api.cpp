@@ -38,7 +38,7 @@ Trained train_and_save(const std::string& kernel) {
   TrainOptions o;
   o.kernel = kernel;
   o.optimizer.max_iterations = 40;
-  TrainResult r = train_model(X, test::two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(120, 2), joints, o);
+  TrainResult r = train_model(X, test::two_link_torques(X) + 0.01 * test::random_matrix(120, 2, -1.0, 1.0, 901), joints, o);
   EXPECT_TRUE(r.report.ok()) << r.report.message;
   const std::string path = temp_file(kernel + ".gipdyn").string();
   save_model(r.model, path);

@@ -119,7 +119,7 @@ TEST(DistributedNll, AddsTheSameJitterAsOneProcessToASingularMatrix) {
 TEST(DistributedNll, TrainingGivesTheSingleProcessModel) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = random_inputs(joints, 150, 51);
-  const Eigen::MatrixXd Y = test::two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(150, 2);
+  const Eigen::MatrixXd Y = test::two_link_torques(X) + 0.01 * test::random_matrix(150, 2, -1.0, 1.0, 902);
   const Eigen::MatrixXd Xt = random_inputs(joints, 50, 52);
   for (const int max_evaluations : {12, 300}) {
     const double tol = max_evaluations == 12 ? 1e-8 : 1e-4;

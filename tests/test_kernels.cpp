@@ -53,7 +53,7 @@ void expect_gradient_matrices_match(Kernel& k, const Eigen::MatrixXd& Z1, const 
 // lower-triangle NLL contraction equals the full one.
 void expect_contractions_match(const Kernel& k, const Eigen::MatrixXd& Z, const std::string& what) {
   const Eigen::Index N = Z.rows();
-  Eigen::MatrixXd W = Eigen::MatrixXd::Random(N, N);
+  Eigen::MatrixXd W = test::random_matrix(N, N, -1.0, 1.0, 903);
   W = (W + W.transpose()).eval();
   KernelScratch scratch;
   Eigen::VectorXd g = Eigen::VectorXd::Zero(k.num_params());
@@ -66,8 +66,8 @@ void expect_contractions_match(const Kernel& k, const Eigen::MatrixXd& Z, const 
   }
   EXPECT_LT((g - ref).norm() / ref.norm(), 1e-10) << what << ": contract";
 
-  const Eigen::VectorXd alpha = Eigen::VectorXd::Random(N);
-  Eigen::MatrixXd Kinv = Eigen::MatrixXd::Random(N, N);
+  const Eigen::VectorXd alpha = test::random_vector(N, -1.0, 1.0, 904);
+  Eigen::MatrixXd Kinv = test::random_matrix(N, N, -1.0, 1.0, 905);
   Kinv = (Kinv + Kinv.transpose()).eval();
   Eigen::MatrixXd Kinv_lower = Kinv;
   Kinv_lower.triangularView<Eigen::StrictlyUpper>().setConstant(std::nan(""));  // must not be read
@@ -180,7 +180,7 @@ TEST(RbfKernel, TinyLengthscalesKeepDistancesExactAndTheMatrixPositiveDefinite) 
     Eigen::MatrixXd K;
     k.cross(Z, Z, K);
     const double variance = std::exp(0.3);
-    Eigen::MatrixXd W = Eigen::MatrixXd::Random(8, 8);
+    Eigen::MatrixXd W = test::random_matrix(8, 8, -1.0, 1.0, 906);
     W = (W + W.transpose()).eval();
     Eigen::Vector3d reference = Eigen::Vector3d::Zero();
     for (Eigen::Index i = 0; i < 8; ++i)
@@ -355,7 +355,7 @@ TEST_P(GipKernelTest, GradientsMatchFiniteDifferencesAndComposite) {
     expect_contractions_match(k, Z1, std::string("gip ") + GetParam());
     // Fused contraction over several blocks vs the unfused composite kernel.
     const Eigen::Index N = Zbig.rows();
-    Eigen::MatrixXd W = Eigen::MatrixXd::Random(N, N);
+    Eigen::MatrixXd W = test::random_matrix(N, N, -1.0, 1.0, 907);
     W = (W + W.transpose()).eval();
     KernelScratch s1, s2;
     Eigen::VectorXd g = Eigen::VectorXd::Zero(k.num_params()), ref = g;

@@ -158,7 +158,7 @@ TEST_P(LagrangianKernelTest, GradientMatchesFiniteDifferences) {
   const int N = 5;
   Eigen::MatrixXd X(N, 3 * n);
   for (int r = 0; r < N; ++r) X.row(r) = random_state(n, rng).transpose();
-  Eigen::MatrixXd W = Eigen::MatrixXd::Random(N * n, N * n);
+  Eigen::MatrixXd W = test::random_matrix(N * n, N * n, -1.0, 1.0, 908);
   W = (W + W.transpose()).eval();
   auto contraction = [&](const LagrangianKernel& kk) { return W.cwiseProduct(kk.torque_covariance(X, X)).sum(); };
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(k.num_params());

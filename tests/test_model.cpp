@@ -50,7 +50,7 @@ InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned s
   o.optimizer.max_iterations = max_iter;
   // Measurement noise keeps the model well conditioned, as on real data; with
   // noise-free data the noise variance sits at its floor and alpha is huge.
-  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(rows, 2);
+  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * test::random_matrix(rows, 2, -1.0, 1.0, 909);
   TrainResult r = train_model(X, Y, joints, o);
   EXPECT_TRUE(r.report.ok()) << r.report.message;
   return std::move(r.model);
@@ -79,7 +79,7 @@ TEST(RkhsClaim, GipLearnsTwoLinkDynamicsFrom300SamplesAndRbfDoesNot) {
 TEST(Training, SameSeedSameModelWhateverTheThreads) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = random_inputs(joints, 60, 43);
-  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(60, 2);
+  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * test::random_matrix(60, 2, -1.0, 1.0, 910);
   TrainOptions o;
   o.optimizer.max_iterations = 30;
   o.restarts = 2;
@@ -167,7 +167,7 @@ TEST(Training, AdamLowersTheNll) {
 TEST(Training, ReportsEachJointsStopAndWarnsAboutTheCap) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = random_inputs(joints, 40, 44);
-  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * Eigen::MatrixXd::Random(40, 2);
+  const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * test::random_matrix(40, 2, -1.0, 1.0, 911);
   TrainOptions o;
   o.optimizer.max_iterations = 3;  // far too few: every joint stops at the cap
   const TrainResult r = train_model(X, Y, joints, o);

@@ -108,7 +108,7 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
   for (const char* kernel : {"gip", "gip-friction", "rbf", "gip-envelope+friction", "gip+friction+rbf"}) {
     const JointTypes joints = JointTypes::parse("RRPR");
     const Eigen::MatrixXd X = test::random_inputs(joints, 80, 61);
-    const Eigen::MatrixXd Y = Eigen::MatrixXd::Random(80, 4);
+    const Eigen::MatrixXd Y = test::random_matrix(80, 4, -1.0, 1.0, 912);
     TrainOptions o;
     o.kernel = kernel;
     o.optimizer.max_iterations = 5;
@@ -137,7 +137,7 @@ TEST(NoAllocation, CApiQueriesDoNotAllocate) {
   const Eigen::MatrixXd X = test::random_inputs(joints, 80, 63);
   TrainOptions o;
   o.optimizer.max_iterations = 5;
-  TrainResult r = train_model(X, Eigen::MatrixXd::Random(80, 4), joints, o);
+  TrainResult r = train_model(X, test::random_matrix(80, 4, -1.0, 1.0, 913), joints, o);
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   const std::string path =
       (std::filesystem::temp_directory_path() / ("gipdyn_c_api_" + std::to_string(::getpid()) + ".gipdyn")).string();
@@ -182,7 +182,7 @@ TEST(NoAllocation, CApiNetworkQueriesDoNotAllocate) {
   NeuralNetworkOptions o;
   o.epochs = 2;
   o.hidden = {32, 16};
-  const NeuralNetworkEstimator net(NeuralNetwork::train(X, Eigen::MatrixXd::Random(200, 4), joints, o));
+  const NeuralNetworkEstimator net(NeuralNetwork::train(X, test::random_matrix(200, 4, -1.0, 1.0, 914), joints, o));
   gipdyn_model* model = load_through_c_api(net, "gipdyn_c_api_nn");
   ASSERT_NE(model, nullptr);
   ASSERT_EQ(gipdyn_model_allocation_free(model), 1);
@@ -242,7 +242,7 @@ TEST(NoAllocation, CApiLagrangianAndFisherianQueriesDoNotAllocate) {
     o.name = name;
     o.gp.optimizer.max_iterations = 5;
     o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
-    const FitResult fitted = fit_estimator(o, X, Eigen::MatrixXd::Random(40, 4), joints);
+    const FitResult fitted = fit_estimator(o, X, test::random_matrix(40, 4, -1.0, 1.0, 915), joints);
     ASSERT_TRUE(fitted.report.ok()) << fitted.report.message;
     expect_queries_do_not_allocate(*fitted.estimator, std::string("gipdyn_c_api_") + name);
   }

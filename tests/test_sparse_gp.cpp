@@ -235,7 +235,7 @@ TEST(SparseGp, AddingRowsOnlineEqualsTheBatchFitOnAllRows) {
 TEST(HyperparameterRows, LearnOnASubsampleAndConditionOnEveryRow) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = random_inputs(joints, 240, 91);
-  const Eigen::MatrixXd Y = test::two_link_torques(X) + 0.05 * Eigen::MatrixXd::Random(240, 2);
+  const Eigen::MatrixXd Y = test::two_link_torques(X) + 0.05 * test::random_matrix(240, 2, -1.0, 1.0, 916);
   const std::vector<Eigen::Index> sub = constant_step_indices(240, 80);
   struct Case {
     int inducing;

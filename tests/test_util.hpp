@@ -53,6 +53,13 @@ inline Eigen::VectorXd random_vector(int size, double lo, double hi, unsigned se
   return v;
 }
 
+// A rows x cols matrix of uniform values in [lo, hi] from its own seed: unlike
+// Eigen's Random(), which draws from the process-wide std::rand(), the values do
+// not depend on which tests ran before in the same process.
+inline Eigen::MatrixXd random_matrix(int rows, int cols, double lo, double hi, unsigned seed) {
+  return Eigen::Map<const Eigen::MatrixXd>(random_vector(rows * cols, lo, hi, seed).data(), rows, cols);
+}
+
 // The message of the gipdyn::Error that f throws, or "" if it throws none.
 inline std::string error_of(const std::function<void()>& f) {
   try {
