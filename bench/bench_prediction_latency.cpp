@@ -4,7 +4,7 @@
 //
 //   build/bench/bench_prediction_latency MODEL DATA [ROWS]
 //
-// DATA is a log in the documented CSV layout (docs/model-format.md) with the
+// DATA is a log in the CSV layout of README.md, "Data files", with the
 // model's joints; the first ROWS rows (default 3000) are queried three times
 // each, in order, and p50, p99 and the maximum are printed. The process keeps
 // its default floating-point mode, as a caller's control loop would.

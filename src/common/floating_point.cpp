@@ -2,23 +2,25 @@
 
 #if defined(__x86_64__) || defined(__SSE2__)
 #include <xmmintrin.h>
-#define GIPDYN_HAVE_MXCSR 1
-#endif
 
 namespace gipdyn {
 
 namespace {
-constexpr unsigned kFlushToZeroAndDenormalsAreZero = 0x8040u;
+constexpr unsigned kFlushToZeroAndDenormalsAreZero = 0x8040u;  // MXCSR bits FTZ (15) and DAZ (6)
 }
 
-#ifdef GIPDYN_HAVE_MXCSR
 FlushSubnormalsToZero::FlushSubnormalsToZero() : saved_mode_(_mm_getcsr()) {
   _mm_setcsr(saved_mode_ | kFlushToZeroAndDenormalsAreZero);
 }
 FlushSubnormalsToZero::~FlushSubnormalsToZero() { _mm_setcsr(saved_mode_); }
-#else
-FlushSubnormalsToZero::FlushSubnormalsToZero() { (void)kFlushToZeroAndDenormalsAreZero; }
-FlushSubnormalsToZero::~FlushSubnormalsToZero() = default;
-#endif
 
 }  // namespace gipdyn
+
+#else
+
+namespace gipdyn {
+FlushSubnormalsToZero::FlushSubnormalsToZero() = default;
+FlushSubnormalsToZero::~FlushSubnormalsToZero() = default;
+}  // namespace gipdyn
+
+#endif
