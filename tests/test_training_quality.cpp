@@ -44,14 +44,6 @@ Eigen::MatrixXd two_link_trajectory(int rows, double dt, unsigned seed) {
   return X;
 }
 
-Eigen::MatrixXd noisy(const Eigen::MatrixXd& tau, double sd, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::normal_distribution<double> n(0.0, sd);
-  Eigen::MatrixXd out = tau;
-  for (Eigen::Index k = 0; k < out.size(); ++k) out.data()[k] += n(rng);
-  return out;
-}
-
 struct Fit {
   TrainResult result;
   Accuracy accuracy;
@@ -59,7 +51,7 @@ struct Fit {
 
 Fit fit_and_test(const Eigen::MatrixXd& X, const TrainOptions& o, const Eigen::MatrixXd& Xtest) {
   const JointTypes joints = JointTypes::parse("RR");
-  Fit f{train_model(X, noisy(two_link_torques(X), 0.01, 7), joints, o), {}};
+  Fit f{train_model(X, test::with_noise(two_link_torques(X), 0.01, 7), joints, o), {}};
   EXPECT_TRUE(f.result.report.ok()) << f.result.report.message;
   if (f.result.report.ok()) f.accuracy = compute_accuracy(two_link_torques(Xtest), f.result.model.predict(Xtest));
   return f;

@@ -60,6 +60,15 @@ inline Eigen::MatrixXd random_matrix(int rows, int cols, double lo, double hi, u
   return Eigen::Map<const Eigen::MatrixXd>(random_vector(rows * cols, lo, hi, seed).data(), rows, cols);
 }
 
+// M plus Gaussian noise of standard deviation sd from its own seed.
+inline Eigen::MatrixXd with_noise(const Eigen::MatrixXd& M, double sd, unsigned seed) {
+  std::mt19937 rng(seed);
+  std::normal_distribution<double> n(0.0, sd);
+  Eigen::MatrixXd out = M;
+  for (Eigen::Index k = 0; k < out.size(); ++k) out.data()[k] += n(rng);
+  return out;
+}
+
 // The message of the gipdyn::Error that f throws, or "" if it throws none.
 inline std::string error_of(const std::function<void()>& f) {
   try {

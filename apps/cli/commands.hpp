@@ -16,5 +16,6 @@ Command add_preprocess(CLI::App& app);  // preprocess_command.cpp
 Command add_physics(CLI::App& app);     // physics_command.cpp
 Command add_update(CLI::App& app);      // update_command.cpp
 Command add_experiment(CLI::App& app);  // experiment_commands.cpp
+Command add_inspect(CLI::App& app);     // inspect_command.cpp
 
 }  // namespace gipdyn::cli

@@ -19,6 +19,7 @@ std::string out_of_memory_advice(const std::string& command) {
   if (command == "update") return "keep fewer rows (--window)";
   if (command == "predict" || command == "evaluate" || command == "physics")
     return "split --data into smaller files and run them one after another";
+  if (command == "inspect") return "look up fewer rows (--max-queries) or split --data";
   if (command == "preprocess") return "split --in into smaller logs, or resample it with a longer period (--dt)";
   return "give it smaller inputs";
 }
@@ -46,6 +47,10 @@ int main(int argc, char** argv) {
       gipdyn::cli::add_evaluate);
   add("update", "Add new samples to a GP model, hyperparameters fixed (online learning, optional sliding window)",
       gipdyn::cli::add_update);
+  add("inspect",
+      "Check a log before training: do rows that visit the same state have the same torque, within the log and "
+      "between training and test rows?",
+      gipdyn::cli::add_inspect);
   add("physics", "Gravity, inertia matrix, Coriolis and friction torques of a learned model (gip, pp, fe) at given states",
       gipdyn::cli::add_physics);
   add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",

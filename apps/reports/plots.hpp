@@ -16,7 +16,8 @@ struct PlotResult {
 // noise-ratio (diagnostics JSON), motion (true and learned positions from
 // `simulate --model`), tracking (errors.csv of the control experiment),
 // physics (physics.csv of `evaluate --physics`), learning_curve
-// (learning_curve.csv of `experiment real --sizes`).
+// (learning_curve.csv of `experiment real --sizes`), consistency (the JSON
+// report of `inspect`).
 // Writes `png` atomically.
 PlotResult render_plot(const std::string& kind, const std::string& input, const std::string& png);
 

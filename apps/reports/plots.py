@@ -258,9 +258,33 @@ def learning_curve(curve_csv, out):
     fig.savefig(out, dpi=110)
 
 
+def consistency(json_path, out):
+    import json
+
+    with open(json_path) as f:
+        d = json.load(f)
+    parts = [(key, label) for key, label in (("within_training", "within training"), ("within_test", "within test"),
+                                              ("training_to_test", "training -> test")) if key in d]
+    joints = len(d[parts[0][0]]["neighbour_nmse"])
+    width = 0.8 / len(parts)
+    fig, ax = plt.subplots(figsize=(2.0 + 0.9 * joints, 4.0))
+    for k, (key, label) in enumerate(parts):
+        v = [math.nan if x is None else x for x in d[key]["neighbour_nmse"]]
+        ax.bar([j + 1 + (k - (len(parts) - 1) / 2) * width for j in range(joints)], v, width, label=label)
+    ax.axhline(1.0, color="grey", lw=0.8, ls="--")
+    ax.set_xticks(range(1, joints + 1))
+    ax.set_xlabel("joint")
+    ax.set_ylabel("neighbour nMSE (dashed: predicting the mean)")
+    ax.set_title("torque at revisited states (radius %g, inputs %s)" % (d["radius"], d["inputs"]), fontsize=9)
+    ax.legend(fontsize=8)
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
 KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
          "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion,
-         "tracking": tracking, "physics": physics, "learning_curve": learning_curve}
+         "tracking": tracking, "physics": physics, "learning_curve": learning_curve,
+         "consistency": consistency}
 
 if __name__ == "__main__":
     if len(sys.argv) != 4 or sys.argv[1] not in KINDS:

@@ -2,6 +2,7 @@
 // gipdyn: robot inverse dynamics with Gaussian processes and the GIP kernel.
 // The whole public API in one include; each header below holds one concept.
 #include "gipdyn/blas_threads.hpp"
+#include "gipdyn/data_consistency.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"

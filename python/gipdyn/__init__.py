@@ -14,11 +14,11 @@ import warnings
 import numpy as np
 
 from . import _core
-from ._core import (GipdynError, HyperparameterPrior, OptimizerOptions, Robot, SimulationOptions, TrainOptions,
-                    mpi_rank, mpi_size)
+from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
+                    SimulationOptions, TrainOptions, mpi_rank, mpi_size)
 
 __all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
-           "SimulationOptions", "simulate", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
+           "SimulationOptions", "simulate", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator
@@ -490,3 +490,28 @@ def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_k
     out = _core.simulate(robot, o)
     out["metadata"] = json.loads(out["metadata"])
     return out
+
+
+def neighbour_consistency(X, tau, X_test=None, tau_test=None, radius=0.1, min_separation_rows=100,
+                          use_accelerations=False, max_queries=5000):
+    """Is the torque a function of the logged state? Pairs rows that visit the
+    same state (q, qd, and qdd with use_accelerations, each divided by its
+    standard deviation over X, at most radius apart) and compares their torques.
+    Without a test log: rows of X at least min_separation_rows apart; with one:
+    each test row's nearest row of X. Returns a dict: status ("ok" or
+    "too-few-pairs"), message, queries, pairs, neighbour_nmse and correlation
+    per joint. Within one log half the neighbour nMSE is about the noise share;
+    a test log far above the training log's value follows another function of
+    the state (docs/real-robots.md, `gipdyn inspect`)."""
+    o = NeighbourConsistencyOptions()
+    o.radius = float(radius)
+    o.min_separation_rows = int(min_separation_rows)
+    o.use_accelerations = bool(use_accelerations)
+    o.max_queries = int(max_queries)
+    X = _as_matrix("X", X)
+    tau = _as_matrix("tau", tau)
+    if (X_test is None) != (tau_test is None):
+        raise ValueError("give both X_test and tau_test, or neither")
+    if X_test is None:
+        return _core.neighbour_consistency(X, tau, o)
+    return _core.neighbour_consistency(X, tau, _as_matrix("X_test", X_test), _as_matrix("tau_test", tau_test), o)

@@ -12,6 +12,7 @@
 #include <mutex>
 #include <nlohmann/json.hpp>
 
+#include "gipdyn/data_consistency.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
@@ -61,6 +62,9 @@ const FieldNames& python_field_names() {
       {"SimulationOptions::samples", "samples"},
       {"SimulationOptions::noise_std", "noise"},
       {"SimulationOptions::dt", "dt"},
+      {"NeighbourConsistencyOptions::radius", "radius"},
+      {"NeighbourConsistencyOptions::min_separation_rows", "min_separation_rows"},
+      {"NeighbourConsistencyOptions::max_queries", "max_queries"},
   };
   return names;
 }
@@ -478,6 +482,37 @@ PYBIND11_MODULE(_core, m) {
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "
         "(kernel, robot, scaling and mean from the model; optimiser settings from options)");
   m.def("kernel_names", &kernel_names);
+
+  py::class_<NeighbourConsistencyOptions>(m, "NeighbourConsistencyOptions")
+      .def(py::init<>())
+      .def_readwrite("radius", &NeighbourConsistencyOptions::radius)
+      .def_readwrite("min_separation_rows", &NeighbourConsistencyOptions::min_separation_rows)
+      .def_readwrite("use_accelerations", &NeighbourConsistencyOptions::use_accelerations)
+      .def_readwrite("max_queries", &NeighbourConsistencyOptions::max_queries)
+      .def_readwrite("min_pairs", &NeighbourConsistencyOptions::min_pairs);
+  auto consistency_to_dict = [](const NeighbourConsistency& c) {
+    py::dict d;
+    d["status"] = to_string(c.status);
+    d["message"] = rename_fields(c.message, python_field_names());
+    d["queries"] = c.queries;
+    d["pairs"] = c.pairs;
+    d["neighbour_nmse"] = Eigen::VectorXd(c.neighbour_nmse);
+    d["correlation"] = Eigen::VectorXd(c.correlation);
+    return d;
+  };
+  m.def(
+      "neighbour_consistency",
+      [consistency_to_dict](const Eigen::MatrixXd& X, const Eigen::MatrixXd& tau, const NeighbourConsistencyOptions& o) {
+        return consistency_to_dict(neighbour_consistency(X, tau, o));
+      },
+      py::arg("X"), py::arg("tau"), py::arg("options"));
+  m.def(
+      "neighbour_consistency",
+      [consistency_to_dict](const Eigen::MatrixXd& X, const Eigen::MatrixXd& tau, const Eigen::MatrixXd& X_test,
+                            const Eigen::MatrixXd& tau_test, const NeighbourConsistencyOptions& o) {
+        return consistency_to_dict(neighbour_consistency(X, tau, X_test, tau_test, o));
+      },
+      py::arg("X"), py::arg("tau"), py::arg("X_test"), py::arg("tau_test"), py::arg("options"));
 
   py::class_<SimulationOptions>(m, "SimulationOptions")
       .def(py::init<>())

@@ -534,3 +534,25 @@ def test_distributed_options_that_cannot_work_are_refused_by_name():
         assert "distributed computes the exact GP: set inducing to 0" in r.stdout, r.stdout
     else:
         assert "libscalapack-openmpi-dev" in r.stdout, r.stdout
+
+
+def test_neighbour_consistency_finds_the_noise_and_a_changed_torque():
+    t = np.arange(0, 30, 0.01)
+    q = np.column_stack([np.sin(2 * np.pi * t / 5), np.sin(2 * np.pi * t / 10 + 1)])
+    qd = np.gradient(q, 0.01, axis=0)
+    X = np.hstack([q, qd, np.gradient(qd, 0.01, axis=0)])
+    rng = np.random.default_rng(0)
+    tau = np.column_stack([3 * np.cos(q[:, 0]), np.sin(q[:, 0] + q[:, 1])]) + 0.05 * rng.standard_normal((len(t), 2))
+    within = gipdyn.neighbour_consistency(X, tau, radius=0.02)
+    assert within["status"] == "ok" and within["pairs"] > 1000
+    share = 0.05**2 / tau.var(axis=0)
+    assert np.allclose(within["neighbour_nmse"] / 2, share, rtol=0.25)
+    other = tau.copy()
+    other[:, 1] = -tau[:, 1]
+    across = gipdyn.neighbour_consistency(X, tau, X, other)
+    assert across["neighbour_nmse"][0] < 0.1 and across["neighbour_nmse"][1] > 2
+    assert gipdyn.neighbour_consistency(X[:100], tau[:100])["status"] == "too-few-pairs"
+    with pytest.raises(ValueError, match="radius must be"):
+        gipdyn.neighbour_consistency(X, tau, radius=0)
+    with pytest.raises(ValueError, match="both X_test and tau_test"):
+        gipdyn.neighbour_consistency(X, tau, X_test=X)

@@ -81,6 +81,7 @@ def test_quiet_and_subsample(tmp_path, gipdyn_bin):
     ("evaluate", ["--model", "--data", "--json", "--plots"]),
     ("simulate", ["--robot", "--samples", "--seed", "--out"]),
     ("preprocess", ["--in", "--out", "--cutoff"]),
+    ("inspect", ["--data", "--joints", "--test", "--radius", "--out", "--plot"]),
 ])
 def test_help(gipdyn_bin, command, flags):
     r = run(gipdyn_bin, command, "--help")

@@ -35,6 +35,7 @@ def folder(tmp_path, gipdyn_bin):
     (["predict", "--model", "{d}/m.gipdyn", "--data", "{d}/d.csv", "--out", "{d}/m.gipdyn"], ["--out", "--model"]),
     (["evaluate", "--model", "{d}/m.gipdyn", "--data", "{d}/d.csv", "--json", "{d}/d.csv"], ["--json", "--data"]),
     (["physics", "--model", "{d}/m.gipdyn", "--data", "{d}/d.csv", "--out", "{d}/./d.csv"], ["--out", "--data"]),
+    (["inspect", "--data", "{d}/d.csv", "--joints", "RR", "--out", "{d}/d.csv"], ["--out", "--data"]),
 ])
 def test_an_output_never_overwrites_an_input(folder, gipdyn_bin, args, flags):
     before = snapshot(folder)
