@@ -82,6 +82,8 @@ void print_table(const std::vector<std::pair<std::string, NeighbourConsistency>>
 int run_inspect(const InspectArgs& a) {
   if (!a.test.empty() && !a.test_rows.empty())
     throw Error("give the test rows either as --test-rows (of --data) or as a --test file, not both");
+  if (!a.test_rows.empty() && a.train_rows.empty())
+    throw Error("--test-rows needs --train-rows: the rows of --data to compare the test rows with");
   if (!a.plot.empty() && a.out.empty()) throw Error("--plot draws the report of --out; give --out REPORT.json too");
   std::vector<std::pair<std::string, std::string>> inputs{{"--data", a.data}};
   if (!a.test.empty()) inputs.push_back({"--test", a.test});
@@ -98,6 +100,13 @@ int run_inspect(const InspectArgs& a) {
   if (!a.test_rows.empty()) test = rows_of(log, a.test_rows, "--test-rows");
   if (!a.test.empty()) test = read_log(a.test, a.mat_variable, joints);
 
+  if (test) {
+    if (const Eigen::Index shared = count_shared_rows(train.X, test->X); shared > 0)
+      std::fprintf(stderr,
+                   "gipdyn: warning: %ld test rows are also training rows; they are their own neighbours, so the "
+                   "training -> test column looks better than it is (give test rows apart from the training rows)\n",
+                   static_cast<long>(shared));
+  }
   std::vector<std::pair<std::string, NeighbourConsistency>> columns;
   columns.emplace_back("within training", neighbour_consistency(train.X, train.tau, a.options));
   if (test) {

@@ -59,14 +59,18 @@ def test_inspect_rows_of_one_log_and_too_few_pairs(tmp_path, gipdyn_bin):
     # 1000 test rows (10 s) hold no pair of rows 1500 apart: the report says so in the command's own terms.
     assert "within test: only 0 of 1000 query rows" in r.stdout
     assert "--radius" in r.stdout and "NeighbourConsistencyOptions" not in r.stdout
+    overlap = run(gipdyn_bin, "inspect", "--data", str(tmp_path / "log.csv"), "--joints", "RR",
+                  "--train-rows", "1-2000", "--test-rows", "1501-3000")
+    assert overlap.returncode == 0 and "500 test rows are also training rows" in overlap.stderr
 
 
 @pytest.mark.parametrize(
     "args, message",
     [
         (["--radius", "0"], "--radius must be a finite number > 0"),
-        (["--test-rows", "2001-9000"], "--test-rows 2001-9000: the log has only 3000 data rows"),
+        (["--train-rows", "1-2000", "--test-rows", "2001-9000"], "--test-rows 2001-9000: the log has only 3000 data rows"),
         (["--joints", "RRR"], "joint"),
+        (["--test-rows", "2001-3000"], "--test-rows needs --train-rows"),
     ],
 )
 def test_inspect_bad_input(tmp_path, gipdyn_bin, args, message):
