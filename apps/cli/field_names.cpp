@@ -2,6 +2,8 @@
 
 #include <cstdio>
 
+#include "gipdyn/io/dataset.hpp"
+
 namespace gipdyn::cli {
 
 const FieldNames& cli_field_names() {
@@ -17,6 +19,9 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::hyperparameter_objective", "--hyperparameter-objective"},
       {"TrainOptions::inducing_points", "--inducing"},
       {"TrainOptions::nll_backend", "--distributed"},
+      {kMatFileAdvice,
+       "convert it to a CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or read it with a command that "
+       "takes --mat-variable NAME (experiment real, inspect)"},
       {"NeighbourConsistencyOptions::radius", "--radius"},
       {"NeighbourConsistencyOptions::min_separation_rows", "--min-separation-rows"},
       {"NeighbourConsistencyOptions::max_queries", "--max-queries"},

@@ -182,7 +182,7 @@ int run_inspect(const InspectArgs& a) {
 
 Command add_inspect(CLI::App& app) {
   auto a = std::make_shared<InspectArgs>();
-  app.add_option("--data", a->data, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or a .mat file")
+  app.add_option("--data", a->data, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or a .mat file with --mat-variable")
       ->required()->check(CLI::ExistingFile);
   app.add_option("--mat-variable", a->mat_variable, "Read this variable of a .mat file (columns q, qd, qdd, tau by position)");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR")

@@ -1,9 +1,14 @@
 #include "gipdyn/io/dataset.hpp"
 
+#include <fstream>
+
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
 
 namespace gipdyn {
+
+const char* const kMatFileAdvice =
+    "read it with read_mat_dataset, naming the variable that holds its q, qd, qdd, tau columns, or convert it to CSV";
 
 std::vector<std::string> input_column_names(int n) {
   std::vector<std::string> names;
@@ -28,6 +33,12 @@ Dataset Dataset::subset(const std::vector<Eigen::Index>& idx) const {
 
 Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau) {
   const int n = joints.size();
+  if (std::ifstream probe(path, std::ios::binary); probe) {
+    char magic[6] = {};
+    probe.read(magic, sizeof magic);
+    if (std::string(magic, sizeof magic) == "MATLAB")
+      throw Error("'" + path + "' is a MATLAB .mat file, not a CSV; " + kMatFileAdvice);
+  }
   const CsvHeader header = read_csv_header(path);
   int file_joints = 0;
   while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;

@@ -109,6 +109,8 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("too few rows", HEADER + "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,9\n", "RR", [], "at least"),
         ("no rows", HEADER, "RR", [], "no data rows"),
         ("joint mismatch", HEADER + ROWS, "RRR", [], "joint string of length 2"),
+        ("a .mat file", "MATLAB 5.0 MAT-file, Platform: GLNXA64\n" + "x" * 200, "RR", [],
+         "is a MATLAB .mat file, not a CSV; convert it to a CSV"),
         ("bad joint string", HEADER + ROWS, "RX", [], "'X'"),
         ("unknown estimator", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown estimator"),
         ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "--optimizer 'sgd' is unknown; choose lbfgs or adam"),

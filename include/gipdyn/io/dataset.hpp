@@ -23,7 +23,10 @@ std::vector<std::string> input_column_names(int num_joints);
 // "tau1".."taun", with an optional suffix ("_true", "_hat", "_std").
 std::vector<std::string> torque_column_names(int num_joints, const std::string& suffix = "");
 
-// Throws gipdyn::Error for a missing column, a joint count that does not match
+// The advice read_dataset gives for a MATLAB file; front ends rename it to their own.
+extern const char* const kMatFileAdvice;
+
+// Throws gipdyn::Error for a MATLAB file, a missing column, a joint count that does not match
 // the file (e.g. joints RRPR on a file with q5), bad cells or no rows.
 Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau);
 
