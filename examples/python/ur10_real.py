@@ -39,6 +39,12 @@ test = slice(6340, len(Y))
 step = max(1, 6340 // args.train_rows)
 Xtr, Ytr = X[train][::step][: args.train_rows], Y[train][::step][: args.train_rows]
 
+# Before training: at states both recordings visit, do their torques agree? (`gipdyn inspect`)
+check = gipdyn.neighbour_consistency(X[train], Y[train], X[test], Y[test])
+if check["status"] == "ok":
+    print("torque at revisited states, training -> test rows: neighbour nMSE "
+          + " ".join(f"{v:.2f}" for v in check["neighbour_nmse"]) + " (1 or more: the test rows follow another function of the state there)")
+
 options = {} if args.max_iter is None else {"max_iter": args.max_iter}
 model = gipdyn.InverseDynamicsGP(joints="RRRRRR", preset="real", kernel=args.kernel, **options)
 model.fit(Xtr, Ytr)

@@ -335,6 +335,7 @@ def test_ur10_real_example_runs(tmp_path):
                        capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
     assert "joint 6  nMSE" in r.stdout and "gip-envelope+friction, 150 training rows" in r.stdout
+    assert "torque at revisited states, training -> test rows: neighbour nMSE" in r.stdout
     assert out.stat().st_size > 10000 and out.read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
