@@ -15,7 +15,8 @@ namespace gipdyn {
 struct NeighbourConsistencyOptions {
   // Two rows are neighbours when the Euclidean distance of their standardised
   // inputs (each column divided by its standard deviation over the reference
-  // rows) is at most this.
+  // rows) is at most this. Positions are compared as logged: a revolute joint
+  // that wraps at +-pi has its two sides far apart.
   double radius = 0.1;
   // Within one log: neighbours at least this many rows apart (one second of a
   // 125 Hz log is 125).
