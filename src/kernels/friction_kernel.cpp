@@ -83,25 +83,25 @@ void FrictionKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2,
   Eigen::MatrixXd F1, F2;
   feature_matrix(Z1, F1);
   feature_matrix(Z2, F2);
-  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  const Eigen::Vector4d s = term_variances();
   K.noalias() = F1 * s.asDiagonal() * F2.transpose();
 }
 
 void FrictionKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
   Eigen::MatrixXd F;
   feature_matrix(Z, F);
-  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  const Eigen::Vector4d s = term_variances();
   d = F.array().square().matrix() * s;
 }
 
 double FrictionKernel::self(const double* z, int /*feature_dim*/) const {
   const Eigen::Vector4d f = features(z[column_]);
-  return f.array().square().matrix().dot(log_params_.head<4>().array().exp().matrix());
+  return f.array().square().matrix().dot(term_variances());
 }
 
 void FrictionKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                          KernelScratch& /*scratch*/) const {
-  const Eigen::Vector4d w = features(z[column_]).cwiseProduct(Eigen::Vector4d(log_params_.head<4>().array().exp()));
+  const Eigen::Vector4d w = features(z[column_]).cwiseProduct(term_variances());
   const double inv_vc = std::exp(-log_params_(kCoulombVelocity)), inv_vr = std::exp(-log_params_(kStribeckVelocity));
   for (Eigen::Index i = 0; i < Z.rows(); ++i) out(i) = w.dot(features_from_inverse(Z(i, column_), inv_vc, inv_vr, nullptr, nullptr));
 }
@@ -110,7 +110,7 @@ void FrictionKernel::plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& 
   Eigen::MatrixXd F;
   feature_matrix(Z, F);
   plan = MeanPlan{};
-  plan.weights = (F.transpose() * alpha).cwiseProduct(log_params_.head<4>().array().exp().matrix());
+  plan.weights = (F.transpose() * alpha).cwiseProduct(term_variances());
 }
 
 double FrictionKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,
@@ -122,7 +122,7 @@ double FrictionKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const
 void FrictionKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
                                      Eigen::MatrixXd& dK) const {
   if (p < 0 || p >= kNumParams) throw Error("FrictionKernel: parameter index out of range");
-  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  const Eigen::Vector4d s = term_variances();
   Eigen::MatrixXd F1, F2, D1, D2;
   if (p < 4) {
     feature_matrix(Z1, F1);
@@ -144,7 +144,7 @@ void FrictionKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W
   Eigen::MatrixXd Dc, Dr;
   feature_matrix(Z, F, &Dc, &Dr);
   WF.noalias() = W * F;
-  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  const Eigen::Vector4d s = term_variances();
   for (int k = 0; k < 4; ++k) grad(k) += s(k) * F.col(k).dot(WF.col(k));
   // sum_ij W_ij (D_i S F_j + F_i S D_j) = 2 sum_k s_k D_k^T W F_k for a symmetric W.
   for (int k = 2; k < 4; ++k) {
@@ -162,7 +162,7 @@ void FrictionKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::Matr
   feature_matrix(Z2, F2, &Dc2, &Dr2);
   WF2.noalias() = W * F2;
   WtF1.noalias() = W.transpose() * F1;
-  const Eigen::Vector4d s = log_params_.head<4>().array().exp();
+  const Eigen::Vector4d s = term_variances();
   for (int k = 0; k < 4; ++k) grad(k) += s(k) * F1.col(k).dot(WF2.col(k));
   for (int k = 2; k < 4; ++k) {
     grad(kCoulombVelocity) += s(k) * (Dc1.col(k).dot(WF2.col(k)) + Dc2.col(k).dot(WtF1.col(k)));

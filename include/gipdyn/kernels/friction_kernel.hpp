@@ -64,6 +64,8 @@ class FrictionKernel final : public Kernel {
   // (N x 4 each; only the c and r columns are non-zero).
   void feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F, Eigen::MatrixXd* dF_vc = nullptr,
                       Eigen::MatrixXd* dF_vr = nullptr) const;
+  // The four terms' variances, exp of the first four log-parameters.
+  Eigen::Vector4d term_variances() const { return log_params_.head<4>().array().exp(); }
 
   int column_;
   std::string prefix_;
