@@ -55,15 +55,21 @@ nlohmann::json to_json(const NeighbourConsistency& c) {
           {"correlation", numbers(c.correlation)}};
 }
 
-void print_table(const std::vector<std::pair<std::string, NeighbourConsistency>>& columns, int joints) {
+// One comparison: its table heading, its key in the JSON report, its result.
+struct Column {
+  std::string label, key;
+  NeighbourConsistency result;
+};
+
+void print_table(const std::vector<Column>& columns, int joints) {
   std::printf("%6s", "joint");
-  for (const auto& [name, c] : columns) std::printf("  %-24s", name.c_str());
+  for (const auto& [label, key, c] : columns) std::printf("  %-24s", label.c_str());
   std::printf("\n%6s", "");
   for (size_t k = 0; k < columns.size(); ++k) std::printf("  %-11s %-12s", "nMSE", "correlation");
   std::printf("\n");
   for (int j = 0; j < joints; ++j) {
     std::printf("%6d", j + 1);
-    for (const auto& [name, c] : columns) {
+    for (const auto& [label, key, c] : columns) {
       if (c.status == NeighbourConsistency::Status::Ok)
         std::printf("  %-11.3g %-12.3f", c.neighbour_nmse(j), c.correlation(j));
       else
@@ -72,7 +78,7 @@ void print_table(const std::vector<std::pair<std::string, NeighbourConsistency>>
     std::printf("\n");
   }
   std::printf("%6s", "pairs");
-  for (const auto& [name, c] : columns) {
+  for (const auto& [label, key, c] : columns) {
     const std::string text = std::to_string(c.pairs) + " of " + std::to_string(c.queries) + " rows";
     std::printf("  %-24s", text.c_str());
   }
@@ -103,15 +109,17 @@ int run_inspect(const InspectArgs& a) {
   if (test) {
     if (const Eigen::Index shared = count_shared_rows(train.X, test->X); shared > 0)
       std::fprintf(stderr,
-                   "gipdyn: warning: %ld test rows are also training rows; they are their own neighbours, so the "
-                   "training -> test column looks better than it is (give test rows apart from the training rows)\n",
+                   "gipdyn: warning: %ld test rows are also training rows, value for value (overlapping row "
+                   "ranges, or the robot at rest in one pose in both); where ranges overlap, a row is its own "
+                   "neighbour and the training -> test column looks better than it is\n",
                    static_cast<long>(shared));
   }
-  std::vector<std::pair<std::string, NeighbourConsistency>> columns;
-  columns.emplace_back("within training", neighbour_consistency(train.X, train.tau, a.options));
+  std::vector<Column> columns;
+  columns.push_back({"within training", "within_training", neighbour_consistency(train.X, train.tau, a.options)});
   if (test) {
-    columns.emplace_back("within test", neighbour_consistency(test->X, test->tau, a.options));
-    columns.emplace_back("training -> test", neighbour_consistency(train.X, train.tau, test->X, test->tau, a.options));
+    columns.push_back({"within test", "within_test", neighbour_consistency(test->X, test->tau, a.options)});
+    columns.push_back({"training -> test", "training_to_test",
+                       neighbour_consistency(train.X, train.tau, test->X, test->tau, a.options)});
   }
   nlohmann::json report{{"data", a.data},
                         {"joints", joints.str()},
@@ -119,9 +127,7 @@ int run_inspect(const InspectArgs& a) {
                         {"radius", a.options.radius},
                         {"min_separation_rows", a.options.min_separation_rows},
                         {"inputs", a.options.use_accelerations ? "q, qd, qdd" : "q, qd"}};
-  for (const auto& [name, c] : columns) report[name == "within training" ? "within_training"
-                                               : name == "within test"   ? "within_test"
-                                                                         : "training_to_test"] = to_json(c);
+  for (const auto& [label, key, c] : columns) report[key] = to_json(c);
   Eigen::Index outside = 0;
   if (test) {
     outside = InputBox::of(train.X).rows_outside(test->X, joints, 0.0);
@@ -142,11 +148,11 @@ int run_inspect(const InspectArgs& a) {
                   static_cast<long>(test->rows()), static_cast<long>(outside));
     std::printf("\n\n");
     print_table(columns, joints.size());
-    for (const auto& [name, c] : columns)
-      if (c.status != NeighbourConsistency::Status::Ok) std::printf("%s: %s\n", name.c_str(), rename_fields(c.message, cli_field_names()).c_str());
-    if (test && columns[0].second.status == NeighbourConsistency::Status::Ok &&
-        columns[2].second.status == NeighbourConsistency::Status::Ok) {
-      const NeighbourConsistency &within = columns[0].second, &across = columns[2].second;
+    for (const auto& [label, key, c] : columns)
+      if (c.status != NeighbourConsistency::Status::Ok) std::printf("%s: %s\n", label.c_str(), rename_fields(c.message, cli_field_names()).c_str());
+    if (test && columns[0].result.status == NeighbourConsistency::Status::Ok &&
+        columns[2].result.status == NeighbourConsistency::Status::Ok) {
+      const NeighbourConsistency &within = columns[0].result, &across = columns[2].result;
       // Only with neighbours for a good share of the test rows: a few pairs
       // describe atypical states, where the torque's own variation dominates.
       if (across.pairs * 5 >= across.queries)
@@ -158,10 +164,10 @@ int run_inspect(const InspectArgs& a) {
                         "controller), which the training rows cannot teach any model.\n",
                         j + 1, across.neighbour_nmse(j), within.neighbour_nmse(j));
     }
-    for (const auto& [name, c] : columns)
+    for (const auto& [label, key, c] : columns)
       if (c.status == NeighbourConsistency::Status::Ok && c.pairs * 5 < c.queries)
         std::printf("%s: only %ld of %ld rows have a neighbour; the numbers describe those states only.\n",
-                    name.c_str(), c.pairs, c.queries);
+                    label.c_str(), c.pairs, c.queries);
   }
   if (!a.out.empty()) {
     write_file_atomically(a.out, [&](std::ostream& o) { o << report.dump(2) << "\n"; });
