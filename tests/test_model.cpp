@@ -189,6 +189,31 @@ TEST(Training, ReportsEachJointsStopAndWarnsAboutTheCap) {
   EXPECT_NE(r.report.brief_report().find("max-iter"), std::string::npos);
 }
 
+TEST(Training, NamesJointsWhoseFitCallsTheTorqueNoise) {
+  // Joint 2's torque shrunk far below the noise: its fit explains it as noise. Unscaled outputs, so the
+  // share is the noise variance over the mean square of the torque itself, not the noise variance.
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = random_inputs(joints, 80, 48);
+  Eigen::MatrixXd Y = two_link_torques(X);
+  Y.col(1) *= 1e-3;
+  Y += 0.05 * test::random_matrix(80, 2, -1.0, 1.0, 49);
+  TrainOptions o;
+  o.scaling = OutputScaling::None;
+  const TrainResult r = train_model(X, Y, joints, o);
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  for (int j = 0; j < 2; ++j) {
+    const JointReport& jr = r.report.joints[static_cast<size_t>(j)];
+    EXPECT_NEAR(jr.noise_share, jr.noise_variance / Y.col(j).squaredNorm() * 80.0, 1e-12 * jr.noise_share);
+  }
+  EXPECT_LT(r.report.joints[0].noise_share, 0.01);
+  EXPECT_GE(r.report.joints[1].noise_share, kNoiseShareWarning);
+  std::vector<std::string> noisy;
+  for (const std::string& w : r.report.warnings())
+    if (w.find("calls most of the torque noise") != std::string::npos) noisy.push_back(w);
+  ASSERT_EQ(noisy.size(), 1u);
+  EXPECT_EQ(noisy[0].rfind("joint(s) 2 (", 0), 0u) << noisy[0];
+}
+
 TEST(Training, RejectsBadData) {
   const JointTypes joints = JointTypes::parse("RR");
   Eigen::MatrixXd X = random_inputs(joints, 20, 45);
@@ -312,6 +337,8 @@ TEST(ModelFile, SaveLoadPredictIsBitIdentical) {
       EXPECT_EQ(b_report.evaluations, a_report.evaluations);
       EXPECT_EQ(b_report.grad_norm, a_report.grad_norm);
       EXPECT_EQ(b_report.noise_variance, a_report.noise_variance);
+      EXPECT_TRUE(std::isfinite(a_report.noise_share));
+      EXPECT_EQ(b_report.noise_share, a_report.noise_share);
       EXPECT_EQ(b_report.nll, a_report.nll);
     }
     // Variance after load (factor recomputed in a new model) matches the trained model's.

@@ -42,6 +42,25 @@ std::vector<double> noise_ratios(const InverseDynamicsModel& m) {
   return out;
 }
 
+// Joints of a simulated file whose noise-free torque varies less than the
+// noise added to it: no model learns such a torque from data this noisy, and
+// its nMSE against the noise-free torque is large whatever the model.
+std::string joints_below_noise(const Dataset& data) {
+  std::string out, sds;
+  auto sd = [](const Eigen::VectorXd& v) { return std::sqrt((v.array() - v.mean()).square().mean()); };
+  for (Eigen::Index j = 0; j < data.tau_true.cols(); ++j) {
+    const double signal = sd(data.tau_true.col(j)), noise = sd(data.tau.col(j) - data.tau_true.col(j));
+    if (!(noise > signal)) continue;
+    char buf[64];
+    std::snprintf(buf, sizeof buf, "%.2g against %.2g", signal, noise);
+    out += (out.empty() ? "" : ", ") + std::to_string(j + 1);
+    sds += (sds.empty() ? "" : "; ") + std::string(buf);
+  }
+  if (out.empty()) return out;
+  return "joint(s) " + out + ": the noise-free torque varies less than the noise of the measured one (std " + sds +
+         "): a model learns little of it from data this noisy, so its nMSE there is large whatever the model";
+}
+
 // The model's rigid-body terms against a robot's (KDL) at the test states.
 struct PhysicsComparison {
   // Relative errors (Frobenius, inertia averaged over states); inertia_as_learned: of the rows before symmetrising.
@@ -212,6 +231,10 @@ Command add_evaluate(CLI::App& app) {
     std::printf(" joint  MSE           nMSE\n");
     for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
+    if (noise_free && data.tau.size() > 0) {
+      const std::string below = joints_below_noise(data);
+      if (!below.empty()) std::fprintf(stderr, "gipdyn: warning: %s\n", below.c_str());
+    }
     if (physics)
       std::printf(" relative error against %s: gravity %.3g, inertia %.3g (mean over states; %.3g as learned, "
                   "before symmetrising), Coriolis %.3g\n",

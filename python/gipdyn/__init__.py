@@ -17,7 +17,7 @@ from . import _core
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
                     SimulationOptions, TrainOptions, mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -54,6 +54,20 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
     class ConvergenceWarning(UserWarning):
         """A joint's hyperparameter optimisation stopped before it converged."""
+
+
+class NoiseWarning(UserWarning):
+    """A joint's fit calls most of its torque noise: its predictions stay near the training mean."""
+
+
+def _warn_noisy_joints(report):
+    """Warns, as the library's FitReport does, about joints whose noise_share reaches its threshold."""
+    noisy = [f"{r['joint']} ({100 * min(r['noise_share'], 1.0):.0f} %)" for r in report
+             if r.get("noise_share", float("nan")) >= _core.NOISE_SHARE_WARNING]
+    if noisy:
+        warnings.warn(f"joint(s) {', '.join(noisy)}: the fit calls most of the torque noise (training_report_'s "
+                      "noise_share), so predictions there stay near the training mean; the torque may be below the "
+                      "sensor noise or not a function of q, qd, qdd", NoiseWarning, stacklevel=3)
 
 
 def _as_matrix(name, a, cols=None):
@@ -238,6 +252,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             warnings.warn(f"joint(s) {', '.join(map(str, capped))} stopped before the optimiser converged "
                           f"(see training_report_); raise max_iter or add restarts", ConvergenceWarning,
                           stacklevel=2)
+        _warn_noisy_joints(self.training_report_)
         return self
 
     def partial_fit(self, X, Y, window=0, refit=False):
@@ -419,6 +434,7 @@ class LagrangianGP(InverseDynamicsGP):
         if self.training_report_ and self.training_report_[0]["status"] != "converged":
             warnings.warn("the optimiser stopped before it converged (see training_report_); raise max_iter",
                           ConvergenceWarning, stacklevel=2)
+        _warn_noisy_joints(self.training_report_)
         return self
 
     def partial_fit(self, X, Y, window=0):

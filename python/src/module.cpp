@@ -21,6 +21,7 @@
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
+#include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/dynamics.hpp"
@@ -168,6 +169,7 @@ py::list report_to_list(const std::vector<JointReport>& reports) {
     d["nll"] = r.nll;
     d["grad_norm"] = r.grad_norm;
     d["noise_variance"] = r.noise_variance;
+    d["noise_share"] = r.noise_share;
     d["jitter"] = r.jitter;
     d["restart_nlls"] = r.restart_nlls;
     out.append(d);
@@ -279,6 +281,7 @@ PYBIND11_MODULE(_core, m) {
       .def("validate", &HyperparameterPrior::validate);
   m.def("parse_hyperparameter_prior", &parse_hyperparameter_prior, py::arg("name"), py::arg("width"));
   m.def("preset_names", &preset_names);
+  m.attr("NOISE_SHARE_WARNING") = kNoiseShareWarning;
   m.def("preset_max_training_rows", &preset_max_training_rows, py::arg("name"));
 
   py::class_<NllBackend, std::shared_ptr<NllBackend>>(m, "NllBackend").def("describe", &NllBackend::describe);

@@ -211,6 +211,15 @@ def test_training_report_and_convergence_warning(scara):
     assert [r["nll"] for r in report] == pytest.approx(-est.log_marginal_likelihood_)
 
 
+def test_noise_warning_names_a_joint_whose_torque_is_below_the_noise(scara):
+    train, _ = scara
+    tau = train["tau_true"] * np.array([1.0, 1.0, 1.0, 1e-3]) + 0.01 * np.random.default_rng(3).standard_normal((200, 4))
+    with pytest.warns(gipdyn.NoiseWarning, match=r"joint\(s\) 4 \(\d+ %\): the fit calls most of the torque noise"):
+        est = gipdyn.InverseDynamicsGP(joints="RRPR").fit(train["X"], tau)
+    shares = [r["noise_share"] for r in est.training_report_]
+    assert shares[3] >= gipdyn._core.NOISE_SHARE_WARNING and max(shares[:3]) < 0.01, shares
+
+
 def test_gravity_inertia_and_coriolis_match_the_robot(scara):
     # pp on the true robot is exact up to the noise of 200 samples: every term within 0.1 % of the robot's.
     train, test = scara

@@ -277,6 +277,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
     JointReport j = shared;
     j.joint = i;
     j.noise_variance = noise(i) / joint_variance(i);  // a share of the joint's torque variance, as for GP joints
+    j.noise_share = j.noise_variance;
     out.report.joints.push_back(j);
   }
   out.report.status = combine_joint_statuses(out.report.joints);

@@ -1,5 +1,6 @@
 #include "gipdyn/model/fit_report.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
 namespace gipdyn {
@@ -68,6 +69,18 @@ std::vector<std::string> FitReport::warnings() const {
     if (j.jitter > 0.0)
       out.push_back("joint " + std::to_string(j.joint + 1) + " needed a jitter of " + std::to_string(j.jitter) +
                     " on the kernel diagonal; raise TrainOptions::min_noise_fraction or remove duplicate rows");
+  std::string noisy;
+  for (const auto& j : joints)
+    if (j.noise_share >= kNoiseShareWarning) {  // false for NaN
+      char share[32];
+      std::snprintf(share, sizeof share, " (%.0f %%)", 100.0 * std::min(j.noise_share, 1.0));
+      noisy += (noisy.empty() ? "" : ", ") + std::to_string(j.joint + 1) + share;
+    }
+  if (!noisy.empty())
+    out.push_back("joint(s) " + noisy +
+                  ": the fit calls most of the torque noise, so predictions there stay near the training mean; the "
+                  "torque may be below the sensor noise or not a function of q, qd, qdd (check the data, or learn "
+                  "from a motion that loads the joint more)");
   return out;
 }
 

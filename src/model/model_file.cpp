@@ -1,5 +1,6 @@
 #include "gipdyn/model/model_file.hpp"
 
+#include <cmath>
 #include <limits>
 
 #include "gipdyn/error.hpp"
@@ -12,11 +13,13 @@ namespace {
 std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
 nlohmann::json training_to_json(const JointReport& r) {
-  return {{"status", to_string(r.status)},       {"evaluations", r.evaluations}, {"nll", r.nll},
+  nlohmann::json t = {{"status", to_string(r.status)},       {"evaluations", r.evaluations}, {"nll", r.nll},
           {"warm_start_evaluations", r.warm_start_evaluations}, {"hyperparameter_rows", r.hyperparameter_rows},
           {"grad_norm", r.grad_norm},            {"noise_variance", r.noise_variance},
           {"jitter", r.jitter},                  {"seconds", r.seconds},         {"restart_nlls", r.restart_nlls},
           {"message", r.message}};
+  if (std::isfinite(r.noise_share)) t["noise_share"] = r.noise_share;
+  return t;
 }
 
 JointReport training_from_json(const nlohmann::json& t, int joint) {
@@ -29,6 +32,7 @@ JointReport training_from_json(const nlohmann::json& t, int joint) {
   r.nll = t.at("nll").get<double>();
   r.grad_norm = t.at("grad_norm").get<double>();
   r.noise_variance = t.at("noise_variance").get<double>();
+  if (t.contains("noise_share")) r.noise_share = t.at("noise_share").get<double>();  // absent before it existed
   r.jitter = t.at("jitter").get<double>();
   r.seconds = t.at("seconds").get<double>();
   // NaN marks a failed start; JSON stores it as null.

@@ -260,6 +260,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     out.ok = true;
     out.report.nll = out.gp.nll();
     out.report.noise_variance = std::exp(best_x(P));
+    out.report.noise_share = out.report.noise_variance / target;
     out.report.jitter = fit.jitter;
   }
   finish();

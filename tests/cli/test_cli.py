@@ -398,3 +398,30 @@ def test_train_preset_real_and_explicit_options_over_it(tmp_path, gipdyn_bin):
               "--out", str(tmp_path / "bad.gipdyn"))
     assert bad.returncode != 0 and "unknown preset 'fancy'; choose one of: default, real" in bad.stderr
     assert len(bad.stderr.strip().splitlines()) == 1 and not (tmp_path / "bad.gipdyn").exists()
+
+
+def test_joints_whose_torque_is_below_the_noise_are_named(tmp_path, gipdyn_bin):
+    # Joint 2's torque scaled far below the noise: train says the fit calls it noise, evaluate says the
+    # noise-free torque is smaller than the noise; joint 1 (torque well above the noise) is named by neither.
+    rng = np.random.default_rng(5)
+    names = ["q1", "q2", "qd1", "qd2", "qdd1", "qdd2", "tau1", "tau2", "tau1_true", "tau2_true"]
+    for name, rows in [("train", 120), ("test", 80)]:
+        q, qd, qdd = rng.uniform(-np.pi, np.pi, (rows, 2)), rng.uniform(-2, 2, (rows, 2)), rng.uniform(-3, 3, (rows, 2))
+        tau_true = two_link_torques(q, qd, qdd) * np.array([1.0, 1e-3])
+        tau = tau_true + 0.05 * rng.standard_normal(tau_true.shape)
+        np.savetxt(tmp_path / f"{name}.csv", np.column_stack([q, qd, qdd, tau, tau_true]), delimiter=",",
+                   header=",".join(names), comments="")
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RR", "--out",
+            str(tmp_path / "m.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    noisy = [line for line in r.stderr.splitlines() if "calls most of the torque noise" in line]
+    assert len(noisy) == 1 and "joint(s) 2 (" in noisy[0] and "1 (" not in noisy[0], r.stderr
+    r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "m.gipdyn"), "--data", str(tmp_path / "test.csv"))
+    assert r.returncode == 0, r.stderr
+    below = [line for line in r.stderr.splitlines() if "varies less than the noise" in line]
+    assert len(below) == 1 and "joint(s) 2:" in below[0], r.stderr
+    # The measured torque as the target (no *_true columns): nothing to compare, no such warning.
+    np.savetxt(tmp_path / "measured.csv", np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :8],
+               delimiter=",", header=",".join(names[:8]), comments="")
+    r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "m.gipdyn"), "--data", str(tmp_path / "measured.csv"))
+    assert r.returncode == 0 and "varies less" not in r.stderr, r.stderr

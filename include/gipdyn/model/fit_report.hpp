@@ -4,6 +4,7 @@
 // Training and fitting return it beside the model instead of throwing from
 // inside the numerics (bad options and data still throw gipdyn::Error at the
 // entry point, before any work).
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -29,11 +30,19 @@ struct JointReport {
   long hyperparameter_rows = 0;
   double grad_norm = 0.0;   // projected |dNLL/dtheta|_inf at the kept point
   double noise_variance = 0.0;  // learned, in units of the scaled output (a share of its variance when standardised)
+  // The learned noise variance over the mean square of the scaled output the
+  // joint's GP fits, whatever the scaling: near 1, the fit explains the torque
+  // as noise and predicts little more than its mean. NaN where unknown (files
+  // written before it existed).
+  double noise_share = std::numeric_limits<double>::quiet_NaN();
   double seconds = 0.0;
   double jitter = 0.0;
   OptimizerResult::Status status = OptimizerResult::Status::Failed;  // of the kept start
   std::string message;
 };
+
+// A joint whose fit calls at least this share of the torque noise is warned about.
+inline constexpr double kNoiseShareWarning = 0.5;
 
 struct FitReport {
   FitStatus status = FitStatus::Failed;
@@ -47,7 +56,9 @@ struct FitReport {
   // when there were restarts.
   std::string brief_report() const;
   // One line per problem a user should act on: joints that did not converge
-  // (naming OptimizerOptions::max_iterations), joints that needed jitter.
+  // (naming OptimizerOptions::max_iterations), joints that needed jitter, joints
+  // whose fit calls most of the torque noise (noise_share at least
+  // kNoiseShareWarning).
   std::vector<std::string> warnings() const;
 };
 
