@@ -26,7 +26,7 @@ const std::string kData = GIPDYN_TEST_DATA;
 
 std::vector<RobotModel> test_robots() {
   return {scara_robot(), ur10_robot(), load_robot_urdf(kData + "/rpr_arm.urdf"),
-          load_robot_json(kData + "/two_link.json")};
+          load_robot_json(kData + "/two_link.json"), load_robot_json(kData + "/../../examples/robots/puma560.json")};
 }
 
 // A random state within the joint limits.
@@ -269,6 +269,25 @@ TEST(RobotInput, BadDescriptionsGiveClearErrors) {
                                          "mass": 1, "com": [0,0,0], "inertia": [[0.1,0,0],[0,0.1,0],[0,0,-0.1]]}]})"));
             }).find("not positive definite"),
             std::string::npos);
+  // Corke's tabulated Puma 560 link 3 (Iyy 0.086 > Ixx + Izz): named with its moments, not accepted.
+  const std::string triangle = error_of([&] {
+    load_robot_json(write("gipdyn_bad8.json", R"({"joints": [{"type": "R", "dh": {"a": 0.1, "alpha": 0, "d": 0, "theta": 0},
+        "mass": 1, "com": [0,0,0], "inertia": [[0.066,0,0],[0,0.086,0],[0,0,0.0125]]}]})"));
+  });
+  EXPECT_NE(triangle.find("principal moments 0.012500, 0.066000, 0.086000 kg m^2 violate the triangle inequality"),
+            std::string::npos) << triangle;
+  // A misspelt optional field is named, not ignored with its default used instead.
+  const std::string misspelt_gravity = error_of([&] {
+    load_robot_json(write("gipdyn_bad6.json", R"({"gravty": [0, 0, 9.81], "joints": [{"type": "R",
+        "dh": {"a": 0.1, "alpha": 0, "d": 0, "theta": 0}, "mass": 1, "com": [0,0,0], "inertia": [[1,0,0],[0,1,0],[0,0,1]]}]})"));
+  });
+  EXPECT_NE(misspelt_gravity.find("unknown field \"gravty\" (known: name, description, gravity, joints)"), std::string::npos)
+      << misspelt_gravity;
+  const std::string misspelt_limit = error_of([&] {
+    load_robot_json(write("gipdyn_bad7.json", R"({"joints": [{"type": "R", "dh": {"a": 0.1, "alpha": 0, "d": 0, "theta": 0},
+        "mass": 1, "com": [0,0,0], "inertia": [[1,0,0],[0,1,0],[0,0,1]], "limits": {"lower": -1, "upper": 1, "velocity": 2, "vel": 3}}]})"));
+  });
+  EXPECT_NE(misspelt_limit.find("joint 1 limits: unknown field \"vel\""), std::string::npos) << misspelt_limit;
   EXPECT_NE(error_of([&] { load_robot_urdf(write("gipdyn_bad5.urdf", "<robot name='x'><link name='a'>")); })
                 .find("could not be parsed"),
             std::string::npos);

@@ -30,12 +30,28 @@ Eigen::Vector3d vec3(const nlohmann::json& j, const char* key, const std::string
   return v;
 }
 
+// A misspelt optional field ("gravty", "limit") would otherwise be ignored and
+// its default used without a word.
+void reject_unknown_fields(const nlohmann::json& j, std::initializer_list<const char*> known, const std::string& where) {
+  for (const auto& [key, value] : j.items()) {
+    bool found = false;
+    std::string list;
+    for (const char* k : known) {
+      found = found || key == k;
+      list += (list.empty() ? "" : ", ") + std::string(k);
+    }
+    if (!found)
+      throw Error(where + ": unknown field \"" + key + "\" (known: " + list + "); fix its spelling or remove it");
+  }
+}
+
 }  // namespace
 
 namespace {
 
 RobotModel parse_robot_json(const nlohmann::json& d, const std::string& source) {
   if (!d.is_object()) throw Error(source + ": the robot description must be a JSON object");
+  reject_unknown_fields(d, {"name", "description", "gravity", "joints"}, source);
   const std::string name = d.value("name", std::filesystem::path(source).stem().string());
   Eigen::Vector3d gravity(0, 0, -9.81);
   if (d.contains("gravity")) gravity = vec3(d, "gravity", source);
@@ -47,6 +63,7 @@ RobotModel parse_robot_json(const nlohmann::json& d, const std::string& source) 
     ++k;
     const std::string where = source + ", joint " + std::to_string(k);
     if (!e.is_object()) throw Error(where + ": must be a JSON object");
+    reject_unknown_fields(e, {"name", "type", "dh", "mass", "com", "inertia", "limits", "friction"}, where);
     JointSpec j;
     j.name = e.value("name", "joint" + std::to_string(k));
     const std::string type = e.value("type", "");
@@ -59,6 +76,7 @@ RobotModel parse_robot_json(const nlohmann::json& d, const std::string& source) 
     }
     if (!e.contains("dh") || !e.at("dh").is_object()) throw Error(where + ": missing \"dh\" {a, alpha, d, theta}");
     const auto& dh = e.at("dh");
+    reject_unknown_fields(dh, {"a", "alpha", "d", "theta"}, where + " dh");
     j.dh = DhParameters{number(dh, "a", where + " dh"), number(dh, "alpha", where + " dh"), number(dh, "d", where + " dh"),
                         number(dh, "theta", where + " dh")};
     j.link.mass = number(e, "mass", where);
@@ -75,11 +93,15 @@ RobotModel parse_robot_json(const nlohmann::json& d, const std::string& source) 
     }
     if (e.contains("limits")) {
       const auto& l = e.at("limits");
+      if (!l.is_object()) throw Error(where + ": \"limits\" must be an object {lower, upper, velocity}");
+      reject_unknown_fields(l, {"lower", "upper", "velocity"}, where + " limits");
       j.limits = {number(l, "lower", where + " limits"), number(l, "upper", where + " limits"),
                   number(l, "velocity", where + " limits")};
     }
     if (e.contains("friction")) {
       const auto& f = e.at("friction");
+      if (!f.is_object()) throw Error(where + ": \"friction\" must be an object {viscous, coulomb}");
+      reject_unknown_fields(f, {"viscous", "coulomb"}, where + " friction");
       j.friction = {number(f, "viscous", where + " friction"), number(f, "coulomb", where + " friction")};
     }
     joints.push_back(j);

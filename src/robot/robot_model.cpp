@@ -94,7 +94,9 @@ void RobotModel::validate() const {
       throw Error(where + ": inertia tensor is not positive definite (eigenvalues " + std::to_string(ev(0)) + ", " +
                   std::to_string(ev(1)) + ", " + std::to_string(ev(2)) + "); check the units (kg m^2) and signs");
     if (ev(0) + ev(1) < ev(2) * (1 - 1e-9))
-      throw Error(where + ": principal moments violate the triangle inequality; not a physical rigid body");
+      throw Error(where + ": principal moments " + std::to_string(ev(0)) + ", " + std::to_string(ev(1)) + ", " +
+                  std::to_string(ev(2)) + " kg m^2 violate the triangle inequality (the largest must not exceed the "
+                  "sum of the other two): not a physical rigid body; check the inertia, or raise the smaller moments");
     if (!(j.limits.lower < j.limits.upper)) throw Error(where + ": lower position limit must be below the upper one");
     if (!(j.limits.velocity > 0.0)) throw Error(where + ": velocity limit must be positive");
     if (j.friction.viscous < 0.0 || j.friction.coulomb < 0.0) throw Error(where + ": friction must be >= 0");
