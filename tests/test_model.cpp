@@ -617,7 +617,12 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
   EXPECT_EQ(d.tau_true.size(), 0);
 
   EXPECT_NE(error_of([&] { read_dataset(write("m.csv", "q1,q2,qd1,qd2,qdd1,qdd2\n1,2,3,4,5,6\n"), rr, true); })
-                .find("no column 'tau1'"),
+                .find("no column 'tau1' (its columns: q1, q2, qd1, qd2, qdd1, qdd2); add or rename it"),
+            std::string::npos);
+  // A log with its own spelling of the names: the column that looks like the wanted one is named.
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("u.csv", "Q_1,Q_2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n"), rr, true);
+            }).find("no column 'q1' (its column 'Q_1' looks like it: rename it)"),
             std::string::npos);
   EXPECT_NE(error_of([&] {
               read_dataset(write("t.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,x,5,6,7,8\n"), rr, true);

@@ -1,8 +1,8 @@
 #include "gipdyn/io/csv.hpp"
 
-#include <cstdio>
-
 #include <algorithm>
+#include <cctype>
+#include <cstdio>
 #include <charconv>
 #include <cmath>
 #include <cstring>
@@ -58,6 +58,26 @@ CsvHeader parse_header(std::ifstream& in, const std::string& path) {
   return h;
 }
 
+// Names the file's columns, and one that differs from the wanted one only in
+// case or separators ("Q_1" for "q1"), so that a log with its own naming
+// is fixed by renaming, not guessed at.
+std::string missing_column_message(const std::string& path, const std::string& wanted, const CsvHeader& header) {
+  auto normalised = [](const std::string& name) {
+    std::string out;
+    for (char ch : name)
+      if (ch != '_' && ch != '-' && ch != ' ' && ch != '.') out += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+    return out;
+  };
+  std::string message = "'" + path + "' has no column '" + wanted + "'";
+  for (const auto& name : header.names)
+    if (normalised(name) == normalised(wanted)) return message + " (its column '" + name + "' looks like it: rename it)";
+  std::string listed;
+  const size_t shown = std::min<size_t>(header.names.size(), 10);
+  for (size_t k = 0; k < shown; ++k) listed += (k ? ", " : "") + header.names[k];
+  if (shown < header.names.size()) listed += ", ... (" + std::to_string(header.names.size()) + " in all)";
+  return message + " (its columns: " + listed + "); add or rename it, or check the joint types";
+}
+
 }  // namespace
 
 bool CsvHeader::has(const std::string& name) const {
@@ -77,7 +97,7 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
   std::vector<size_t> wanted;
   for (const auto& c : columns) {
     auto it = index.find(c);
-    if (it == index.end()) throw Error("'" + path + "' has no column '" + c + "'; add it or check the joint types");
+    if (it == index.end()) throw Error(missing_column_message(path, c, header));
     wanted.push_back(it->second);
   }
 
