@@ -6,6 +6,9 @@
 #include <filesystem>
 #include <fstream>
 #include <kdl/chainfksolvervel_recursive.hpp>
+#include <kdl/treeidsolver_recursive_newton_euler.hpp>
+#include <kdl_parser/kdl_parser.hpp>
+#include <map>
 #include <random>
 
 #include "gipdyn/error.hpp"
@@ -55,6 +58,55 @@ TEST(Robots, JointTypesAndSizes) {
   EXPECT_DOUBLE_EQ(urdf.joint(0).friction.coulomb, 0.8);
   EXPECT_EQ(ur10_robot().inertial_parameters()(10), 12.7);  // mass of link 2 from UR's table
   EXPECT_EQ(load_robot("scara").name(), "scara");
+}
+
+TEST(Urdf, LinksOffTheChainRideOnItAsKdlsTreeDynamicsSay) {
+  // A camera on l1 and a two-finger gripper on the tool: the chain ends at "tool" and the rest rides on it,
+  // fingers closed. KDL's inverse dynamics of the whole tree, fingers held at zero, is the reference.
+  const std::string file = kData + "/gripper_arm.urdf";
+  const RobotModel arm = load_robot(file + ":tool");
+  ASSERT_EQ(arm.joint_types().str(), "RPR");
+  KDL::Tree tree;
+  ASSERT_TRUE(kdl_parser::treeFromFile(file, tree));
+  std::map<std::string, unsigned> index;  // joint name -> KDL's joint number
+  for (const auto& [name, element] : tree.getSegments()) {
+    const KDL::Joint& j = GetTreeElementSegment(element).getJoint();
+    if (j.getType() != KDL::Joint::None) index[j.getName()] = GetTreeElementQNr(element);
+  }
+  ASSERT_EQ(index.size(), 5u);
+  KDL::TreeIdSolver_RNE solver(tree, KDL::Vector(0, 0, -9.81));
+  std::mt19937_64 rng(61);
+  const RobotModel plain = load_robot_urdf(kData + "/rpr_arm.urdf");  // the same chain without the extra links
+  double plain_difference = 0.0;
+  for (int trial = 0; trial < 20; ++trial) {
+    Eigen::VectorXd q, qd, qdd;
+    random_state(arm, rng, q, qd, qdd);
+    KDL::JntArray kq(tree.getNrOfJoints()), kqd(tree.getNrOfJoints()), kqdd(tree.getNrOfJoints()),
+        torque(tree.getNrOfJoints());
+    const char* names[] = {"j1", "j2", "j3"};
+    for (int i = 0; i < 3; ++i) {
+      kq(index.at(names[i])) = q(i);
+      kqd(index.at(names[i])) = qd(i);
+      kqdd(index.at(names[i])) = qdd(i);
+    }
+    ASSERT_EQ(solver.CartToJnt(kq, kqd, kqdd, KDL::WrenchMap(), torque), 0);
+    const Eigen::VectorXd ours = inverse_dynamics(arm, q, qd, qdd);
+    for (int i = 0; i < 3; ++i)
+      EXPECT_NEAR(ours(i), torque(index.at(names[i])), 1e-9 * (1.0 + std::abs(ours(i)))) << "joint " << i + 1;
+    plain_difference = std::max(plain_difference, (inverse_dynamics(plain, q, qd, qdd) - ours).cwiseAbs().maxCoeff());
+  }
+  EXPECT_GT(plain_difference, 0.1);  // the camera and the gripper weigh: leaving them out is visible
+  // Model files store the tip with the text and rebuild the same chain.
+  const RobotModel stored = robot_from_storable_json(robot_to_storable_json(arm), "stored");
+  Eigen::VectorXd q, qd, qdd;
+  random_state(arm, rng, q, qd, qdd);
+  EXPECT_EQ(inverse_dynamics(stored, q, qd, qdd), inverse_dynamics(arm, q, qd, qdd));
+  // Without a tip, the branching tree is named with its leaves; an unknown tip with the links.
+  const std::string branching = error_of([&] { load_robot(file); });
+  EXPECT_NE(branching.find("branches at link 'l1' (leaves: camera, finger_left, finger_right)"), std::string::npos)
+      << branching;
+  EXPECT_NE(error_of([&] { load_robot(file + ":gripper"); }).find("has no link 'gripper'"), std::string::npos);
+  EXPECT_NE(error_of([&] { load_robot(file + ":"); }).find("name a link after the ':'"), std::string::npos);
 }
 
 TEST(Regressor, TimesParametersEqualsKdlInverseDynamics) {

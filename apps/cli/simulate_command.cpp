@@ -22,7 +22,7 @@ Command add_simulate(CLI::App& app) {
     bool quiet = false;
   };
   auto a = std::make_shared<Args>();
-  app.add_option("--robot", a->robot, "scara, ur10, a URDF file or a JSON DH description (docs/robot-format.md)")
+  app.add_option("--robot", a->robot, "scara, ur10, a URDF file (FILE.urdf:LINK ends the chain at LINK where the tree branches) or a JSON DH description (docs/robot-format.md)")
       ->required();
   app.add_option("--samples", a->sim.samples, "Number of samples")->capture_default_str();
   app.add_option("--seed", a->sim.seed, "Seed of the trajectory, the noise and the perturbation")->capture_default_str();

@@ -238,12 +238,17 @@ PYBIND11_MODULE(_core, m) {
   });
 
   py::class_<RobotModel, std::shared_ptr<RobotModel>>(m, "Robot")
-      .def_static("from_urdf", [](const std::string& p) { return std::make_shared<RobotModel>(load_robot_urdf(p)); },
-                  py::arg("path"), "A serial robot from a URDF file")
+      .def_static("from_urdf",
+                  [](const std::string& p, const std::string& tip) {
+                    return std::make_shared<RobotModel>(load_robot_urdf(p, tip));
+                  },
+                  py::arg("path"), py::arg("tip_link") = "",
+                  "A serial robot from a URDF file: the chain to tip_link (needed where the tree branches; the links "
+                  "off the chain ride on it rigidly)")
       .def_static("from_json", [](const std::string& p) { return std::make_shared<RobotModel>(load_robot_json(p)); },
                   py::arg("path"), "A robot from a JSON DH description")
       .def_static("load", [](const std::string& s) { return std::make_shared<RobotModel>(load_robot(s)); },
-                  py::arg("spec"), "'scara', 'ur10', a .urdf or a .json file")
+                  py::arg("spec"), "'scara', 'ur10', a .urdf file ('FILE.urdf:LINK': the chain ends at LINK) or a .json file")
       .def_property_readonly("name", &RobotModel::name)
       .def_property_readonly("joint_types", [](const RobotModel& r) { return r.joint_types().str(); })
       .def_property_readonly("num_joints", &RobotModel::num_joints)

@@ -300,6 +300,14 @@ def test_robot_from_urdf_dynamics_and_regressor():
     assert np.allclose(Phi @ robot.inertial_parameters, tau[0], rtol=1e-9, atol=1e-9)
     with pytest.raises(ValueError, match="floating"):
         gipdyn.Robot.from_urdf(os.path.join(DATA, "floating_arm.urdf"))
+    # A gripper and a camera off the chain: the chain's last link is named, and their mass loads the arm.
+    gripper = os.path.join(DATA, "gripper_arm.urdf")
+    with pytest.raises(ValueError, match="branches at link 'l1'"):
+        gipdyn.Robot.from_urdf(gripper)
+    arm = gipdyn.Robot.from_urdf(gripper, tip_link="tool")
+    assert arm.joint_types == "RPR"
+    assert np.allclose(gipdyn.Robot.load(gripper + ":tool").inverse_dynamics(q, qd, qdd), arm.inverse_dynamics(q, qd, qdd))
+    assert np.abs(arm.inverse_dynamics(q, qd, qdd) - tau).max() > 0.1
 
 
 def test_simulate_is_seeded_and_shaped():

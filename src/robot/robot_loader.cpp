@@ -1,5 +1,6 @@
 #include <console_bridge/console.h>
 
+#include <cstring>
 #include <filesystem>
 #include <fstream>
 #include <kdl/tree.hpp>
@@ -132,39 +133,81 @@ RobotModel load_robot_json(const std::string& path) {
   return robot_from_json(d, path);
 }
 
-RobotModel load_robot_urdf(const std::string& path) {
+RobotModel load_robot_urdf(const std::string& path, const std::string& tip_link) {
   std::ifstream in(path);
   if (!in) throw Error("cannot open URDF '" + path + "'");
   const std::string xml((std::istreambuf_iterator<char>(in)), std::istreambuf_iterator<char>());
-  return robot_from_urdf(xml, path);
+  return robot_from_urdf(xml, path, tip_link);
 }
 
-RobotModel robot_from_urdf(const std::string& xml, const std::string& path) {
+namespace {
+
+// The inertia of a segment and of everything below it, in the segment's tip
+// frame, with every joint below it at position zero.
+KDL::RigidBodyInertia subtree_inertia(const KDL::SegmentMap::const_iterator& element) {
+  KDL::RigidBodyInertia inertia = GetTreeElementSegment(element->second).getInertia();
+  for (const auto& child : GetTreeElementChildren(element->second))
+    inertia = inertia + GetTreeElementSegment(child->second).pose(0.0) * subtree_inertia(child);
+  return inertia;
+}
+
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
+}  // namespace
+
+RobotModel robot_from_urdf(const std::string& xml, const std::string& path, const std::string& tip_link) {
   // urdfdom logs its parse errors to stderr through console_bridge; our own
   // one-line error below says what is wrong, so keep the terminal clean.
   console_bridge::setLogLevel(console_bridge::CONSOLE_BRIDGE_LOG_NONE);
   const urdf::ModelInterfaceSharedPtr model = urdf::parseURDF(xml);
   if (!model) throw Error("URDF '" + path + "' could not be parsed (malformed XML or an unknown joint type)");
-  // Walk from the root to the single leaf.
+  std::vector<urdf::LinkSharedPtr> links;
+  model->getLinks(links);
+  std::string tip = tip_link;
+  if (tip.empty()) {  // the single leaf
+    urdf::LinkConstSharedPtr link = model->getRoot();
+    while (link->child_links.size() == 1) link = link->child_links.front();
+    if (!link->child_links.empty()) {
+      std::vector<std::string> leaves;
+      for (const auto& l : links)
+        if (l->child_links.empty()) leaves.push_back(l->name);
+      throw Error("URDF '" + path + "' branches at link '" + link->name + "' (leaves: " + joined(leaves) +
+                  "); name the chain's last link, as the robot '" + path + ":LINK' or the tip_link argument (the " +
+                  "links beyond it ride on it rigidly)");
+    }
+    tip = link->name;
+  } else if (!model->getLink(tip)) {
+    std::vector<std::string> names;
+    for (const auto& l : links) names.push_back(l->name);
+    throw Error("URDF '" + path + "' has no link '" + tip + "' to end the chain at (its links: " + joined(names) + ")");
+  }
+  // The joints from the root to the tip.
   std::vector<urdf::JointSharedPtr> path_joints;
-  urdf::LinkConstSharedPtr link = model->getRoot();
-  std::string tip = link->name;
-  while (!link->child_links.empty()) {
-    if (link->child_links.size() > 1)
-      throw Error("URDF '" + path + "' branches at link '" + link->name + "'; gipdyn needs a serial chain");
-    const urdf::JointSharedPtr j = link->child_joints.front();
+  for (urdf::LinkConstSharedPtr link = model->getLink(tip); link->parent_joint; link = link->getParent())
+    path_joints.insert(path_joints.begin(), link->parent_joint);
+  for (const auto& j : path_joints)
     if (j->type == urdf::Joint::FLOATING || j->type == urdf::Joint::PLANAR || j->type == urdf::Joint::UNKNOWN)
       throw Error("URDF '" + path + "': joint '" + j->name +
                   "' is floating/planar; gipdyn supports revolute, continuous, prismatic and fixed joints");
-    path_joints.push_back(j);
-    link = link->child_links.front();
-    tip = link->name;
-  }
   KDL::Tree tree;
   if (!kdl_parser::treeFromUrdfModel(*model, tree)) throw Error("URDF '" + path + "': KDL could not build the tree");
-  KDL::Chain raw;
-  if (!tree.getChain(model->getRoot()->name, tip, raw))
+  KDL::Chain on_chain;
+  if (!tree.getChain(model->getRoot()->name, tip, on_chain))
     throw Error("URDF '" + path + "': no chain from '" + model->getRoot()->name + "' to '" + tip + "'");
+  // Every subtree off the chain rides on the chain link it hangs from.
+  KDL::Chain raw;
+  for (unsigned s = 0; s < on_chain.getNrOfSegments(); ++s) {
+    const KDL::Segment& seg = on_chain.getSegment(s);
+    const std::string next = s + 1 < on_chain.getNrOfSegments() ? on_chain.getSegment(s + 1).getName() : "";
+    KDL::RigidBodyInertia inertia = seg.getInertia();
+    for (const auto& child : GetTreeElementChildren(tree.getSegment(seg.getName())->second))
+      if (child->first != next) inertia = inertia + GetTreeElementSegment(child->second).pose(0.0) * subtree_inertia(child);
+    raw.addSegment(KDL::Segment(seg.getName(), seg.getJoint(), seg.getFrameToTip(), inertia));
+  }
 
   // Merge fixed segments: those before the first movable joint move the base;
   // later ones are folded into the preceding movable link.
@@ -212,13 +255,17 @@ RobotModel robot_from_urdf(const std::string& xml, const std::string& path) {
     specs.push_back(spec);
   }
   RobotModel robot = RobotModel::from_chain(model->getName(), chain, specs);
-  robot.set_urdf(xml);
+  robot.set_urdf(xml, tip_link);
   return robot;
 }
 
 nlohmann::json robot_to_storable_json(const RobotModel& robot) {
   if (robot.is_dh()) return {{"dh", robot.to_json()}};
-  if (!robot.urdf().empty()) return {{"urdf", robot.urdf()}, {"gravity", robot.to_json().at("gravity")}};
+  if (!robot.urdf().empty()) {
+    nlohmann::json stored = {{"urdf", robot.urdf()}, {"gravity", robot.to_json().at("gravity")}};
+    if (!robot.urdf_tip().empty()) stored["tip"] = robot.urdf_tip();
+    return stored;
+  }
   throw Error("robot '" + robot.name() + "' has neither DH parameters nor URDF text to store");
 }
 
@@ -227,7 +274,8 @@ RobotModel robot_from_storable_json(const nlohmann::json& stored, const std::str
   if (stored.contains("urdf")) {
     const auto g = stored.at("gravity").get<std::vector<double>>();
     if (g.size() != 3) throw Error(source + ": stored gravity must have 3 entries");
-    return robot_from_urdf(stored.at("urdf").get<std::string>(), source).with_gravity(Eigen::Vector3d(g[0], g[1], g[2]));
+    return robot_from_urdf(stored.at("urdf").get<std::string>(), source, stored.value("tip", std::string()))
+        .with_gravity(Eigen::Vector3d(g[0], g[1], g[2]));
   }
   throw Error(source + ": stored robot has neither 'dh' nor 'urdf'");
 }
@@ -235,10 +283,18 @@ RobotModel robot_from_storable_json(const nlohmann::json& stored, const std::str
 RobotModel load_robot(const std::string& spec) {
   if (spec == "scara") return scara_robot();
   if (spec == "ur10") return ur10_robot();
+  // FILE.urdf:LINK names the chain's last link.
+  for (const char* suffix : {".urdf:", ".URDF:"})
+    if (const size_t at = spec.rfind(suffix); at != std::string::npos) {
+      const size_t colon = at + std::strlen(suffix) - 1;
+      if (colon + 1 == spec.size()) throw Error("robot '" + spec + "': name a link after the ':' or drop it");
+      return load_robot_urdf(spec.substr(0, colon), spec.substr(colon + 1));
+    }
   const std::string ext = std::filesystem::path(spec).extension().string();
   if (ext == ".urdf" || ext == ".URDF") return load_robot_urdf(spec);
   if (ext == ".json") return load_robot_json(spec);
-  throw Error("unknown robot '" + spec + "'; use scara, ur10, a .urdf file or a .json DH description");
+  throw Error("unknown robot '" + spec + "'; use scara, ur10, a .urdf file (FILE.urdf:LINK to end the chain at a "
+              "link) or a .json DH description");
 }
 
 }  // namespace gipdyn

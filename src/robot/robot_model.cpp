@@ -155,6 +155,7 @@ RobotModel RobotModel::with_perturbed_kinematics(std::uint64_t seed, double leng
   std::uniform_real_distribution<double> ul(-length, length), ua(-angle, angle);
   RobotModel r = *this;
   r.urdf_.clear();  // the perturbed chain no longer matches the text
+  r.urdf_tip_.clear();
   nlohmann::json record = nlohmann::json::array();
   if (is_dh()) {
     for (JointSpec& j : r.joints_) {

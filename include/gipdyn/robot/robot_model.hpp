@@ -84,9 +84,14 @@ class RobotModel {
   nlohmann::json to_json() const;
 
   // The URDF text a robot was loaded from (empty for DH robots and perturbed
-  // copies), kept so that model files can rebuild the same chain.
+  // copies) and the chain's last link when one was named, kept so that model
+  // files can rebuild the same chain.
   const std::string& urdf() const { return urdf_; }
-  void set_urdf(std::string xml) { urdf_ = std::move(xml); }
+  const std::string& urdf_tip() const { return urdf_tip_; }
+  void set_urdf(std::string xml, std::string tip_link = "") {
+    urdf_ = std::move(xml);
+    urdf_tip_ = std::move(tip_link);
+  }
 
  private:
   void build_dh_chain();
@@ -96,7 +101,7 @@ class RobotModel {
   std::vector<JointSpec> joints_;
   KDL::Chain chain_;
   Eigen::Vector3d gravity_ = Eigen::Vector3d(0, 0, -9.81);
-  std::string urdf_;
+  std::string urdf_, urdf_tip_;
 };
 
 }  // namespace gipdyn
