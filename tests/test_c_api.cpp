@@ -12,6 +12,7 @@
 #include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/gipdyn.h"
+#include "gipdyn/version.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -141,6 +142,7 @@ TEST(CApi, MisuseGetsAStatusAndAMessage) {
   gipdyn_workspace_free(nullptr);
   gipdyn_model_free(nullptr);
   EXPECT_STREQ(gipdyn_status_string(GIPDYN_ERROR_SIZE), "wrong size");
+  EXPECT_STREQ(gipdyn_version(), gipdyn::version());
 
   // Files: missing, truncated.
   gipdyn_model* m = nullptr;

@@ -7,6 +7,8 @@
 #include "distributed_run.hpp"
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
+#include "gipdyn/io/model_container.hpp"
+#include "gipdyn/version.hpp"
 
 namespace {
 
@@ -31,6 +33,8 @@ int main(int argc, char** argv) {
       "gipdyn: learn a robot's inverse dynamics (q, qd, qdd -> tau) with Gaussian processes and the\n"
       "Geometrically Inspired Polynomial kernel (Dalla Libera & Carli, RA-L 2019).\n"
       "Run `gipdyn COMMAND --help` for the options of a command."};
+  app.set_version_flag("--version", std::string("gipdyn ") + gipdyn::version() + " (model file format " +
+                                        std::to_string(gipdyn::kModelFormatVersion) + ")");
   app.require_subcommand(1);
   std::map<CLI::App*, gipdyn::cli::Command> commands;
   auto add = [&](const char* name, const char* help, auto adder) {

@@ -49,6 +49,9 @@ const char* gipdyn_last_error(void);
 /* "ok", "null argument", ... */
 const char* gipdyn_status_string(gipdyn_status status);
 
+/* The library's version, e.g. "0.1.0". */
+const char* gipdyn_version(void);
+
 /* Loads any model file gipdyn writes: the GP estimators (gip, gip-friction,
  * rbf, the hybrids, pp, sp), lip, fe and nn. */
 gipdyn_status gipdyn_model_load(const char* path, gipdyn_model** model);

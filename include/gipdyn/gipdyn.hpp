@@ -58,3 +58,4 @@
 #include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/sim/trajectory.hpp"
 #include "gipdyn/training_data.hpp"
+#include "gipdyn/version.hpp"

@@ -14,6 +14,7 @@ import warnings
 import numpy as np
 
 from . import _core
+from ._core import __version__
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
                     SimulationOptions, TrainOptions, mpi_rank, mpi_size)
 

@@ -27,6 +27,7 @@
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "gipdyn/version.hpp"
 #ifdef GIPDYN_HAVE_MPI
 #include "gipdyn/distributed/distributed_nll.hpp"
 #endif
@@ -287,6 +288,7 @@ PYBIND11_MODULE(_core, m) {
   m.def("parse_hyperparameter_prior", &parse_hyperparameter_prior, py::arg("name"), py::arg("width"));
   m.def("preset_names", &preset_names);
   m.attr("NOISE_SHARE_WARNING") = kNoiseShareWarning;
+  m.attr("__version__") = version();
   m.def("preset_max_training_rows", &preset_max_training_rows, py::arg("name"));
 
   py::class_<NllBackend, std::shared_ptr<NllBackend>>(m, "NllBackend").def("describe", &NllBackend::describe);

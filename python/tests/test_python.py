@@ -191,6 +191,11 @@ def test_bad_input_raises_value_error(X, Y, message):
         assert message in str(err.value)
 
 
+def test_version_is_the_projects():
+    cmake = open(os.path.join(ROOT, "CMakeLists.txt")).read()
+    assert gipdyn.__version__ == cmake.split("project(gipdyn VERSION ")[1].split()[0]
+
+
 def test_is_a_scikit_learn_regressor():
     from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
 

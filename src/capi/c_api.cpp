@@ -13,6 +13,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
+#include "gipdyn/version.hpp"
 
 struct gipdyn_model {
   std::unique_ptr<gipdyn::Estimator> estimator;
@@ -97,6 +98,8 @@ gipdyn_status gravity_into_workspace(gipdyn_workspace* ws, const double* q) {
 extern "C" {
 
 const char* gipdyn_last_error(void) { return t_last_error.c_str(); }
+
+const char* gipdyn_version(void) { return gipdyn::version(); }
 
 const char* gipdyn_status_string(gipdyn_status status) {
   switch (status) {

@@ -8,6 +8,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/version.hpp"
 
 #if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__
 #error "the model file stores little-endian doubles; add byte swapping for this platform"
@@ -53,6 +54,7 @@ std::string pack_container(const ModelContainer& c) {
   // The container owns the format: nobody else writes these two keys.
   h["format"] = "gipdyn-model";
   h["format_version"] = kModelFormatVersion;
+  h["written_by"] = std::string("gipdyn ") + version();
   nlohmann::json list = nlohmann::json::array();
   for (const auto& [name, a] : c.arrays) list.push_back({{"name", name}, {"rows", a.rows()}, {"cols", a.cols()}});
   h["arrays"] = list;
@@ -72,13 +74,20 @@ ModelContainer unpack_container(const std::string& buf, const std::string& what)
   using nlohmann::json;
   if (buf.size() < kPrefix || std::memcmp(buf.data(), kMagic, sizeof(kMagic)) != 0)
     throw Error(what + " is not a gipdyn model file (bad magic or truncated header)");
-  const auto version = get<std::uint32_t>(buf, 8);
-  if (version < 1)
+  const auto format_version = get<std::uint32_t>(buf, 8);
+  if (format_version < 1)
     throw Error(what + " has format version 0, which no gipdyn writes: the file is corrupted; re-save the model");
-  if (version > kModelFormatVersion)
-    throw Error(what + " has format version " + std::to_string(version) + ", newer than this gipdyn reads (" +
-                std::to_string(kModelFormatVersion) + "); upgrade gipdyn");
   const auto header_size = get<std::uint64_t>(buf, 16);
+  if (format_version > kModelFormatVersion) {
+    std::string writer;  // best effort: a newer header may still say who wrote it
+    if (header_size <= buf.size() - kPrefix) {
+      const json h = json::parse(buf.substr(kPrefix, header_size), nullptr, false);
+      if (h.is_object() && h.contains("written_by") && h.at("written_by").is_string())
+        writer = ", written by " + h.at("written_by").get<std::string>();
+    }
+    throw Error(what + " has format version " + std::to_string(format_version) + writer + ", newer than this gipdyn (" +
+                std::string(version()) + ") reads (" + std::to_string(kModelFormatVersion) + "); upgrade gipdyn");
+  }
   if (header_size > buf.size() - kPrefix) throw Error(what + " is truncated (header cut off); re-save the model");
   ModelContainer c;
   try {

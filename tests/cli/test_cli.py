@@ -31,6 +31,16 @@ def test_train_reports_progress_and_writes_model(trained):
     assert (d / "m.gipdyn").stat().st_size > 1000
 
 
+def test_version_is_the_projects_and_model_files_record_it(trained, gipdyn_bin):
+    # The version CMake's project() declares, printed by --version and recorded in every model file.
+    cmake = open(os.path.join(os.path.dirname(__file__), "..", "..", "CMakeLists.txt")).read()
+    declared = cmake.split("project(gipdyn VERSION ")[1].split()[0]
+    r = run(gipdyn_bin, "--version")
+    assert r.returncode == 0 and r.stdout.startswith(f"gipdyn {declared} (model file format "), r.stdout
+    d, _, _ = trained
+    assert model_header(d / "m.gipdyn")["written_by"] == f"gipdyn {declared}"
+
+
 def test_predict_writes_means_and_stds(trained, gipdyn_bin):
     d, test, _ = trained
     r = run(gipdyn_bin, "predict", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"), "--out",
