@@ -192,8 +192,11 @@ def test_bad_input_raises_value_error(X, Y, message):
 
 
 def test_version_is_the_projects():
+    # CMake's project version is the one source; pyproject.toml (the wheel's) must say the same.
     cmake = open(os.path.join(ROOT, "CMakeLists.txt")).read()
     assert gipdyn.__version__ == cmake.split("project(gipdyn VERSION ")[1].split()[0]
+    pyproject = open(os.path.join(ROOT, "pyproject.toml")).read()
+    assert f'\nversion = "{gipdyn.__version__}"' in pyproject
 
 
 def test_is_a_scikit_learn_regressor():
