@@ -1,5 +1,6 @@
 #include <console_bridge/console.h>
 
+#include <algorithm>
 #include <cstring>
 #include <filesystem>
 #include <fstream>
@@ -31,19 +32,18 @@ Eigen::Vector3d vec3(const nlohmann::json& j, const char* key, const std::string
   return v;
 }
 
+std::string joined(const std::vector<std::string>& names) {
+  std::string out;
+  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
+  return out;
+}
+
 // A misspelt optional field ("gravty", "limit") would otherwise be ignored and
 // its default used without a word.
-void reject_unknown_fields(const nlohmann::json& j, std::initializer_list<const char*> known, const std::string& where) {
-  for (const auto& [key, value] : j.items()) {
-    bool found = false;
-    std::string list;
-    for (const char* k : known) {
-      found = found || key == k;
-      list += (list.empty() ? "" : ", ") + std::string(k);
-    }
-    if (!found)
-      throw Error(where + ": unknown field \"" + key + "\" (known: " + list + "); fix its spelling or remove it");
-  }
+void reject_unknown_fields(const nlohmann::json& j, const std::vector<std::string>& known, const std::string& where) {
+  for (const auto& [key, value] : j.items())
+    if (std::find(known.begin(), known.end(), key) == known.end())
+      throw Error(where + ": unknown field \"" + key + "\" (known: " + joined(known) + "); fix its spelling or remove it");
 }
 
 }  // namespace
@@ -149,12 +149,6 @@ KDL::RigidBodyInertia subtree_inertia(const KDL::SegmentMap::const_iterator& ele
   for (const auto& child : GetTreeElementChildren(element->second))
     inertia = inertia + GetTreeElementSegment(child->second).pose(0.0) * subtree_inertia(child);
   return inertia;
-}
-
-std::string joined(const std::vector<std::string>& names) {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out;
 }
 
 }  // namespace
