@@ -142,12 +142,14 @@ RobotModel load_robot_urdf(const std::string& path, const std::string& tip_link)
 
 namespace {
 
-// The inertia of a segment and of everything below it, in the segment's tip
-// frame, with every joint below it at position zero.
-KDL::RigidBodyInertia subtree_inertia(const KDL::SegmentMap::const_iterator& element) {
+// The inertia of a segment and of everything below it but the child `except`
+// (the chain's next segment, or none), in the segment's tip frame, with every
+// joint below it at position zero.
+KDL::RigidBodyInertia subtree_inertia(const KDL::SegmentMap::const_iterator& element, const std::string& except = "") {
   KDL::RigidBodyInertia inertia = GetTreeElementSegment(element->second).getInertia();
   for (const auto& child : GetTreeElementChildren(element->second))
-    inertia = inertia + GetTreeElementSegment(child->second).pose(0.0) * subtree_inertia(child);
+    if (child->first != except)
+      inertia = inertia + GetTreeElementSegment(child->second).pose(0.0) * subtree_inertia(child);
   return inertia;
 }
 
@@ -197,10 +199,8 @@ RobotModel robot_from_urdf(const std::string& xml, const std::string& path, cons
   for (unsigned s = 0; s < on_chain.getNrOfSegments(); ++s) {
     const KDL::Segment& seg = on_chain.getSegment(s);
     const std::string next = s + 1 < on_chain.getNrOfSegments() ? on_chain.getSegment(s + 1).getName() : "";
-    KDL::RigidBodyInertia inertia = seg.getInertia();
-    for (const auto& child : GetTreeElementChildren(tree.getSegment(seg.getName())->second))
-      if (child->first != next) inertia = inertia + GetTreeElementSegment(child->second).pose(0.0) * subtree_inertia(child);
-    raw.addSegment(KDL::Segment(seg.getName(), seg.getJoint(), seg.getFrameToTip(), inertia));
+    raw.addSegment(KDL::Segment(seg.getName(), seg.getJoint(), seg.getFrameToTip(),
+                                subtree_inertia(tree.getSegment(seg.getName()), next)));
   }
 
   // Merge fixed segments: those before the first movable joint move the base;
