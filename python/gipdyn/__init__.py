@@ -61,14 +61,10 @@ class NoiseWarning(UserWarning):
     """A joint's fit calls most of its torque noise: its predictions stay near the training mean."""
 
 
-def _warn_noisy_joints(report):
-    """Warns, as the library's FitReport does, about joints whose noise_share reaches its threshold."""
-    noisy = [f"{r['joint']} ({100 * min(r['noise_share'], 1.0):.0f} %)" for r in report
-             if r.get("noise_share", float("nan")) >= _core.NOISE_SHARE_WARNING]
-    if noisy:
-        warnings.warn(f"joint(s) {', '.join(noisy)}: the fit calls most of the torque noise (training_report_'s "
-                      "noise_share), so predictions there stay near the training mean; the torque may be below the "
-                      "sensor noise or not a function of q, qd, qdd", NoiseWarning, stacklevel=3)
+def _warn_noisy_joints(model):
+    """The library's warning about joints whose fit calls most of the torque noise (see training_report_'s noise_share)."""
+    if model.noise_warning:
+        warnings.warn(model.noise_warning, NoiseWarning, stacklevel=3)
 
 
 def _as_matrix(name, a, cols=None):
@@ -253,7 +249,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             warnings.warn(f"joint(s) {', '.join(map(str, capped))} stopped before the optimiser converged "
                           f"(see training_report_); raise max_iter or add restarts", ConvergenceWarning,
                           stacklevel=2)
-        _warn_noisy_joints(self.training_report_)
+        _warn_noisy_joints(self.model_)
         return self
 
     def partial_fit(self, X, Y, window=0, refit=False):
@@ -435,7 +431,7 @@ class LagrangianGP(InverseDynamicsGP):
         if self.training_report_ and self.training_report_[0]["status"] != "converged":
             warnings.warn("the optimiser stopped before it converged (see training_report_); raise max_iter",
                           ConvergenceWarning, stacklevel=2)
-        _warn_noisy_joints(self.training_report_)
+        _warn_noisy_joints(self.model_)
         return self
 
     def partial_fit(self, X, Y, window=0):

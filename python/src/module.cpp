@@ -368,6 +368,9 @@ PYBIND11_MODULE(_core, m) {
       .def_property_readonly(
           "training_report", [](const Model& s) { return report_to_list(s.model->training_report()); },
           "How each joint's hyperparameters were found (empty for models saved before it was recorded)")
+      .def_property_readonly(
+          "noise_warning", [](const Model& s) { return noise_share_warning(s.model->training_report()); },
+          "The library's warning about joints whose fit calls most of the torque noise, or '' (FitReport::warnings)")
       .def(
           "with_variance",
           [](const Model& s) {
@@ -436,6 +439,7 @@ PYBIND11_MODULE(_core, m) {
                                return d;
                              })
       .def_property_readonly("training_report", [](const LagrangianModel& s) { return report_to_list(s.report); })
+      .def_property_readonly("noise_warning", [](const LagrangianModel& s) { return noise_share_warning(s.report); })
       .def(
           "predict",
           [](const LagrangianModel& s, ConstRef X) {

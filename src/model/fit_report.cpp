@@ -69,6 +69,11 @@ std::vector<std::string> FitReport::warnings() const {
     if (j.jitter > 0.0)
       out.push_back("joint " + std::to_string(j.joint + 1) + " needed a jitter of " + std::to_string(j.jitter) +
                     " on the kernel diagonal; raise TrainOptions::min_noise_fraction or remove duplicate rows");
+  if (std::string noisy = noise_share_warning(joints); !noisy.empty()) out.push_back(std::move(noisy));
+  return out;
+}
+
+std::string noise_share_warning(const std::vector<JointReport>& joints) {
   std::string noisy;
   for (const auto& j : joints)
     if (j.noise_share >= kNoiseShareWarning) {  // false for NaN
@@ -76,12 +81,11 @@ std::vector<std::string> FitReport::warnings() const {
       std::snprintf(share, sizeof share, " (%.0f %%)", 100.0 * std::min(j.noise_share, 1.0));
       noisy += (noisy.empty() ? "" : ", ") + std::to_string(j.joint + 1) + share;
     }
-  if (!noisy.empty())
-    out.push_back("joint(s) " + noisy +
-                  ": the fit calls most of the torque noise, so predictions there stay near the training mean; the "
-                  "torque may be below the sensor noise or not a function of q, qd, qdd (check the data, or learn "
-                  "from a motion that loads the joint more)");
-  return out;
+  if (noisy.empty()) return noisy;
+  return "joint(s) " + noisy +
+         ": the fit calls most of the torque noise, so predictions there stay near the training mean; the torque may "
+         "be below the sensor noise or not a function of q, qd, qdd (check the data, or learn from a motion that "
+         "loads the joint more)";
 }
 
 }  // namespace gipdyn

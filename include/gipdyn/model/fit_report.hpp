@@ -44,6 +44,10 @@ struct JointReport {
 // A joint whose fit calls at least this share of the torque noise is warned about.
 inline constexpr double kNoiseShareWarning = 0.5;
 
+// The warning about the joints whose noise_share reaches kNoiseShareWarning
+// (one line naming each with its share), or "" when there are none.
+std::string noise_share_warning(const std::vector<JointReport>& joints);
+
 struct FitReport {
   FitStatus status = FitStatus::Failed;
   std::string message;  // on failure: which joint and why
