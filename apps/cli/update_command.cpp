@@ -1,6 +1,7 @@
 // `gipdyn update`: add new samples to a trained GP model with its hyperparameters
 // fixed (O(N^2) per sample; a sparse model O(M^2)), optionally as a sliding window over the newest rows (exact models),
-// and optionally refit the hyperparameters on the kept rows afterwards.
+// or in place of the model's own rows (--replace), and optionally refit the hyperparameters on the kept rows
+// afterwards.
 #include <cstdio>
 #include <memory>
 
@@ -13,6 +14,7 @@
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/model/training.hpp"
+#include "gipdyn/training_data.hpp"
 
 namespace gipdyn::cli {
 
@@ -20,7 +22,7 @@ Command add_update(CLI::App& app) {
   struct Args {
     std::string model, data, out;
     long window = 0;
-    bool quiet = false, refit = false;
+    bool quiet = false, refit = false, replace = false;
     int max_iter = OptimizerOptions{}.max_iterations, threads = 0;
   };
   auto a = std::make_shared<Args>();
@@ -31,6 +33,11 @@ Command add_update(CLI::App& app) {
   app.add_option("--window", a->window,
                  "Keep only the newest this many rows (a sliding window; 0: keep every row)")
       ->capture_default_str();
+  app.add_flag("--replace", a->replace,
+               "Condition on the new rows alone, dropping the model's own: the hyperparameters the model learned "
+               "on a long, varied log carried to a short log of the same robot, which predicts new motions better "
+               "than training on the short log (docs/training.md)")
+      ->excludes(app.get_option("--window"));
   app.add_flag("--refit", a->refit,
                "Then re-optimise the hyperparameters on all the kept rows, starting from the current ones (the "
                "periodic refit of online learning: minutes at a few thousand rows, against milliseconds per row "
@@ -48,7 +55,14 @@ Command add_update(CLI::App& app) {
       throw Error("--model holds a " + estimator->name() +
                   " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
     const Dataset data = read_dataset(a->data, model->joints(), true);
-    const double rows = static_cast<double>(model->num_training_samples() + data.rows());
+    if (a->replace && model->is_sparse())
+      throw Error("--replace needs an exact GP model: a sparse model's inducing rows come from its own data "
+                  "(train the sparse model on the new log instead)");
+    if (a->replace && data.rows() < kMinTrainingRows)
+      throw Error("--replace: " + a->data + " has " + std::to_string(data.rows()) + " rows; a model needs at least " +
+                  std::to_string(kMinTrainingRows));
+    if (a->replace) a->window = static_cast<long>(data.rows());
+    const double rows = static_cast<double>((a->replace ? 0 : model->num_training_samples()) + data.rows());
     // Every joint keeps its N x N Cholesky factor while it is updated.
     require_memory(8.0 * rows * rows * (model->num_joints() + 1), "updating a model of " +
                    std::to_string(static_cast<long>(rows)) + " rows", "use --window to keep fewer rows");
@@ -57,6 +71,9 @@ Command add_update(CLI::App& app) {
       std::printf("updated %s with %ld rows of %s (hyperparameters and %d inducing rows fixed): %ld data rows\n",
                   a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
                   static_cast<long>(updated.num_data_rows()));
+    else if (!a->quiet && a->replace)
+      std::printf("conditioned the hyperparameters of %s on the %ld rows of %s alone (its own rows dropped)\n",
+                  a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str());
     else if (!a->quiet)
       std::printf("updated %s with %ld rows of %s (hyperparameters fixed): %d training rows%s\n", a->model.c_str(),
                   static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),

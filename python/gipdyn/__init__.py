@@ -256,7 +256,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         """Online learning: add the rows of (X, Y) to the fitted model with its
         hyperparameters fixed (O(N^2) per row, a sparse model's O(M^2); the
         first call, on an unfitted estimator, is fit(X, Y)). window > 0 keeps
-        only the newest window rows (exact models only).
+        only the newest window rows (exact models only); window=len(X)
+        conditions the hyperparameters on X alone, e.g. those learned on a
+        long, varied log carried to a short one (docs/training.md).
         refit=True then re-optimises the hyperparameters on the kept rows,
         starting from the current ones (minutes at a few thousand rows): for
         when the robot has changed more than new data at old hyperparameters

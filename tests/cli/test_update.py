@@ -69,3 +69,68 @@ def test_update_refit_reoptimises_the_hyperparameters(tmp_path, gipdyn_bin):
     assert h["num_training_samples"] == 100
     assert h["joint_models"][0]["log_params"] != model_header(model)["joint_models"][0]["log_params"]
     assert h["joint_models"][0]["training"]["evaluations"] > 0
+
+
+def rbf_posterior_mean(header, joint, X_train, y_train, X_query):
+    """A plain RBF GP written out here from the model file's hyperparameters and output scaling."""
+    jm = header["joint_models"][joint]
+    log_params = np.array(jm["log_params"])
+    variance, lengthscales = np.exp(log_params[0]), np.exp(log_params[1:])
+    def k(A, B):
+        d = (A[:, None, :] - B[None, :, :]) / lengthscales
+        return variance * np.exp(-0.5 * np.sum(d * d, axis=2))
+    y = (y_train - jm["output_offset"]) / jm["output_scale"]
+    C = k(X_train, X_train) + np.exp(jm["log_noise_variance"]) * np.eye(len(X_train))
+    return jm["output_offset"] + jm["output_scale"] * (k(X_query, X_train) @ np.linalg.solve(C, y))
+
+
+def test_update_replace_conditions_the_model_hyperparameters_on_the_new_rows_alone(tmp_path, gipdyn_bin):
+    old, new, query = tmp_path / "old.csv", tmp_path / "new.csv", tmp_path / "query.csv"
+    write_dataset(old, 60, seed=6)
+    write_dataset(new, 30, seed=7)
+    write_dataset(query, 25, seed=8)
+    model, replaced, appended = tmp_path / "m.gipdyn", tmp_path / "r.gipdyn", tmp_path / "a.gipdyn"
+    assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--kernel", "rbf", "--max-iter", "30",
+               "--quiet", "--out", str(model)).returncode == 0
+    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--replace", "--out", str(replaced))
+    assert r.returncode == 0, r.stderr
+    assert "on the 30 rows of" in r.stdout and "its own rows dropped" in r.stdout, r.stdout
+    assert run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--quiet",
+               "--out", str(appended)).returncode == 0
+    h = model_header(replaced)
+    assert h["num_training_samples"] == 30
+    for j in range(2):
+        assert h["joint_models"][j]["log_params"] == model_header(model)["joint_models"][j]["log_params"]
+
+    cols = ["q1", "q2", "qd1", "qd2", "qdd1", "qdd2"]
+    d_new = np.genfromtxt(new, delimiter=",", names=True)
+    d_query = np.genfromtxt(query, delimiter=",", names=True)
+    X_new = np.column_stack([d_new[c] for c in cols])
+    X_query = np.column_stack([d_query[c] for c in cols])
+    got = predict(gipdyn_bin, replaced, query, tmp_path / "pr.csv")
+    with_old_rows = predict(gipdyn_bin, appended, query, tmp_path / "pa.csv")
+    for j in range(2):
+        expected = rbf_posterior_mean(h, j, X_new, d_new[f"tau{j + 1}"], X_query)
+        assert np.allclose(got[f"tau{j + 1}_hat"], expected, rtol=1e-7, atol=1e-7 * np.abs(expected).max())
+        assert not np.allclose(with_old_rows[f"tau{j + 1}_hat"], expected, rtol=1e-3, atol=1e-3)
+
+
+def test_update_replace_refuses_a_window_and_a_sparse_model(tmp_path, gipdyn_bin):
+    data = tmp_path / "d.csv"
+    write_dataset(data, 40, seed=9)
+    exact, sparse = tmp_path / "e.gipdyn", tmp_path / "s.gipdyn"
+    assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--max-iter", "5", "--quiet",
+               "--out", str(exact)).returncode == 0
+    assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--inducing", "10", "--max-iter", "5",
+               "--quiet", "--out", str(sparse)).returncode == 0
+    tiny = tmp_path / "tiny.csv"
+    tiny.write_text("\n".join(data.read_text().splitlines()[:4]) + "\n")
+    for model, rows, extra, words in [(exact, data, ["--window", "30"], "--window excludes --replace"),
+                                      (sparse, data, [], "--replace needs an exact GP model"),
+                                      (exact, tiny, [], "has 3 rows; a model needs at least 5")]:
+        out = tmp_path / "x.gipdyn"
+        r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(rows), "--replace", *extra, "--out", str(out))
+        assert r.returncode != 0
+        lines = r.stderr.strip().splitlines()
+        assert words in lines[0], r.stderr
+        assert not out.exists()
