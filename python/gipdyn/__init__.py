@@ -61,6 +61,12 @@ class NoiseWarning(UserWarning):
     """A joint's fit calls most of its torque noise: its predictions stay near the training mean."""
 
 
+def _warn_unconverged_joints(model):
+    """The library's warnings about joints that stopped before converging (see training_report_)."""
+    for line in model.convergence_warnings:
+        warnings.warn(line, ConvergenceWarning, stacklevel=3)
+
+
 def _warn_noisy_joints(model):
     """The library's warning about joints whose fit calls most of the torque noise (see training_report_'s noise_share)."""
     if model.noise_warning:
@@ -244,11 +250,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
         self.model_ = _core.train(X, Y, str(self.joints), self.train_options(), bool(self.verbose))
         self._set_fitted_attributes()
-        capped = [r["joint"] for r in self.training_report_ if r["status"] != "converged"]
-        if capped:
-            warnings.warn(f"joint(s) {', '.join(map(str, capped))} stopped before the optimiser converged "
-                          f"(see training_report_); raise max_iter or add restarts", ConvergenceWarning,
-                          stacklevel=2)
+        _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)
         return self
 
@@ -430,9 +432,7 @@ class LagrangianGP(InverseDynamicsGP):
         self.model_ = _core.train_lagrangian(X, Y, str(self.joints), self.train_options(), bool(self.verbose),
                                              bool(self.friction))
         self._set_fitted_attributes()
-        if self.training_report_ and self.training_report_[0]["status"] != "converged":
-            warnings.warn("the optimiser stopped before it converged (see training_report_); raise max_iter",
-                          ConvergenceWarning, stacklevel=2)
+        _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)
         return self
 

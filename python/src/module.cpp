@@ -71,6 +71,13 @@ const FieldNames& python_field_names() {
   return names;
 }
 
+// The library's convergence warnings, in Python's keywords.
+std::vector<std::string> python_convergence_warnings(const std::vector<JointReport>& joints) {
+  std::vector<std::string> out = convergence_warnings(joints);
+  for (auto& line : out) line = rename_fields(line, python_field_names());
+  return out;
+}
+
 // A trained model, read-only and shared, plus the single-query workspace of
 // predict_one: the workspace is mutable, so calls from several Python threads
 // take turns on it.
@@ -369,6 +376,10 @@ PYBIND11_MODULE(_core, m) {
           "training_report", [](const Model& s) { return report_to_list(s.model->training_report()); },
           "How each joint's hyperparameters were found (empty for models saved before it was recorded)")
       .def_property_readonly(
+          "convergence_warnings",
+          [](const Model& s) { return python_convergence_warnings(s.model->training_report()); },
+          "The library's warnings about joints that stopped before converging (FitReport::warnings)")
+      .def_property_readonly(
           "noise_warning", [](const Model& s) { return noise_share_warning(s.model->training_report()); },
           "The library's warning about joints whose fit calls most of the torque noise, or '' (FitReport::warnings)")
       .def(
@@ -439,6 +450,8 @@ PYBIND11_MODULE(_core, m) {
                                return d;
                              })
       .def_property_readonly("training_report", [](const LagrangianModel& s) { return report_to_list(s.report); })
+      .def_property_readonly("convergence_warnings",
+                             [](const LagrangianModel& s) { return python_convergence_warnings(s.report); })
       .def_property_readonly("noise_warning", [](const LagrangianModel& s) { return noise_share_warning(s.report); })
       .def(
           "predict",

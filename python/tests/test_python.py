@@ -3,6 +3,7 @@ model files across C++ and Python, pickling, scikit-learn integration, input
 validation, robots, simulation and the examples."""
 import os
 import pickle
+import re
 import subprocess
 import sys
 
@@ -210,9 +211,14 @@ def test_is_a_scikit_learn_regressor():
 
 def test_training_report_and_convergence_warning(scara):
     train, _ = scara
-    with pytest.warns(gipdyn.ConvergenceWarning, match="raise max_iter"):
+    with pytest.warns(gipdyn.ConvergenceWarning, match="raise max_iter") as caught:
         est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"], train["tau"])
     report = est.training_report_
+    # The library's lines, in Python's keywords, naming every joint that stopped early.
+    lines = [str(w.message) for w in caught if w.category is gipdyn.ConvergenceWarning]
+    assert lines == est.model_.convergence_warnings and not any("::" in line for line in lines), lines
+    named = {int(j) for line in lines for j in re.match(r"joint\(s\) ([\d, ]+) ", line).group(1).split(",")}
+    assert named == {1, 2, 3, 4}, lines
     assert [r["joint"] for r in report] == [1, 2, 3, 4]
     assert all(r["status"] in ("max-iter", "stalled") and r["evaluations"] <= 3 and r["noise_variance"] > 0
                for r in report), report

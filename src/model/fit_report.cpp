@@ -53,7 +53,7 @@ std::string FitReport::brief_report() const {
   return out;
 }
 
-std::vector<std::string> FitReport::warnings() const {
+std::vector<std::string> convergence_warnings(const std::vector<JointReport>& joints) {
   std::vector<std::string> out;
   std::string capped, stalled;
   for (const auto& j : joints) {
@@ -65,6 +65,11 @@ std::vector<std::string> FitReport::warnings() const {
                   " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");
   if (!stalled.empty())
     out.push_back("joint(s) " + stalled + " stalled (the line search broke down) before converging; try restarts");
+  return out;
+}
+
+std::vector<std::string> FitReport::warnings() const {
+  std::vector<std::string> out = convergence_warnings(joints);
   for (const auto& j : joints)
     if (j.jitter > 0.0)
       out.push_back("joint " + std::to_string(j.joint + 1) + " needed a jitter of " + std::to_string(j.jitter) +

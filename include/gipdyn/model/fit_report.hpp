@@ -48,6 +48,11 @@ inline constexpr double kNoiseShareWarning = 0.5;
 // (one line naming each with its share), or "" when there are none.
 std::string noise_share_warning(const std::vector<JointReport>& joints);
 
+// The warnings about joints that stopped before converging: one line for those
+// at OptimizerOptions::max_iterations, one for those whose line search stalled;
+// empty when every joint converged.
+std::vector<std::string> convergence_warnings(const std::vector<JointReport>& joints);
+
 struct FitReport {
   FitStatus status = FitStatus::Failed;
   std::string message;  // on failure: which joint and why
