@@ -1,6 +1,7 @@
-// Single-query latency of a trained model on the rows of a log: what one call
-// of the control-loop path (PredictionWorkspace::predict, which the C API's
-// gipdyn_predict wraps) costs on the states a robot actually visits.
+// Single-query latency of a trained model (any estimator: GP kernels, lip, fe,
+// nn) on the rows of a log: what one call of the control-loop path (the
+// estimator's QueryWorkspace::predict, which the C API's gipdyn_predict wraps)
+// costs on the states a robot actually visits.
 //
 //   build/bench/bench_prediction_latency MODEL DATA [ROWS]
 //
@@ -13,12 +14,14 @@
 #include <cstdio>
 #include <cstdlib>
 #include <exception>
+#include <memory>
+#include <string>
 #include <vector>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
-#include "gipdyn/model/model_file.hpp"
 
 int main(int argc, char** argv) {
   if (argc < 3) {
@@ -26,25 +29,29 @@ int main(int argc, char** argv) {
     return 2;
   }
   try {
-    const gipdyn::InverseDynamicsModel model = gipdyn::load_model(argv[1]);
-    const gipdyn::Dataset data = gipdyn::read_dataset(argv[2], model.joints(), false);
+    const std::unique_ptr<gipdyn::Estimator> model = gipdyn::load_estimator(argv[1]);
+    const gipdyn::Dataset data = gipdyn::read_dataset(argv[2], model->joints(), false);
     const Eigen::Index rows = std::min<Eigen::Index>(data.rows(), argc > 3 ? std::atol(argv[3]) : 3000);
     if (rows < 1) throw gipdyn::Error("ROWS must be at least 1");
-    gipdyn::PredictionWorkspace workspace(model);
-    Eigen::VectorXd x(data.X.cols()), tau(model.num_joints());
+    const std::unique_ptr<gipdyn::QueryWorkspace> workspace = model->make_query_workspace();
+    const int joints = model->joints().size();
+    Eigen::VectorXd x(data.X.cols()), tau(joints);
     std::vector<double> micros;
     micros.reserve(static_cast<size_t>(3 * rows));
     for (int pass = 0; pass < 3; ++pass)
       for (Eigen::Index i = 0; i < rows; ++i) {
         x = data.X.row(i).transpose();
         const auto start = std::chrono::steady_clock::now();
-        workspace.predict(x.data(), tau.data());
+        workspace->predict(x.data(), tau.data());
         micros.push_back(std::chrono::duration<double, std::micro>(std::chrono::steady_clock::now() - start).count());
       }
     std::sort(micros.begin(), micros.end());
-    std::printf("%s, %d joints, %ld training rows: %zu queries, p50 %.1f us, p99 %.1f us, max %.1f us\n",
-                model.kernel_name().c_str(), model.num_joints(), static_cast<long>(model.num_training_samples()),
-                micros.size(), micros[micros.size() / 2], micros[micros.size() * 99 / 100], micros.back());
+    const gipdyn::InverseDynamicsModel* gp = model->gp_model();
+    const std::string name = gp ? gp->kernel_name() : model->name();
+    const std::string rows_note =
+        gp ? ", " + std::to_string(gp->num_training_samples()) + " training rows" : "";
+    std::printf("%s, %d joints%s: %zu queries, p50 %.1f us, p99 %.1f us, max %.1f us\n", name.c_str(), joints,
+                rows_note.c_str(), micros.size(), micros[micros.size() / 2], micros[micros.size() * 99 / 100], micros.back());
   } catch (const std::exception& e) {
     std::fprintf(stderr, "bench_prediction_latency: %s\n", e.what());
     return 1;
