@@ -341,6 +341,17 @@ def test_python_quickstart_example_runs():
     assert "joint 4  nMSE" in r.stdout and "one sample" in r.stdout
 
 
+def test_python_short_log_example_runs():
+    r = subprocess.run([sys.executable, os.path.join(ROOT, "examples", "python", "short_log.py"), "200", "60", "200",
+                        "20"], capture_output=True, text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    rows = [line.split() for line in r.stdout.splitlines() if "joints 1-4:" in line]
+    assert len(rows) == 3, r.stdout
+    for row in rows:  # four finite nMSE values and a latency per model
+        values = [float(v) for v in row[row.index("1-4:") + 1:row.index("1-4:") + 5]]
+        assert all(np.isfinite(values)), r.stdout
+
+
 def test_python_control_loop_example_runs(tmp_path, fitted):
     fitted.save(str(tmp_path / "m.gipdyn"))
     r = subprocess.run([sys.executable, os.path.join(ROOT, "examples", "python", "control_loop.py"),
