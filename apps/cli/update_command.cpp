@@ -62,8 +62,9 @@ Command add_update(CLI::App& app) {
       throw Error("--replace: " + a->data + " has " + std::to_string(data.rows()) + " rows; a model needs at least " +
                   std::to_string(kMinTrainingRows));
     if (a->replace) a->window = static_cast<long>(data.rows());
-    const double rows = static_cast<double>((a->replace ? 0 : model->num_training_samples()) + data.rows());
-    // Every joint keeps its N x N Cholesky factor while it is updated.
+    // Every joint keeps its N x N Cholesky factor while it is updated (with --replace too: the old rows are
+    // dropped from the factor that holds them).
+    const double rows = static_cast<double>(model->num_training_samples() + data.rows());
     require_memory(8.0 * rows * rows * (model->num_joints() + 1), "updating a model of " +
                    std::to_string(static_cast<long>(rows)) + " rows", "use --window to keep fewer rows");
     InverseDynamicsModel updated = model->updated(data.X, data.tau, a->window);
