@@ -61,13 +61,13 @@ Command add_update(CLI::App& app) {
     if (a->replace && data.rows() < kMinTrainingRows)
       throw Error("--replace: " + a->data + " has " + std::to_string(data.rows()) + " rows; a model needs at least " +
                   std::to_string(kMinTrainingRows));
-    if (a->replace) a->window = static_cast<long>(data.rows());
+    const long window = a->replace ? static_cast<long>(data.rows()) : a->window;
     // Every joint keeps its N x N Cholesky factor while it is updated (with --replace too: the old rows are
     // dropped from the factor that holds them).
     const double rows = static_cast<double>(model->num_training_samples() + data.rows());
     require_memory(8.0 * rows * rows * (model->num_joints() + 1), "updating a model of " +
                    std::to_string(static_cast<long>(rows)) + " rows", "use --window to keep fewer rows");
-    InverseDynamicsModel updated = model->updated(data.X, data.tau, a->window);
+    InverseDynamicsModel updated = model->updated(data.X, data.tau, window);
     if (!a->quiet && updated.is_sparse())
       std::printf("updated %s with %ld rows of %s (hyperparameters and %d inducing rows fixed): %ld data rows\n",
                   a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
