@@ -265,7 +265,10 @@ void LagrangianKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& l
                 std::to_string(log_params_.size()) + " expected for joints " + joints_.str());
   if (!log_params.allFinite()) throw Error("LagrangianKernel: a log-parameter is not finite");
   log_params_ = log_params;
-  params_ = log_params_.array().exp();
+  // Entry by entry: Eigen's vectorised exp can differ in the last bit from the
+  // scalar one it uses for a vector's tail, so a parameter's value would depend
+  // on how many others the vector holds (with friction or without).
+  params_ = log_params_.unaryExpr([](double v) { return std::exp(v); });
   nu_.resize(n_, n_);
   int k = 0;
   for (int a = 0; a < n_; ++a)
