@@ -15,34 +15,7 @@ namespace gipdyn {
 namespace {
 
 using test::two_link_torques;
-
-// A smooth exciting trajectory of the 2R arm: each joint a sum of three
-// sinusoids, sampled every dt; phases from the seed. Rows: q, qd, qdd.
-Eigen::MatrixXd two_link_trajectory(int rows, double dt, unsigned seed) {
-  std::mt19937 rng(seed);
-  std::uniform_real_distribution<double> phase(0.0, 2.0 * M_PI);
-  const double w[3] = {0.31, 0.73, 1.37}, a[3] = {1.2, 0.5, 0.25};
-  double p[2][3];
-  for (auto& joint : p)
-    for (double& v : joint) v = phase(rng);
-  Eigen::MatrixXd X(rows, 6);
-  for (int r = 0; r < rows; ++r) {
-    const double t = r * dt;
-    for (int i = 0; i < 2; ++i) {
-      double q = 0, qd = 0, qdd = 0;
-      for (int k = 0; k < 3; ++k) {
-        const double s = std::sin(w[k] * t + p[i][k]), c = std::cos(w[k] * t + p[i][k]);
-        q += a[k] * s;
-        qd += a[k] * w[k] * c;
-        qdd -= a[k] * w[k] * w[k] * s;
-      }
-      X(r, i) = q;
-      X(r, 2 + i) = qd;
-      X(r, 4 + i) = qdd;
-    }
-  }
-  return X;
-}
+using test::two_link_trajectory;
 
 struct Fit {
   TrainResult result;

@@ -19,6 +19,9 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::hyperparameter_objective", "--hyperparameter-objective"},
       {"TrainOptions::inducing_points", "--inducing"},
       {"TrainOptions::nll_backend", "--distributed"},
+      {"TeacherOptions::name", "--teacher"},
+      {"TeacherOptions::states", "--teacher-states"},
+      {"TeacherOptions::hyperparameter_rows", "--teacher-hyperparameter-rows"},
       {kMatFileAdvice,
        "convert it to a CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or read it with a command that "
        "takes --mat-variable NAME (experiment real, inspect)"},

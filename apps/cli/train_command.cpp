@@ -24,8 +24,9 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, joints, kernel = "gip", out, preset;
+  std::string data, joints, kernel = "gip", out, preset, teacher;
   long subsample = 0;
+  int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows;
   bool quiet = false, distributed = false;
   EstimatorArgs estimator;
 };
@@ -90,6 +91,19 @@ Command add_train(CLI::App& app) {
                  "Start from a named set of options; options given explicitly override it. default, or real: for "
                  "logs of real robots (kernel gip-envelope+friction, at most 1000 rows; docs/real-robots.md)");
   a->estimator.add_to(app, true);
+  auto* teacher = app.add_option(
+      "--teacher", a->teacher,
+      "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
+      "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
+      "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by LIP\")");
+  app.add_option("--teacher-states", a->teacher_states,
+                 "With --teacher: states drawn from the log's box (each of q, qd, qdd between its smallest and "
+                 "largest logged value), the student's training rows; --seed draws them")
+      ->capture_default_str()->needs(teacher);
+  app.add_option("--teacher-hyperparameter-rows", a->teacher_hyperparameter_rows,
+                 "With --teacher: the teacher learns its hyperparameters on a constant-step subsample of this many "
+                 "logged rows, then is conditioned on every row; 0: all rows")
+      ->capture_default_str()->needs(teacher);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   app.add_flag("--distributed", a->distributed,
@@ -113,6 +127,15 @@ Command add_train(CLI::App& app) {
               ? a->estimator.build(a->kernel)
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
       if (a->subsample < 0) throw Error("--subsample must be >= 0");
+      if (!a->teacher.empty()) {
+        if (mpi) throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
+        TeacherOptions t;
+        t.name = a->teacher;
+        t.states = a->teacher_states;
+        t.hyperparameter_rows = a->teacher_hyperparameter_rows;
+        t.seed = o.gp.seed;
+        o.teacher = t;
+      }
       if (!a->preset.empty() && app.count("--subsample") == 0) a->subsample = preset_max_training_rows(a->preset);
       if (mpi) {
         if (!is_gp_estimator(o.name))
@@ -143,6 +166,11 @@ Command add_train(CLI::App& app) {
         std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
       if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
       if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
+      if (o.teacher)
+        std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box",
+                    o.teacher->name.c_str(),
+                    o.teacher->hyperparameter_rows > 0 ? std::to_string(o.teacher->hyperparameter_rows).c_str() : "all",
+                    o.teacher->states);
       std::printf("\n");
       std::fflush(stdout);
     }
@@ -172,8 +200,23 @@ Command add_train(CLI::App& app) {
       return 0;
     }
     if (!r.report.ok()) throw Error("training failed: " + r.report.message);
-    save_estimator(*r.estimator, a->out);
+    ModelContainer model = r.estimator->to_container();
+    if (r.teacher_report)
+      model.header["teacher"] = {{"estimator", o.teacher->name},
+                                 {"states", o.teacher->states},
+                                 {"hyperparameter_rows", o.teacher->hyperparameter_rows},
+                                 {"seed", o.teacher->seed},
+                                 {"label_noise_std", std::vector<double>(r.label_noise_std.data(), r.label_noise_std.data() + r.label_noise_std.size())},
+                                 {"status", to_string(r.teacher_report->status)},
+                                 {"seconds", r.teacher_report->seconds}};
+    write_container(model, a->out);
     if (!a->quiet) {
+      if (r.teacher_report) {
+        std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
+        std::printf("label noise (the teacher's RMS residual on the log), per joint:");
+        for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
+        std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
+      }
       std::printf("\n%s", r.report.brief_report().c_str());
       const InverseDynamicsModel* gp = r.estimator->gp_model();
       if (gp && gp->is_sparse())
@@ -185,6 +228,11 @@ Command add_train(CLI::App& app) {
       std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
       std::fflush(stdout);
       print_warnings(data_warnings);
+      if (r.teacher_report) {
+        std::vector<std::string> lines = r.teacher_report->warnings();
+        for (auto& w : lines) w = "teacher " + o.teacher->name + ": " + w;
+        print_warnings(lines);
+      }
       print_warnings(r.report.warnings());
     }
     return 0;

@@ -15,6 +15,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/estimators/presets.hpp"
+#include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/floating_point.hpp"
 #include "gipdyn/gp/cholesky.hpp"

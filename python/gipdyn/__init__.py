@@ -16,9 +16,9 @@ import numpy as np
 from . import _core
 from ._core import __version__
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
-                    SimulationOptions, TrainOptions, mpi_rank, mpi_size)
+                    SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "Robot", "TrainOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -61,10 +61,10 @@ class NoiseWarning(UserWarning):
     """A joint's fit calls most of its torque noise: its predictions stay near the training mean."""
 
 
-def _warn_unconverged_joints(model):
+def _warn_unconverged_joints(model, prefix=""):
     """The library's warnings about joints that stopped before converging (see training_report_)."""
     for line in model.convergence_warnings:
-        warnings.warn(line, ConvergenceWarning, stacklevel=3)
+        warnings.warn(prefix + line, ConvergenceWarning, stacklevel=3)
 
 
 def _warn_noisy_joints(model):
@@ -108,6 +108,7 @@ def neg_nmse_scorer(estimator, X, Y):
 
 
 _DEFAULTS = TrainOptions()
+_TEACHER_DEFAULTS = TeacherOptions()
 
 
 class InverseDynamicsGP(*_ESTIMATOR_BASES):
@@ -131,7 +132,13 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     subsample of this many rows, then condition on every row; 0: all rows),
     hyperparameter_objective (with inducing and hyperparameter_rows: "bound",
     the sparse GP's variational bound on the subsample, or "exact", the
-    subsample's exact NLL)
+    subsample's exact NLL),
+    teacher (None: learn from (X, Y); "lip": fit LIP on (X, Y), then learn
+    from LIP's torques, plus noise at LIP's residual level, at teacher_states
+    states drawn uniformly from the box X spans; seed draws them. On one short
+    motion this gives a GIP model that extrapolates like LIP and answers like
+    GIP: docs/training.md), teacher_states, teacher_hyperparameter_rows (the
+    teacher learns its hyperparameters on that many rows, 0: all)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
@@ -156,7 +163,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
                  inducing=_DEFAULTS.inducing_points, distributed=False,
                  hyperparameter_rows=_DEFAULTS.hyperparameter_rows,
-                 hyperparameter_objective=_DEFAULTS.hyperparameter_objective):
+                 hyperparameter_objective=_DEFAULTS.hyperparameter_objective, teacher=None,
+                 teacher_states=_TEACHER_DEFAULTS.states,
+                 teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -181,6 +190,20 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.distributed = distributed
         self.hyperparameter_rows = hyperparameter_rows
         self.hyperparameter_objective = hyperparameter_objective
+        self.teacher = teacher
+        self.teacher_states = teacher_states
+        self.teacher_hyperparameter_rows = teacher_hyperparameter_rows
+
+    def teacher_options(self):
+        """The library's TeacherOptions for these parameters, or None without a teacher."""
+        if self.teacher is None:
+            return None
+        o = TeacherOptions()
+        o.name = str(self.teacher)
+        o.states = int(self.teacher_states)
+        o.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
+        o.seed = int(self.seed)
+        return o
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -248,7 +271,22 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         rows = self._training_rows(X.shape[0])
         if rows is not None:
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
-        self.model_ = _core.train(X, Y, str(self.joints), self.train_options(), bool(self.verbose))
+        options = self.train_options()
+        teacher = self.teacher_options()
+        if teacher is not None:
+            if self.distributed:
+                raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
+            lesson = _core.teach(X, Y, str(self.joints), teacher, options, bool(self.verbose))
+            X, Y = np.asfortranarray(lesson["X"]), np.asfortranarray(lesson["tau"])
+            self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
+            if lesson["teacher"] is not None:
+                self.teacher_ = LagrangianGP(joints=self.joints, friction=teacher.name == "lip+friction")
+                self.teacher_.model_ = lesson["teacher"]
+                self.teacher_._set_fitted_attributes()
+                _warn_unconverged_joints(lesson["teacher"], f"teacher {teacher.name}: ")
+            self.teacher_report_ = lesson["teacher_report"]
+            self.label_noise_std_ = lesson["label_noise_std"]
+        self.model_ = _core.train(X, Y, str(self.joints), options, bool(self.verbose))
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)
@@ -374,6 +412,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         state = dict(parent() if parent is not None else self.__dict__)
         if "model_" in state:
             state["model_"] = state["model_"].to_bytes()
+        state.pop("teacher_", None)  # the student is the model; a LagrangianGP teacher cannot be pickled
         if isinstance(state.get("robot"), Robot):
             raise ValueError("a model whose robot parameter is a Robot object cannot be pickled; pass its path")
         return state

@@ -19,6 +19,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/estimators/presets.hpp"
+#include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/fit_report.hpp"
@@ -53,6 +54,9 @@ const FieldNames& python_field_names() {
       {"TrainOptions::hyperparameter_objective", "hyperparameter_objective"},
       {"TrainOptions::inducing_points", "inducing"},
       {"TrainOptions::nll_backend", "distributed"},
+      {"TeacherOptions::name", "teacher"},
+      {"TeacherOptions::states", "teacher_states"},
+      {"TeacherOptions::hyperparameter_rows", "teacher_hyperparameter_rows"},
       {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
       {"TrainOptions::scaling", "scaling"},
       {"TrainOptions::mean", "mean"},
@@ -200,6 +204,39 @@ std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const 
   m->estimator = std::move(r.estimator);
   m->report = r.report.joints;
   return m;
+}
+
+// The teacher's labelled states (estimators/teacher.hpp) and the teacher, a
+// LagrangianModel when it is lip or lip+friction (else None).
+py::dict teach_states(ConstRef X, ConstRef Y, const std::string& joints, const TeacherOptions& options,
+                      const TrainOptions& student, bool verbose) {
+  const JointTypes jt = JointTypes::parse(joints);
+  const Eigen::MatrixXd Xm = X, Ym = Y;
+  struct Outcome {
+    FitReport report;
+    TeachingSet set;
+  };
+  Outcome r = fit_without_gil(verbose, [&](const ProgressCallback& cb) {
+    Outcome o;
+    o.set = teach(options, student, Xm, Ym, jt, cb);
+    o.report = o.set.teacher_report;
+    if (!o.report.ok()) o.report.message = "the teacher " + options.name + " failed: " + o.report.message;
+    return o;
+  });
+  py::dict d;
+  d["X"] = r.set.X;
+  d["tau"] = r.set.Y;
+  d["label_noise_std"] = r.set.label_noise_std;
+  d["teacher_report"] = report_to_list(r.set.teacher_report.joints);
+  d["teacher"] = py::none();
+  if (auto* lip = dynamic_cast<LagrangianEstimator*>(r.set.teacher.get())) {
+    auto m = std::make_shared<LagrangianModel>();
+    r.set.teacher.release();
+    m->estimator.reset(lip);
+    m->report = r.set.teacher_report.joints;
+    d["teacher"] = m;
+  }
+  return d;
 }
 
 py::dict simulation_to_dict(const SimulationResult& r, int n) {
@@ -504,6 +541,17 @@ PYBIND11_MODULE(_core, m) {
       });
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("verbose") = false, py::arg("friction") = false);
+  py::class_<TeacherOptions>(m, "TeacherOptions")
+      .def(py::init<>())
+      .def_readwrite("name", &TeacherOptions::name)
+      .def_readwrite("states", &TeacherOptions::states)
+      .def_readwrite("hyperparameter_rows", &TeacherOptions::hyperparameter_rows)
+      .def_readwrite("seed", &TeacherOptions::seed)
+      .def("validate", &TeacherOptions::validate);
+  m.def("teach", &teach_states, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
+        py::arg("student"), py::arg("verbose") = false,
+        "Fits the teacher on (X, Y) and labels options.states states drawn from X's box with its torques plus noise "
+        "at its residual level: {X, tau, label_noise_std, teacher_report, teacher} (gipdyn/estimators/teacher.hpp)");
   m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("verbose") = false);
   m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "

@@ -6,6 +6,7 @@ import pickle
 import re
 import subprocess
 import sys
+import warnings
 
 import numpy as np
 import pytest
@@ -599,3 +600,28 @@ def test_neighbour_consistency_finds_the_noise_and_a_changed_torque():
         gipdyn.neighbour_consistency(X, tau, radius=0)
     with pytest.raises(ValueError, match="both X_test and tau_test"):
         gipdyn.neighbour_consistency(X, tau, X_test=X)
+
+
+def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
+    train = gipdyn.simulate("scara", samples=120, seed=1)
+    kwargs = dict(joints="RRPR", max_iter=40, teacher="lip", teacher_states=150, teacher_hyperparameter_rows=0, seed=3)
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gipdyn.ConvergenceWarning)
+        taught = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"], train["tau"])
+    assert isinstance(taught.teacher_, gipdyn.LagrangianGP)
+    assert taught.model_.num_training_samples == 150  # the drawn states, not the log's 120 rows
+    residual = train["tau"] - taught.teacher_.predict(train["X"])
+    np.testing.assert_allclose(taught.label_noise_std_, np.sqrt((residual ** 2).mean(axis=0)), rtol=1e-10)
+    assert [r["joint"] for r in taught.teacher_report_] == [1, 2, 3, 4]
+    # The student follows its teacher at fresh states of the same box far closer than the torque varies.
+    rng = np.random.default_rng(0)
+    X_box = rng.uniform(train["X"].min(axis=0), train["X"].max(axis=0), size=(200, 12))
+    assert np.all(gipdyn.nmse(taught.teacher_.predict(X_box), taught.predict(X_box)) < 0.05)
+    # Pickles without the teacher (the student is the model).
+    again = pickle.loads(pickle.dumps(taught))
+    assert not hasattr(again, "teacher_")
+    np.testing.assert_allclose(again.predict(train["X"][:5]), taught.predict(train["X"][:5]))
+    with pytest.raises(ValueError, match="teacher_states must be at least"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", teacher_states=2).fit(train["X"], train["tau"])
+    with pytest.raises(ValueError, match="needs a nominal robot"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="fe").fit(train["X"], train["tau"])

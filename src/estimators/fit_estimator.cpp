@@ -11,7 +11,10 @@
 
 namespace gipdyn {
 
-void EstimatorOptions::validate() const { require_known_estimator(name); }
+void EstimatorOptions::validate() const {
+  require_known_estimator(name);
+  if (teacher) teacher->validate();
+}
 
 TrainOptions EstimatorOptions::train_options() const {
   TrainOptions o = gp;
@@ -81,7 +84,21 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
                         const JointTypes& joints, const ProgressCallback& progress) {
   options.validate();
   const auto t0 = std::chrono::steady_clock::now();
-  FitResult result = fit_function(estimator_family(options.name))(options, X, Y, joints, progress);
+  FitResult result;
+  if (options.teacher) {
+    TeachingSet lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
+    if (!lesson.teacher_report.ok()) {
+      result.report.message = "the teacher " + options.teacher->name + " failed: " + lesson.teacher_report.message;
+    } else {
+      EstimatorOptions student = options;
+      student.teacher.reset();
+      result = fit_function(estimator_family(options.name))(student, lesson.X, lesson.Y, joints, progress);
+      result.label_noise_std = std::move(lesson.label_noise_std);
+    }
+    result.teacher_report = std::move(lesson.teacher_report);
+  } else {
+    result = fit_function(estimator_family(options.name))(options, X, Y, joints, progress);
+  }
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (progress) {
     ProgressEvent e;

@@ -1,6 +1,7 @@
 """End-to-end tests of the gipdyn command line: train, predict, evaluate, and bad input."""
 import json
 import os
+import re
 import subprocess
 
 import numpy as np
@@ -125,6 +126,10 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("unknown estimator", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown estimator"),
         ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "--optimizer 'sgd' is unknown; choose lbfgs or adam"),
         ("no L-BFGS memory", HEADER + ROWS, "RR", ["--lbfgs-memory", "0"], "--lbfgs-memory must be at least 1"),
+        ("a teacher that needs a robot", HEADER + ROWS, "RR", ["--teacher", "fe"], "--teacher: 'fe' needs a nominal robot"),
+        ("an unknown teacher", HEADER + ROWS, "RR", ["--teacher", "lap"], "unknown estimator 'lap'"),
+        ("too few teacher states", HEADER + ROWS, "RR", ["--teacher", "lip", "--teacher-states", "2"],
+         "--teacher-states must be at least 5"),
     ],
 )
 def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, message):
@@ -137,6 +142,44 @@ def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, mes
     assert message in lines[0], r.stderr
     assert not out.exists()
     assert [p.name for p in tmp_path.iterdir()] == ["bad.csv"]  # no temporary left behind
+
+
+def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
+    write_dataset(tmp_path / "log.csv", 80, 1)
+    out = tmp_path / "m.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(out), "--teacher",
+            "lip", "--teacher-states", "150", "--teacher-hyperparameter-rows", "0", "--max-iter", "60", "--seed", "4")
+    assert r.returncode == 0, r.stderr
+    assert "taught by lip (hyperparameters on all rows) at 150 states drawn from the log's box" in r.stdout
+    assert "teacher lip: fit" in r.stdout and "student gip on the teacher's torques" in r.stdout
+    noise = [float(v) for v in re.search(r"label noise .*per joint: (.*)", r.stdout).group(1).split()]
+    assert len(noise) == 2 and all(0.005 < v < 0.02 for v in noise), r.stdout  # the log's noise is 0.01
+    header = model_header(out)
+    assert header["kernel"] == "gip" and header["num_training_samples"] == 150  # the drawn states, not the 80 rows
+    teacher = header["teacher"]
+    assert teacher["estimator"] == "lip" and teacher["states"] == 150 and teacher["seed"] == 4
+    assert teacher["label_noise_std"] == pytest.approx(noise, rel=1e-2)
+    # The teacher's warnings are told apart from the student's.
+    assert all(line.startswith("gipdyn: warning: ") for line in r.stderr.splitlines()), r.stderr
+    # The seed draws the states: the same seed, the same model.
+    again = tmp_path / "again.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(again), "--teacher",
+            "lip", "--teacher-states", "150", "--teacher-hyperparameter-rows", "0", "--max-iter", "60", "--seed", "4",
+            "--quiet")
+    assert r.returncode == 0, r.stderr
+    predictions = []
+    for model in (out, again):
+        csv = tmp_path / (model.stem + ".csv")
+        r = run(gipdyn_bin, "predict", "--model", str(model), "--data", str(tmp_path / "log.csv"), "--out", str(csv),
+                "--no-std")
+        assert r.returncode == 0, r.stderr
+        predictions.append(csv.read_text())
+    assert predictions[0] == predictions[1]
+    # The teacher's options without a teacher are refused by the command line parser.
+    lone = tmp_path / "lone.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(lone),
+            "--teacher-states", "100")
+    assert r.returncode != 0 and "--teacher-states requires --teacher" in r.stderr and not lone.exists()
 
 
 def test_lbfgs_memory_reaches_the_optimiser(trained, tmp_path, gipdyn_bin):

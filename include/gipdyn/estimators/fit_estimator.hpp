@@ -3,11 +3,13 @@
 // struct, one progress interface and one result type.
 #include <Eigen/Dense>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/estimators/neural_network.hpp"
+#include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/training.hpp"
@@ -20,7 +22,10 @@ struct EstimatorOptions {
   TrainOptions gp;          // GP estimators (the kernel and robot prior are set from name and robot_prior)
   NeuralNetworkOptions nn;  // nn
   RobotPrior robot_prior;   // the nominal robot of fe, pp, sp
-  // Checks this struct's own fields (the name). The options of the chosen
+  // Set: the estimator learns from a teacher's torques at states drawn from
+  // the data's box instead of from the data (teacher.hpp).
+  std::optional<TeacherOptions> teacher;
+  // Checks this struct's own fields (the name, the teacher's options). The options of the chosen
   // estimator (gp, nn) are checked once, by that estimator's entry point.
   void validate() const;
   // gp with the kernel and robot prior of this estimator.
@@ -30,9 +35,14 @@ struct EstimatorOptions {
 struct FitResult {
   FitReport report;  // status, time, per-joint reports for GP estimators
   std::unique_ptr<Estimator> estimator;  // null unless report.ok()
+  // With EstimatorOptions::teacher: the teacher's fit and the label noise
+  // (per joint) of the states the estimator learned from.
+  std::optional<FitReport> teacher_report;
+  Eigen::VectorXd label_noise_std;
 };
 
-// Fits the named estimator. Bad options or data throw gipdyn::Error before any
+// Fits the named estimator (with a teacher: the teacher, then the estimator on
+// its labelled states; a teacher that fails fails the fit). Bad options or data throw gipdyn::Error before any
 // work; a numerical failure is reported in FitResult::report. progress may be
 // called from worker threads; it ends with one finished event for the whole fit.
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

@@ -1,0 +1,59 @@
+#pragma once
+// Learning from a teacher. One estimator (the teacher, e.g. LIP) is fitted on
+// the logged rows; it then labels states drawn uniformly from the box the log
+// spans (each of q, qd, qdd of every joint between its smallest and largest
+// logged value) with its torques plus noise at its own residual level; another
+// estimator (the student, e.g. GIP) learns from those labels. On one short
+// motion the student then extrapolates like the teacher, at its own cost a
+// query: LIP's structure, GIP's microseconds (docs/training.md, "GIP taught by
+// LIP"). The student is as good as the teacher is over the box, not better.
+#include <Eigen/Dense>
+#include <cstdint>
+#include <memory>
+#include <string>
+
+#include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/model/fit_report.hpp"
+#include "gipdyn/model/training.hpp"
+#include "gipdyn/progress.hpp"
+
+namespace gipdyn {
+
+struct TeacherOptions {
+  // An estimator of estimator_registry.hpp that needs no nominal robot.
+  std::string name = "lip";
+  // States drawn from the box, labelled by the teacher: the student's training rows.
+  int states = 2000;
+  // The teacher learns its hyperparameters on a constant-step subsample of this
+  // many logged rows, then is conditioned on all of them (TrainOptions::
+  // hyperparameter_rows; a LIP system is (N n) x (N n)). 0: on every row.
+  int hyperparameter_rows = 300;
+  // Seed of the drawn states and of their label noise.
+  std::uint64_t seed = 0;
+
+  // Throws gipdyn::Error naming the bad field.
+  void validate() const;
+  // The teacher's GP options, derived from the student's: its optimiser,
+  // gradient tolerance, restarts, seed, noise start and floor, jitter and
+  // threads; the kernel is `name`, hyperparameter_rows this struct's, the rest
+  // (scaling, mean, prior, warm start, inducing points) the library's defaults.
+  TrainOptions teacher_train_options(const TrainOptions& student) const;
+};
+
+struct TeachingSet {
+  FitReport teacher_report;
+  std::unique_ptr<Estimator> teacher;  // null unless teacher_report.ok()
+  Eigen::MatrixXd X;                   // TeacherOptions::states x 3n: the drawn states
+  Eigen::MatrixXd Y;                   // states x n: the teacher's torques plus label noise
+  // Per joint: the root mean square of the teacher's residual on the logged
+  // rows, the standard deviation of the label noise.
+  Eigen::VectorXd label_noise_std;
+};
+
+// Fits the teacher on (X, Y) and labels TeacherOptions::states drawn states.
+// Bad options or data throw gipdyn::Error before any work; a teacher that
+// fails to fit is reported in TeachingSet::teacher_report (X, Y then empty).
+TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
+                  const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress = {});
+
+}  // namespace gipdyn

@@ -1,0 +1,126 @@
+// Learning from a teacher (estimators/teacher.hpp): the states are drawn from
+// the log's box with their seed and labelled by the teacher with noise at its
+// residual level, and a student trained on them predicts a new motion like
+// the teacher does.
+#include <gtest/gtest.h>
+
+#include <cmath>
+
+#include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/teacher.hpp"
+#include "gipdyn/metrics.hpp"
+#include "test_util.hpp"
+
+namespace gipdyn {
+namespace {
+
+using test::two_link_torques;
+using test::two_link_trajectory;
+
+const JointTypes kTwoLink = JointTypes::parse("RR");
+
+double mean_nmse(const Eigen::MatrixXd& truth, const Eigen::MatrixXd& predicted) {
+  return compute_accuracy(truth, predicted).nmse.mean();
+}
+
+TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledAtTheTeachersResidualLevel) {
+  const Eigen::MatrixXd X = two_link_trajectory(80, 0.15, 1);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 2);
+  TeacherOptions o;
+  o.states = 400;
+  o.hyperparameter_rows = 0;
+  o.seed = 5;
+  const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
+  ASSERT_TRUE(set.teacher);
+  EXPECT_EQ(set.teacher->name(), "lip");
+  ASSERT_EQ(set.X.rows(), 400);
+  ASSERT_EQ(set.X.cols(), 6);
+  ASSERT_EQ(set.Y.rows(), 400);
+  ASSERT_EQ(set.Y.cols(), 2);
+
+  // Every drawn coordinate inside the log's range, and together they fill it.
+  const Eigen::RowVectorXd lo = X.colwise().minCoeff(), hi = X.colwise().maxCoeff();
+  for (Eigen::Index c = 0; c < 6; ++c) {
+    EXPECT_GE(set.X.col(c).minCoeff(), lo(c)) << "column " << c;
+    EXPECT_LE(set.X.col(c).maxCoeff(), hi(c)) << "column " << c;
+    EXPECT_GT(set.X.col(c).maxCoeff() - set.X.col(c).minCoeff(), 0.95 * (hi(c) - lo(c))) << "column " << c;
+  }
+  // Not the log's states: joint 1's and joint 2's positions are drawn independently, so
+  // their correlation along the drawn states is near zero whatever it is along the log.
+  const Eigen::VectorXd a = set.X.col(0).array() - set.X.col(0).mean(), b = set.X.col(1).array() - set.X.col(1).mean();
+  EXPECT_LT(std::abs(a.dot(b)) / (a.norm() * b.norm()), 0.15);
+
+  // The label noise is the teacher's RMS residual on the log, and the labels
+  // scatter around the teacher's torques by that much.
+  const Eigen::MatrixXd residual = Y - set.teacher->predict(X);
+  const Eigen::MatrixXd label_noise = set.Y - set.teacher->predict(set.X);
+  for (int j = 0; j < 2; ++j) {
+    const double rms = std::sqrt(residual.col(j).squaredNorm() / static_cast<double>(X.rows()));
+    EXPECT_NEAR(set.label_noise_std(j), rms, 1e-12 * rms) << "joint " << j + 1;
+    EXPECT_GT(rms, 0.003) << "joint " << j + 1 << ": the log's noise is 0.01";
+    const double spread = std::sqrt(label_noise.col(j).squaredNorm() / 400.0);
+    EXPECT_NEAR(spread, rms, 0.15 * rms) << "joint " << j + 1;
+  }
+
+  // The same seed draws the same states and labels; another seed others.
+  const TeachingSet again = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  EXPECT_TRUE(again.X == set.X);
+  EXPECT_TRUE(again.Y == set.Y);
+  o.seed = 6;
+  const TeachingSet other = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  EXPECT_GT((other.X - set.X).cwiseAbs().maxCoeff(), 0.1);
+}
+
+TEST(Teacher, GipTaughtByLipOnAShortMotionPredictsANewMotionLikeLip) {
+  // One short motion of the 2R arm, a new motion to predict.
+  const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  const Eigen::MatrixXd Xtest = two_link_trajectory(300, 0.1, 13);
+  const Eigen::MatrixXd truth = two_link_torques(Xtest);
+
+  EstimatorOptions gip;
+  FitResult on_log = fit_estimator(gip, X, Y, kTwoLink);
+  EstimatorOptions lip;
+  lip.name = "lip";
+  FitResult teacher = fit_estimator(lip, X, Y, kTwoLink);
+  EstimatorOptions taught;
+  taught.teacher = TeacherOptions{};
+  taught.teacher->states = 600;
+  FitResult student = fit_estimator(taught, X, Y, kTwoLink);
+  ASSERT_TRUE(on_log.report.ok() && teacher.report.ok() && student.report.ok()) << student.report.message;
+  ASSERT_TRUE(student.teacher_report);
+  EXPECT_TRUE(student.teacher_report->ok());
+  EXPECT_EQ(student.estimator->name(), "gip");
+  EXPECT_EQ(student.label_noise_std.size(), 2);
+
+  const double e_gip = mean_nmse(truth, on_log.estimator->predict(Xtest));
+  const double e_lip = mean_nmse(truth, teacher.estimator->predict(Xtest));
+  const double e_taught = mean_nmse(truth, student.estimator->predict(Xtest));
+  // Measured: GIP on the log 0.12, LIP 8.4e-5, GIP taught by LIP 8.9e-5.
+  EXPECT_LT(e_taught, 3.0 * e_lip) << "GIP on the log " << e_gip << ", LIP " << e_lip;
+  EXPECT_LT(30.0 * e_taught, e_gip) << "LIP " << e_lip;
+}
+
+TEST(Teacher, BadOptionsAreNamedBeforeAnyWork) {
+  const Eigen::MatrixXd X = two_link_trajectory(40, 0.1, 1);
+  const Eigen::MatrixXd Y = two_link_torques(X);
+  EstimatorOptions o;
+  o.teacher = TeacherOptions{};
+  o.teacher->states = 3;
+  EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("TeacherOptions::states"), std::string::npos);
+  o.teacher->states = 100;
+  o.teacher->hyperparameter_rows = -1;
+  EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("TeacherOptions::hyperparameter_rows"),
+            std::string::npos);
+  o.teacher->hyperparameter_rows = 0;
+  o.teacher->name = "fe";
+  EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("nominal robot"), std::string::npos);
+  o.teacher->name = "lap";
+  EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("lip"), std::string::npos);
+  o.teacher->name = "lip";
+  EXPECT_NE(test::error_of([&] { teach(*o.teacher, TrainOptions{}, X, Y.leftCols(1), kTwoLink); }), "");
+}
+
+}  // namespace
+}  // namespace gipdyn
