@@ -42,7 +42,9 @@ EstimatorOptions base_options(const EstimatorArgs& args) {
 Command add_experiment(CLI::App& app) {
   app.require_subcommand(1);
   auto quiet = std::make_shared<bool>(false);
-  const std::string estimator_help = "Comma-separated estimators from: " + estimator_list();
+  const std::string estimator_help = "Comma-separated estimators from: " + estimator_list() +
+                                     "; or STUDENT@TEACHER, e.g. gip@lip: the student trained on the teacher's torques "
+                                     "at 2000 states drawn from the training log's box (train --teacher)";
 
   struct AccuracyArgs {
     AccuracyConfig config;

@@ -122,13 +122,25 @@ void WarmStarts::store(const std::string& estimator, const std::vector<Eigen::Ve
   write_file_atomically(path_, [&](std::ostream& o) { o << j.dump(2) << "\n"; });
 }
 
+EstimatorSpec parse_estimator_spec(const std::string& name) {
+  const auto at = name.find('@');
+  if (at == std::string::npos) return {name, ""};
+  return {name.substr(0, at), name.substr(at + 1)};
+}
+
 EstimatorOptions options_for(const EstimatorOptions& base, const std::string& name, const RobotPrior& prior,
                              std::uint64_t seed) {
+  const EstimatorSpec spec = parse_estimator_spec(name);
   EstimatorOptions o = base;
-  o.name = name;
-  if (estimator_needs_robot(name)) o.robot_prior = prior;
+  o.name = spec.student;
+  if (estimator_needs_robot(spec.student)) o.robot_prior = prior;
   o.gp.seed = seed;
   o.nn.seed = seed;
+  if (!spec.teacher.empty()) {
+    o.teacher = TeacherOptions{};
+    o.teacher->name = spec.teacher;
+    o.teacher->seed = seed;
+  }
   return o;
 }
 
@@ -160,7 +172,19 @@ nlohmann::json base_options_json(const EstimatorOptions& b) {
 
 void validate_estimators(const std::vector<std::string>& estimators) {
   if (estimators.empty()) throw Error("--estimators: name at least one estimator");
-  for (const auto& e : estimators) require_known_estimator(e);
+  for (const auto& e : estimators) {
+    const EstimatorSpec spec = parse_estimator_spec(e);
+    require_known_estimator(spec.student);
+    if (e.find('@') == std::string::npos) continue;
+    TeacherOptions teacher;
+    teacher.name = spec.teacher;
+    try {
+      teacher.validate();
+    } catch (const Error& error) {
+      throw Error("--estimators: '" + e + "' names a teacher it cannot use (" + error.what() +
+                  "); write STUDENT@TEACHER, e.g. gip@lip");
+    }
+  }
 }
 
 void validate_base_options(const EstimatorOptions& base) {

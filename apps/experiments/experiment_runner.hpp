@@ -59,12 +59,22 @@ struct FitAndPredict {
 FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                               const JointTypes& joints, const Eigen::MatrixXd& Xtest);
 
-// The base options for estimator `name`: its name, the nominal robot if it needs one, the seed.
+// An experiment's estimator: a name of estimator_registry.hpp, or
+// "STUDENT@TEACHER" (e.g. gip@lip): the student trained on the teacher's
+// torques at states drawn from the training log's box (estimators/teacher.hpp,
+// TeacherOptions' defaults and the run's seed).
+struct EstimatorSpec {
+  std::string student, teacher;  // teacher: empty without one
+};
+EstimatorSpec parse_estimator_spec(const std::string& name);
+
+// The base options for estimator `name` (a spec as above): its name, the
+// nominal robot if it needs one, the teacher if any, the seed.
 EstimatorOptions options_for(const EstimatorOptions& base, const std::string& name, const RobotPrior& prior,
                              std::uint64_t seed);
 // The options that change results, for config.json.
 nlohmann::json base_options_json(const EstimatorOptions& base);
-// Throws gipdyn::Error for an empty list or an unknown name.
+// Throws gipdyn::Error for an empty list, an unknown name or a bad teacher.
 void validate_estimators(const std::vector<std::string>& estimators);
 // Checks the GP and network options shared by every fit once, before the
 // first fit, so that a bad option stops the experiment instead of failing every fit.

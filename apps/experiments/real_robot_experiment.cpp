@@ -48,7 +48,7 @@ void RealRobotConfig::validate() const {
   validate_estimators(estimators);
   validate_base_options(base);
   for (const auto& e : estimators)
-    if (estimator_needs_robot(e) && robot.empty())
+    if (estimator_needs_robot(parse_estimator_spec(e).student) && robot.empty())
       throw Error("estimator '" + e + "' needs the nominal robot; pass --robot or drop it from --estimators");
 }
 
@@ -168,7 +168,8 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
   for (const auto& e : c.estimators) {
     if (table.contains({{"estimator", e}})) continue;
     // GP estimators scale as N^3 and get the subsample; fe uses every training row, nn its own subsample.
-    const Dataset& d = is_kernel_estimator(e) ? train_gp : e == "nn" ? train_nn : train;
+    const std::string student = parse_estimator_spec(e).student;
+    const Dataset& d = is_kernel_estimator(student) ? train_gp : student == "nn" ? train_nn : train;
     note(progress, e + ": fitting " + std::to_string(d.rows()) + " rows (elapsed " +
                duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
     const Eigen::MatrixXd Xtest = test_inputs(c, s, d);

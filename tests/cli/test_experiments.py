@@ -36,6 +36,27 @@ def accuracy(binary, out, runs):
                "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST)
 
 
+def test_accuracy_compares_a_student_taught_by_lip_with_its_teacher(tmp_path, gipdyn_bin):
+    # One short motion of the SCARA (40 samples over 4 s): gip@lip is GIP trained on LIP's torques at drawn states.
+    out = tmp_path / "taught"
+    r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "40", "--dt", "0.1",
+            "--seed", "5", "--estimators", "gip,lip,gip@lip", "--out", str(out), "--max-iter", "40")
+    assert r.returncode == 0, r.stderr
+    nmse = {(x["estimator"], x["joint"]): float(x["nmse"]) for x in rows(out / "nmse.csv")}
+    assert {e for e, _ in nmse} == {"gip", "lip", "gip@lip"}
+    assert all(np.isfinite(v) for v in nmse.values())
+    # The student is GIP (one report per joint), and it follows LIP more closely than GIP on the log does.
+    fits = [x for x in rows(out / "fit_reports.csv") if x["estimator"] == "gip@lip"]
+    assert [x["joint"] for x in fits] == ["1", "2", "3", "4"]
+    log_error = [abs(np.log10(nmse[("gip@lip", str(j))] / nmse[("lip", str(j))])) for j in range(1, 5)]
+    gip_error = [abs(np.log10(nmse[("gip", str(j))] / nmse[("lip", str(j))])) for j in range(1, 5)]
+    assert sum(log_error) < sum(gip_error), nmse
+    r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "40",
+            "--estimators", "gip@fe", "--out", str(tmp_path / "bad"))
+    assert r.returncode != 0 and "'gip@fe' names a teacher it cannot use" in r.stderr
+    assert not (tmp_path / "bad").exists()
+
+
 def test_accuracy_writes_documented_files_and_resumes(tmp_path, gipdyn_bin):
     out = tmp_path / "e1"
     r = accuracy(gipdyn_bin, out, 2)
