@@ -169,7 +169,9 @@ Command add_train(CLI::App& app) {
       if (o.teacher)
         std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box",
                     o.teacher->name.c_str(),
-                    o.teacher->hyperparameter_rows > 0 ? std::to_string(o.teacher->hyperparameter_rows).c_str() : "all",
+                    o.teacher->hyperparameter_rows > 0 && o.teacher->hyperparameter_rows < data.rows()
+                        ? std::to_string(o.teacher->hyperparameter_rows).c_str()
+                        : "all",
                     o.teacher->states);
       std::printf("\n");
       std::fflush(stdout);
