@@ -220,7 +220,6 @@ py::dict teach_states(ConstRef X, ConstRef Y, const std::string& joints, const T
     Outcome o;
     o.set = teach(options, student, Xm, Ym, jt, cb);
     o.report = o.set.teacher_report;
-    if (!o.report.ok()) o.report.message = "the teacher " + options.name + " failed: " + o.report.message;
     return o;
   });
   py::dict d;

@@ -88,7 +88,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
   if (options.teacher) {
     TeachingSet lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
     if (!lesson.teacher_report.ok()) {
-      result.report.message = "the teacher " + options.teacher->name + " failed: " + lesson.teacher_report.message;
+      result.report.message = lesson.teacher_report.message;
     } else {
       EstimatorOptions student = options;
       student.teacher.reset();

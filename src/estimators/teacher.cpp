@@ -49,7 +49,10 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
 
   TeachingSet set;
   set.teacher_report = std::move(fit.report);
-  if (!set.teacher_report.ok()) return set;
+  if (!set.teacher_report.ok()) {
+    set.teacher_report.message = "the teacher " + options.name + " failed: " + set.teacher_report.message;
+    return set;
+  }
   set.teacher = std::move(fit.estimator);
 
   const Eigen::MatrixXd residual = Y - set.teacher->predict(X);

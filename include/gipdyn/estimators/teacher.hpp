@@ -52,7 +52,8 @@ struct TeachingSet {
 
 // Fits the teacher on (X, Y) and labels TeacherOptions::states drawn states.
 // Bad options or data throw gipdyn::Error before any work; a teacher that
-// fails to fit is reported in TeachingSet::teacher_report (X, Y then empty).
+// fails to fit is reported in TeachingSet::teacher_report, whose message then
+// names the teacher ("the teacher lip failed: ..."; X, Y empty).
 TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
                   const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress = {});
 
