@@ -348,6 +348,53 @@ void BM_LipPredictOne(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " all joints");
 }
 
+// One query's torques both ways, whichever LagrangianEstimator would choose:
+// the weight-space polynomials (LagrangianWeightSpaceMean, built once) and the
+// kernel-space sum of one n x n block per training row.
+void BM_LipQueryWeightSpace(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const int n = p.joints.size();
+  const LagrangianWeightSpaceMean mean(lip_kernel(p), p.X, Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
+  LagrangianWeightSpaceMean::Workspace w(mean);
+  const Eigen::VectorXd x = p.X.row(0).transpose();
+  Eigen::VectorXd tau(n);
+  for (auto _ : state) {
+    mean.mean(x.data(), w, tau.data());
+    benchmark::DoNotOptimize(tau.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " " +
+                 std::to_string(static_cast<long>(LagrangianWeightSpaceMean::kinetic_monomials(p.joints))) +
+                 " monomials per coefficient" +
+                 (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? ", chosen" : ""));
+}
+
+void BM_LipQueryKernelSpace(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const int n = p.joints.size();
+  const LagrangianKernel k = lip_kernel(p);
+  LagrangianKernel::PairScratch scratch(k);
+  const Eigen::MatrixXd states = p.X.transpose();
+  const Eigen::VectorXd alpha = Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3);
+  Eigen::MatrixXd block(n, n);
+  Eigen::VectorXd tau(n);
+  for (auto _ : state) {
+    tau.setZero();
+    for (Eigen::Index r = 0; r < states.cols(); ++r) {
+      k.torque_block(states.col(0).data(), states.col(r).data(), scratch, block);
+      tau.noalias() += block * alpha.segment(r * n, n);
+    }
+    benchmark::DoNotOptimize(tau.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) +
+                 (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? "" : ", chosen"));
+}
+
+void lip_query_sizes(benchmark::internal::Benchmark* b) {
+  for (int robot : {4, 6})
+    for (int N : {50, 150, 600, 2000}) b->Args({robot, N});
+  b->Unit(benchmark::kMicrosecond);
+}
+
 void lip_sizes(benchmark::internal::Benchmark* b) {
   for (int robot : {4, 6})
     for (int N : {150, 300, 600}) b->Args({robot, N});
@@ -386,6 +433,8 @@ BENCHMARK(BM_AddOneSampleSparse)
 BENCHMARK(BM_LipGram)->Apply(lip_sizes);
 BENCHMARK(BM_LipGradient)->Apply(lip_sizes);
 BENCHMARK(BM_LipPredictOne)->Apply(lip_sizes)->Unit(benchmark::kMicrosecond);
+BENCHMARK(BM_LipQueryWeightSpace)->Apply(lip_query_sizes);
+BENCHMARK(BM_LipQueryKernelSpace)->Apply(lip_query_sizes);
 BENCHMARK(BM_Train)->Apply(sizes)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 
 // Collects per-case times to print the NLL-gradient / potrf+potri ratio.

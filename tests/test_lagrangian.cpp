@@ -10,6 +10,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
+#include "gipdyn/kernels/lagrangian_weight_space.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/training_data.hpp"
@@ -199,6 +200,35 @@ TEST_P(LagrangianKernelTest, GramIsSymmetricPositiveSemidefiniteAndMatchesItsLow
   EXPECT_GT(eig.eigenvalues().minCoeff(), -1e-9 * eig.eigenvalues().maxCoeff());
 }
 
+// The weight-space mean is the same function as the kernel-space sum
+// sum_r K(x, x_r) alpha_r, for any weights alpha, up to rounding.
+TEST_P(LagrangianKernelTest, WeightSpaceMeanEqualsTheKernelSum) {
+  std::mt19937_64 rng(11);
+  const LagrangianKernel k = random_kernel(GetParam(), rng);
+  const int n = k.joints().size();
+  const int rows = 12;
+  Eigen::MatrixXd X(rows, 3 * n), Q(5, 3 * n);
+  for (int r = 0; r < rows; ++r) X.row(r) = random_state(n, rng).transpose();
+  for (int r = 0; r < Q.rows(); ++r) Q.row(r) = random_state(n, rng).transpose();
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd alpha(rows * n);
+  for (Eigen::Index i = 0; i < alpha.size(); ++i) alpha(i) = normal(rng);
+  const Eigen::MatrixXd K = k.torque_covariance(Q, X);
+  const Eigen::VectorXd kernel_sum = K * alpha;
+  const Eigen::VectorXd magnitude = K.cwiseAbs() * alpha.cwiseAbs();  // what rounding scales with
+  const LagrangianWeightSpaceMean mean(k, X, alpha);
+  const Eigen::MatrixXd weight = mean.mean(Q);
+  LagrangianWeightSpaceMean::Workspace w(mean);
+  Eigen::VectorXd single(n);
+  for (int r = 0; r < Q.rows(); ++r) {
+    const Eigen::VectorXd x = Q.row(r).transpose();
+    mean.mean(x.data(), w, single.data());
+    EXPECT_EQ(single, weight.row(r).transpose());
+    for (int i = 0; i < n; ++i)
+      EXPECT_NEAR(weight(r, i), kernel_sum(r * n + i), 1e-11 * magnitude(r * n + i)) << "state " << r << " joint " << i;
+  }
+}
+
 INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest, ::testing::Values("R", "RR", "RRPR", "RPRRRR", "R+friction",
                                                                        "RRPR+friction"));
 
@@ -251,6 +281,34 @@ TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
   // Training is deterministic.
   const FitResult again = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
   EXPECT_EQ(again.estimator->predict(test.X), r.estimator->predict(test.X));
+}
+
+// A SCARA model answers in weight space (LagrangianWeightSpaceMean), with the
+// kernel-space sum's torques, through predict and through a query workspace.
+TEST(LagrangianEstimator, ScaraModelAnswersInWeightSpaceWithTheKernelSumsTorques) {
+  const SimulationResult train = small_scara(1, 60), test = small_scara(2, 10);
+  for (const char* name : {"lip", "lip+friction"}) {
+    SCOPED_TRACE(name);
+    EstimatorOptions o;
+    o.name = name;
+    o.gp.optimizer.max_iterations = 30;
+    const FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
+    ASSERT_TRUE(r.report.ok()) << r.report.message;
+    const auto& model = dynamic_cast<const LagrangianEstimator&>(*r.estimator);
+    ASSERT_TRUE(model.queries_in_weight_space());
+    const Eigen::MatrixXd K = model.kernel().torque_covariance(test.X, model.training_inputs());
+    const Eigen::VectorXd kernel_sum = model.torque_scale() * (K * model.weights());
+    const Eigen::VectorXd magnitude = model.torque_scale() * (K.cwiseAbs() * model.weights().cwiseAbs());
+    const Eigen::MatrixXd tau = model.predict(test.X);
+    auto workspace = model.make_query_workspace();
+    Eigen::VectorXd one(4);
+    for (Eigen::Index r2 = 0; r2 < test.X.rows(); ++r2) {
+      const Eigen::VectorXd x = test.X.row(r2).transpose();
+      workspace->predict(x.data(), one.data());
+      EXPECT_EQ(one, tau.row(r2).transpose());
+      for (int i = 0; i < 4; ++i) EXPECT_NEAR(tau(r2, i), kernel_sum(r2 * 4 + i), 1e-11 * magnitude(r2 * 4 + i));
+    }
+  }
 }
 
 // With friction the model keeps its name through a file, and the friction

@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cstdlib>
 #include <new>
+#include <vector>
 
 #include <unistd.h>
 
@@ -13,6 +14,7 @@
 
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/gipdyn.h"
@@ -214,14 +216,20 @@ void expect_queries_do_not_allocate(const Estimator& estimator, const std::strin
   ASSERT_EQ(gipdyn_model_allocation_free(model), 1);
   gipdyn_workspace* ws = nullptr;
   ASSERT_EQ(gipdyn_workspace_create(model, &ws), GIPDYN_OK);
-  double q[4] = {0.1, -0.2, 0.1, 0.3}, qd[4] = {0.5, 0.1, 0.0, -0.2}, qdd[4] = {1, 2, 0.1, -1}, tau[4], M[16];
-  ASSERT_EQ(gipdyn_inertia(ws, q, 4, M), GIPDYN_OK);  // warm-up
+  const int n = estimator.joints().size();
+  std::vector<double> q(static_cast<size_t>(n)), qd(q), qdd(q), tau(q), M(static_cast<size_t>(n * n));
+  for (int i = 0; i < n; ++i) {
+    q[static_cast<size_t>(i)] = 0.1 * (i % 3) - 0.2;
+    qd[static_cast<size_t>(i)] = 0.5 - 0.3 * i;
+    qdd[static_cast<size_t>(i)] = 1.0 - 0.7 * i;
+  }
+  ASSERT_EQ(gipdyn_inertia(ws, q.data(), n, M.data()), GIPDYN_OK);  // warm-up
   gipdyn_status statuses[10][3];
   EXPECT_EQ(allocations_during([&] {
               for (auto& s : statuses) {
-                s[0] = gipdyn_predict(ws, q, qd, qdd, 4, tau);
-                s[1] = gipdyn_gravity(ws, q, 4, tau);
-                s[2] = gipdyn_inertia(ws, q, 4, M);
+                s[0] = gipdyn_predict(ws, q.data(), qd.data(), qdd.data(), n, tau.data());
+                s[1] = gipdyn_gravity(ws, q.data(), n, tau.data());
+                s[2] = gipdyn_inertia(ws, q.data(), n, M.data());
               }
             }),
             0);
@@ -233,18 +241,25 @@ void expect_queries_do_not_allocate(const Estimator& estimator, const std::strin
 
 // lip and fe C API queries allocate nothing either: LIP's n x n blocks and
 // fe's regressor are built in the workspace. Torque, gravity and inertia alike.
+// LIP answers in weight space on the SCARA and in kernel space on a 6R arm
+// with few rows (LagrangianWeightSpaceMean::worthwhile): both are checked.
 TEST(NoAllocation, CApiLagrangianAndFisherianQueriesDoNotAllocate) {
-  const JointTypes joints = JointTypes::parse("RRPR");
-  const Eigen::MatrixXd X = test::random_inputs(joints, 40, 65);
-  for (const char* name : {"lip", "fe"}) {
-    SCOPED_TRACE(name);
+  for (const auto& [name, spec] : {std::pair<std::string, std::string>{"lip", "RRPR"}, {"lip", "RRRRRR"}, {"fe", "RRPR"}}) {
+    SCOPED_TRACE(name + " " + spec);
+    const JointTypes joints = JointTypes::parse(spec);
+    const int rows = spec == "RRPR" ? 40 : 12;
+    const Eigen::MatrixXd X = test::random_inputs(joints, rows, 65);
     EstimatorOptions o;
     o.name = name;
     o.gp.optimizer.max_iterations = 5;
     o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
-    const FitResult fitted = fit_estimator(o, X, test::random_matrix(40, 4, -1.0, 1.0, 915), joints);
+    const FitResult fitted =
+        fit_estimator(o, X, test::random_matrix(rows, joints.size(), -1.0, 1.0, 915), joints);
     ASSERT_TRUE(fitted.report.ok()) << fitted.report.message;
-    expect_queries_do_not_allocate(*fitted.estimator, std::string("gipdyn_c_api_") + name);
+    if (name == "lip") {
+      EXPECT_EQ(dynamic_cast<const LagrangianEstimator&>(*fitted.estimator).queries_in_weight_space(), spec == "RRPR");
+    }
+    expect_queries_do_not_allocate(*fitted.estimator, "gipdyn_c_api_" + name + spec);
   }
 }
 

@@ -40,6 +40,7 @@
 #include "gipdyn/kernels/kernel.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
+#include "gipdyn/kernels/lagrangian_weight_space.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
 #include "gipdyn/kernels/parametric_kernel.hpp"
 #include "gipdyn/kernels/rbf_kernel.hpp"

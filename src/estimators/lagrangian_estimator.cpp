@@ -137,9 +137,27 @@ class LagrangianQueryWorkspace final : public QueryWorkspace {
   Eigen::VectorXd tau_;
 };
 
+class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
+ public:
+  LagrangianWeightSpaceQueryWorkspace(std::shared_ptr<const LagrangianWeightSpaceMean> mean, double scale)
+      : mean_(std::move(mean)), scale_(scale), workspace_(*mean_) {}
+
+  void predict(const double* x, double* tau) override {
+    mean_->mean(x, workspace_, tau);
+    Eigen::Map<Eigen::VectorXd>(tau, mean_->num_joints()) *= scale_;
+  }
+  bool allocation_free() const override { return true; }
+
+ private:
+  std::shared_ptr<const LagrangianWeightSpaceMean> mean_;
+  double scale_;
+  LagrangianWeightSpaceMean::Workspace workspace_;
+};
+
 }  // namespace
 
 std::unique_ptr<QueryWorkspace> LagrangianEstimator::make_query_workspace() const {
+  if (weight_space_) return std::make_unique<LagrangianWeightSpaceQueryWorkspace>(weight_space_, scale_);
   return std::make_unique<LagrangianQueryWorkspace>(kernel_, X_, alpha_, scale_);
 }
 
@@ -150,6 +168,8 @@ LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorX
   const int n = kernel_.joints().size();
   if (noise_.size() != n || X_.cols() != 3 * n || alpha_.size() != X_.rows() * n || !(scale_ > 0.0))
     throw Error("LagrangianEstimator: inconsistent shapes (noise, training states, weights or scale)");
+  if (LagrangianWeightSpaceMean::worthwhile(kernel_.joints(), X_.rows()))
+    weight_space_ = std::make_shared<const LagrangianWeightSpaceMean>(kernel_, X_, alpha_);
 }
 
 LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
@@ -302,6 +322,7 @@ Eigen::MatrixXd LagrangianEstimator::predict(const Eigen::Ref<const Eigen::Matri
   if (X.cols() != 3 * n)
     throw Error("lip predict: " + std::to_string(X.cols()) + " columns given, " + std::to_string(3 * n) +
                 " expected (q, qd, qdd of " + std::to_string(n) + " joints)");
+  if (weight_space_) return weight_space_->mean(X) * scale_;
   Eigen::MatrixXd tau(X.rows(), n);
   constexpr Eigen::Index kRows = 256;  // bounds the (rows n) x (N n) cross-covariance
   for (Eigen::Index r0 = 0; r0 < X.rows(); r0 += kRows) {

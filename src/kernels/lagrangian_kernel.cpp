@@ -332,6 +332,39 @@ void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTe
     for (int m = 0; m < n; ++m) K(m, m) += friction_covariance(m, qd1(m), qd2(m));
 }
 
+void LagrangianKernel::kinetic_monomial_weights(int joint, double* w) const {
+  const double* f = params_.data() + kinetic_offset_[static_cast<size_t>(joint)];
+  const double* g = f + factor_size(joint);
+  // (f0 + f1 z1 z1' + f2 z2 z2') (g0 + g1 z1 z1' + g2 z2 z2'), expanded in monomials of z.
+  if (!joints_.is_revolute(joint)) {
+    w[0] = f[0] * g[0];
+    w[1] = f[0] * g[1] + f[1] * g[0];
+    w[2] = f[1] * g[1];
+    return;
+  }
+  w[0] = f[0] * g[0];
+  w[1] = f[0] * g[1] + f[1] * g[0];
+  w[2] = f[0] * g[2] + f[2] * g[0];
+  w[3] = f[1] * g[1];
+  w[4] = f[2] * g[2];
+  w[5] = f[1] * g[2] + f[2] * g[1];
+}
+
+void LagrangianKernel::potential_monomial_weights(int joint, double* w) const {
+  const double* f = params_.data() + potential_joint_[static_cast<size_t>(joint)];
+  for (int k = 0; k < factor_size(joint); ++k) w[k] = f[k];
+}
+
+Eigen::Vector4d LagrangianKernel::friction_features_at(int joint, double v) const {
+  const int o = friction_offset_ + FrictionKernel::kNumParams * joint;
+  return friction_features(v, log_params_(o + FrictionKernel::kCoulombVelocity),
+                           log_params_(o + FrictionKernel::kStribeckVelocity));
+}
+
+Eigen::Vector4d LagrangianKernel::friction_variances(int joint) const {
+  return params_.segment<4>(friction_offset_ + FrictionKernel::kNumParams * joint);
+}
+
 double LagrangianKernel::friction_covariance(int m, double v1, double v2) const {
   const int o = friction_offset_ + FrictionKernel::kNumParams * m;
   const double log_vc = log_params_(o + FrictionKernel::kCoulombVelocity);

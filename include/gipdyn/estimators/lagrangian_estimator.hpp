@@ -12,6 +12,7 @@
 
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
+#include "gipdyn/kernels/lagrangian_weight_space.hpp"
 #include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/progress.hpp"
@@ -45,8 +46,11 @@ class LagrangianEstimator final : public Estimator {
 
   std::string name() const override { return kernel_.has_friction() ? "lip+friction" : "lip"; }
   const JointTypes& joints() const override { return kernel_.joints(); }
+  // In weight space where that is cheaper (LagrangianWeightSpaceMean::worthwhile:
+  // arms of up to about four joints), else one n x n block per training row.
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
-  // Single queries make no heap allocation: one n x n block per training row.
+  // Single queries make no heap allocation, in either space.
+  bool queries_in_weight_space() const { return weight_space_ != nullptr; }
   std::unique_ptr<QueryWorkspace> make_query_workspace() const override;
   ModelContainer to_container() const override;
   nlohmann::json summary() const override;
@@ -72,6 +76,9 @@ class LagrangianEstimator final : public Estimator {
   const LagrangianKernel& kernel() const { return kernel_; }
   const Eigen::VectorXd& noise_variances() const { return noise_; }  // per joint, N m^2 (or N^2)
   const Eigen::MatrixXd& training_inputs() const { return X_; }
+  // alpha and the torques' scale: the mean is torque_scale() sum_r K(x, x_r) alpha_r.
+  const Eigen::VectorXd& weights() const { return alpha_; }
+  double torque_scale() const { return scale_; }
 
  private:
   Eigen::MatrixXd state_rows(const Eigen::Ref<const Eigen::MatrixXd>& X, int min_cols, const char* what) const;
@@ -83,6 +90,7 @@ class LagrangianEstimator final : public Estimator {
   double scale_ = 1.0;
   Eigen::MatrixXd X_;
   Eigen::VectorXd alpha_;
+  std::shared_ptr<const LagrangianWeightSpaceMean> weight_space_;  // null where kernel space is cheaper
   Eigen::MatrixXd factor_;  // lower Cholesky factor of the scaled training covariance plus noise, or empty
 };
 

@@ -88,6 +88,21 @@ class LagrangianKernel {
   // FrictionKernel::initialize with target_variance / 4 on each joint.
   void initialize(const Eigen::MatrixXd& X, double target_variance);
 
+  // The kernel as sums of monomials (kernels/lagrangian_weight_space.hpp). Joint
+  // m's pair of kinetic factors is sum_k w_k u_k(q) u_k(q') over the monomials
+  // u = (1, cos, sin, cos^2, sin^2, cos sin) of a revolute joint, (1, q, q^2) of
+  // a prismatic one; its potential factor over (1, cos, sin) or (1, q). These
+  // write the weights w (6 or 3, 3 or 2 entries).
+  void kinetic_monomial_weights(int joint, double* weights) const;
+  void potential_monomial_weights(int joint, double* weights) const;
+  // The prior variance of h_ab: lambda_ab (a <= b).
+  double velocity_weight(int a, int b) const { return a == b ? nu_(a, a) : 2.0 * nu_(a, b); }
+  // Joint m's friction term as FrictionKernel's four features at velocity v and
+  // their prior variances (s_offset, s_viscous, s_coulomb, s_stribeck); only
+  // with friction.
+  Eigen::Vector4d friction_features_at(int joint, double v) const;
+  Eigen::Vector4d friction_variances(int joint) const;
+
   // Indices into log_params().
   int num_velocity_weights() const { return n_ * (n_ + 1) / 2; }
   int kinetic_position_offset() const { return num_velocity_weights(); }
