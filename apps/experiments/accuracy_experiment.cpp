@@ -32,7 +32,7 @@ nlohmann::json AccuracyConfig::to_json() const {
   // Not `runs`: an experiment may be extended with more runs.
   nlohmann::json j = {{"experiment", "accuracy"}, {"robot", robot},   {"samples", samples},
                       {"seed", seed},             {"dt", dt},         {"noise", noise_std},  {"estimators", estimators},
-                      {"options", base_options_json(base)}};
+                      {"options", base_options_json(base, estimators)}};
   // Only when on, so that the folders of earlier versions (cold starts) still resume.
   if (warm_start_runs) j["warm_start_runs"] = true;
   return j;

@@ -37,7 +37,7 @@ nlohmann::json DataEfficiencyConfig::to_json() const {
   return {{"experiment", "data-efficiency"}, {"robot", robot}, {"train_samples", train_samples},
           {"test_samples", test_samples},    {"sizes", sizes},
           {"seed", seed},                    {"dt", dt},       {"noise", noise_std},
-          {"estimators", estimators},        {"options", base_options_json(base)}};
+          {"estimators", estimators},        {"options", base_options_json(base, estimators)}};
 }
 
 ExperimentOutcome run_data_efficiency_experiment(const DataEfficiencyConfig& c, const ProgressCallback& progress) {

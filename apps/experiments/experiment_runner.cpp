@@ -144,7 +144,7 @@ EstimatorOptions options_for(const EstimatorOptions& base, const std::string& na
   return o;
 }
 
-nlohmann::json base_options_json(const EstimatorOptions& b) {
+nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<std::string>& estimators) {
   nlohmann::json j = {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
           {"max_iter", b.gp.optimizer.max_iterations},
           // Always written: a folder from before the option existed ran with 10 pairs and must not resume
@@ -167,6 +167,14 @@ nlohmann::json base_options_json(const EstimatorOptions& b) {
   if (b.gp.hyperparameter_rows > 0) j["hyperparameter_rows"] = b.gp.hyperparameter_rows;
   if (b.gp.hyperparameter_objective != HyperparameterObjective::SparseBound)
     j["hyperparameter_objective"] = to_string(b.gp.hyperparameter_objective);
+  // Only with a teacher, so folders without one still resume.
+  for (const auto& e : estimators)
+    if (!parse_estimator_spec(e).teacher.empty()) {
+      const TeacherOptions teacher;  // what options_for uses
+      j["teacher_states"] = teacher.states;
+      j["teacher_hyperparameter_rows"] = teacher.hyperparameter_rows;
+      break;
+    }
   return j;
 }
 

@@ -72,8 +72,9 @@ EstimatorSpec parse_estimator_spec(const std::string& name);
 // nominal robot if it needs one, the teacher if any, the seed.
 EstimatorOptions options_for(const EstimatorOptions& base, const std::string& name, const RobotPrior& prior,
                              std::uint64_t seed);
-// The options that change results, for config.json.
-nlohmann::json base_options_json(const EstimatorOptions& base);
+// The options that change results, for config.json: the base options and,
+// when an estimator has a teacher, TeacherOptions' states and rows.
+nlohmann::json base_options_json(const EstimatorOptions& base, const std::vector<std::string>& estimators);
 // Throws gipdyn::Error for an empty list, an unknown name or a bad teacher.
 void validate_estimators(const std::vector<std::string>& estimators);
 // Checks the GP and network options shared by every fit once, before the

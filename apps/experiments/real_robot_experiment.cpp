@@ -64,7 +64,7 @@ nlohmann::json RealRobotConfig::to_json() const {
           {"robot", robot},
           {"robot_friction", robot_friction},
           {"seed", base.gp.seed},
-          {"options", base_options_json(base)}};
+          {"options", base_options_json(base, estimators)}};
   // Only when set, so folders written before these options existed still resume.
   if (alternate_blocks > 0) j["alternate_blocks"] = alternate_blocks;
   if (nn_max_train > 0) j["nn_max_train"] = nn_max_train;

@@ -51,6 +51,9 @@ def test_accuracy_compares_a_student_taught_by_lip_with_its_teacher(tmp_path, gi
     log_error = [abs(np.log10(nmse[("gip@lip", str(j))] / nmse[("lip", str(j))])) for j in range(1, 5)]
     gip_error = [abs(np.log10(nmse[("gip", str(j))] / nmse[("lip", str(j))])) for j in range(1, 5)]
     assert sum(log_error) < sum(gip_error), nmse
+    # config.json records what the teacher used, so a resume with other teacher defaults is refused.
+    options = json.loads((out / "config.json").read_text())["options"]
+    assert (options["teacher_states"], options["teacher_hyperparameter_rows"]) == (2000, 300)
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "40",
             "--estimators", "gip@fe", "--out", str(tmp_path / "bad"))
     assert r.returncode != 0 and "'gip@fe' names a teacher it cannot use" in r.stderr
@@ -143,7 +146,9 @@ def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
     assert r.returncode != 0
     assert "other settings" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     # Another optimiser memory is another setting: its fits must not join the folder's tables.
-    assert json.loads((out / "config.json").read_text())["options"]["lbfgs_memory"] == 40
+    options = json.loads((out / "config.json").read_text())["options"]
+    assert options["lbfgs_memory"] == 40
+    assert "teacher_states" not in options  # written only with a teacher: older folders still resume
     before = (out / "nmse.csv").read_text()
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "2", "--samples", "200",
             "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST,
