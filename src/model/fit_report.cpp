@@ -64,7 +64,10 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
     out.push_back("joint(s) " + capped +
                   " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");
   if (!stalled.empty())
-    out.push_back("joint(s) " + stalled + " stalled (the line search broke down) before converging; try restarts");
+    out.push_back("joint(s) " + stalled +
+                  " stalled (the line search broke down) before converging; more starts (TrainOptions::restarts) may "
+                  "find a lower NLL, and if they end at the same NLL the stall is the NLL's rounding near its optimum "
+                  "and the model is usable");
   return out;
 }
 
