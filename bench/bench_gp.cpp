@@ -363,8 +363,8 @@ void BM_LipQueryWeightSpace(benchmark::State& state) {
     benchmark::DoNotOptimize(tau.data());
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) + " " +
-                 std::to_string(static_cast<long>(LagrangianWeightSpaceMean::kinetic_monomials(p.joints))) +
-                 " monomials per coefficient" +
+                 std::to_string(static_cast<long>(LagrangianWeightSpaceMean::kinetic_basis_size(p.joints))) +
+                 " basis products per coefficient" +
                  (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? ", chosen" : ""));
 }
 

@@ -4,10 +4,9 @@
 On one 20 s motion, GIP's own marginal-likelihood optimum picks monomials the
 robot does not have and extrapolates badly to a new motion; LIP, whose torques
 come from two shared energies, does not (docs/training.md, "What one 20 s
-motion lacks"). On an arm of up to four joints a LIP query takes microseconds
-(weight space, docs/method.md section 11), but on a 6R arm it costs
-milliseconds on a few thousand rows. This example trains GIP on one short
-simulated SCARA log, then GIP taught by LIP
+motion lacks"). A LIP query takes microseconds on a SCARA (weight space,
+docs/method.md section 11) but a quarter of a millisecond on a 6R arm. This
+example trains GIP on one short simulated SCARA log, then GIP taught by LIP
 (teacher="lip"): LIP is fitted on the log and GIP learns from LIP's torques at
 states drawn uniformly from the log's box (q, qd, qdd per joint): a GIP model,
 microseconds a query, that extrapolates like LIP. The teacher is kept as

@@ -3,20 +3,24 @@
 #include <algorithm>
 #include <cmath>
 
+#include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 
 namespace gipdyn {
 
 namespace {
 
-constexpr int kMaxMonomials = 6;
+constexpr int kMaxBasis = 5;
 
-int kinetic_size(bool revolute) { return revolute ? 6 : 3; }
+int kinetic_size(bool revolute) { return revolute ? 5 : 3; }
 int potential_size(bool revolute) { return revolute ? 3 : 2; }
 
-// The monomials of LagrangianKernel::kinetic_monomial_weights (or, for the
-// potential, its first 3 or 2) and their derivatives at q.
-void joint_monomials(bool revolute, bool kinetic, double q, double* value, double* derivative) {
+// Joint m's basis functions and their derivatives at q. The kinetic factor
+// pair's monomials (LagrangianKernel::kinetic_monomial_weights) of a revolute
+// joint, 1, cos, sin, cos^2, sin^2, cos sin, span only five functions
+// (cos^2 + sin^2 = 1): 1, cos, sin, cos 2q, sin 2q. A prismatic joint's are
+// 1, q, q^2; the potential's 1, cos, sin or 1, q.
+void joint_basis(bool revolute, bool kinetic, double q, double* value, double* derivative) {
   if (!revolute) {
     value[0] = 1.0, value[1] = q, value[2] = q * q;
     derivative[0] = 0.0, derivative[1] = 1.0, derivative[2] = 2.0 * q;
@@ -26,82 +30,114 @@ void joint_monomials(bool revolute, bool kinetic, double q, double* value, doubl
   value[0] = 1.0, value[1] = c, value[2] = s;
   derivative[0] = 0.0, derivative[1] = -s, derivative[2] = c;
   if (!kinetic) return;
-  value[3] = c * c, value[4] = s * s, value[5] = c * s;
-  derivative[3] = -2.0 * c * s, derivative[4] = 2.0 * c * s, derivative[5] = c * c - s * s;
+  const double c2 = c * c - s * s, s2 = 2.0 * c * s;
+  value[3] = c2, value[4] = s2;
+  derivative[3] = -2.0 * s2, derivative[4] = 2.0 * c2;
 }
 
-// The next index of a product of one monomial per joint, joint 0's varying fastest.
-void next_product(std::vector<int>& digits, const std::vector<int>& sizes) {
-  for (size_t m = 0; m < digits.size(); ++m) {
-    if (++digits[m] < sizes[m]) return;
-    digits[m] = 0;
+// The prior covariance of joint m's basis weights: its factor is
+// sum_k w_k u_k(q) u_k(q') over monomials u = T b of the basis b, so
+// the covariance is T' diag(w) T.
+Eigen::MatrixXd joint_prior(const LagrangianKernel& kernel, int m, bool kinetic) {
+  double w[6];
+  const bool revolute = kernel.joints().is_revolute(m);
+  if (!kinetic) {
+    kernel.potential_monomial_weights(m, w);
+    return Eigen::Map<const Eigen::VectorXd>(w, potential_size(revolute)).asDiagonal();
+  }
+  kernel.kinetic_monomial_weights(m, w);
+  if (!revolute) return Eigen::Map<const Eigen::VectorXd>(w, 3).asDiagonal();
+  Eigen::Matrix<double, 6, 5> T = Eigen::Matrix<double, 6, 5>::Zero();
+  T(0, 0) = T(1, 1) = T(2, 2) = 1.0;             // 1, cos, sin
+  T(3, 0) = 0.5, T(3, 3) = 0.5;                  // cos^2 = (1 + cos 2q) / 2
+  T(4, 0) = 0.5, T(4, 3) = -0.5;                 // sin^2 = (1 - cos 2q) / 2
+  T(5, 4) = 0.5;                                 // cos sin = sin 2q / 2
+  return T.transpose() * Eigen::Map<const Eigen::Matrix<double, 6, 1>>(w).asDiagonal() * T;
+}
+
+// A <- (G_{n-1} kron ... kron G_0) A: the rows of A are indexed like the basis
+// products (joint 0 fastest), G[m] acts on joint m's index.
+template <class Matrix>
+void multiply_per_joint(const std::vector<Eigen::MatrixXd>& G, Matrix& A) {
+  Eigen::Index stride = 1;
+  Eigen::VectorXd in, out;
+  for (const Eigen::MatrixXd& Gm : G) {
+    const Eigen::Index d = Gm.rows(), outer = A.rows() / (stride * d);
+    in.resize(d);
+    for (Eigen::Index c = 0; c < A.cols(); ++c)
+      for (Eigen::Index o = 0; o < outer; ++o)
+        for (Eigen::Index u = 0; u < stride; ++u) {
+          for (Eigen::Index i = 0; i < d; ++i) in(i) = A(u + stride * (i + d * o), c);
+          out.noalias() = Gm * in;
+          for (Eigen::Index i = 0; i < d; ++i) A(u + stride * (i + d * o), c) = out(i);
+        }
+    stride *= d;
   }
 }
 
 }  // namespace
 
-double LagrangianWeightSpaceMean::kinetic_monomials(const JointTypes& joints) {
+double LagrangianWeightSpaceMean::kinetic_basis_size(const JointTypes& joints) {
   double count = 1.0;
   for (int m = 0; m < joints.size(); ++m) count *= kinetic_size(joints.is_revolute(m));
   return count;
 }
 
 bool LagrangianWeightSpaceMean::worthwhile(const JointTypes& joints, Eigen::Index rows) {
-  const double n = joints.size(), pairs = n * (n + 1) / 2;
-  const double F = kinetic_monomials(joints);
-  // Weight space builds F products with their n gradients and multiplies them
-  // by the pairs' weights, vectorised: about 0.25 ns an operation. Kernel
-  // space builds one n x n block per training row: 40-50 ns per n^2 (BM_LipQuery*
-  // in bench/RESULTS.md). Weight space must win by 2x to pay for building it.
-  const double weight_space_ns = 0.25 * F * (3.0 * n + (n + 1.0) * pairs);
-  const double kernel_space_ns = 40.0 * static_cast<double>(rows) * n * n;
-  return 2.0 * weight_space_ns < kernel_space_ns;
+  const double n = joints.size(), pairs = n * (n + 1) / 2, N = static_cast<double>(rows);
+  const double F = kinetic_basis_size(joints);
+  // A weight-space query is a product of the F x pairs weights with the F x
+  // (n + 1) basis products, about 0.1 ns per multiply-add; a kernel-space
+  // one builds an n x n block per training row, about 40 ns per n^2
+  // (BM_LipQuery* in bench/RESULTS.md). Weight space must win by 2x, and
+  // building it (N F (3 pairs + 2 (n + 1)) operations) must take seconds at most.
+  const double weight_space_ns = 0.1 * F * (n + 1.0) * (pairs + 2.0);
+  const double kernel_space_ns = 40.0 * N * n * n;
+  const double build_operations = N * F * (3.0 * pairs + 2.0 * (n + 1.0));
+  return 2.0 * weight_space_ns < kernel_space_ns && build_operations < 3e10;
 }
 
 LagrangianWeightSpaceMean::Workspace::Workspace(const LagrangianWeightSpaceMean& mean)
     : kinetic_features(mean.kinetic_count_, mean.n_ + 1),
       potential_features(mean.potential_count_, mean.n_ + 1),
-      coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1),
-      monomials(mean.n_, kMaxMonomials),
-      derivatives(mean.n_, kMaxMonomials),
-      digits(static_cast<size_t>(mean.n_)),
-      prefix(static_cast<size_t>(mean.n_) + 1),
-      suffix(static_cast<size_t>(mean.n_) + 1) {}
+      coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1) {}
 
-void LagrangianWeightSpaceMean::features(const double* q, bool kinetic, Workspace& w, Eigen::MatrixXd& out) const {
+void LagrangianWeightSpaceMean::features(const double* q, bool kinetic, Eigen::MatrixXd& out) const {
   const int n = n_;
   const std::vector<int>& size = kinetic ? kinetic_size_ : potential_size_;
+  // Joint by joint, as Kronecker products: after joint m the first len rows
+  // hold the products over joints 0..m, and column m + 1 (the derivative in
+  // q_m) is the only new non-zero column. Block i of the next len * d rows is
+  // the first block times joint m's basis function i (its derivative in
+  // column m + 1); block 0 is done last, in place.
+  out(0, 0) = 1.0;
+  Eigen::Index len = 1;
   for (int m = 0; m < n; ++m) {
-    double value[kMaxMonomials], derivative[kMaxMonomials];
-    joint_monomials(kernel_.joints().is_revolute(m), kinetic, q[m], value, derivative);
-    for (int k = 0; k < size[static_cast<size_t>(m)]; ++k) {
-      w.monomials(m, k) = value[k];
-      w.derivatives(m, k) = derivative[k];
+    double value[kMaxBasis], derivative[kMaxBasis];
+    joint_basis(kernel_.joints().is_revolute(m), kinetic, q[m], value, derivative);
+    const int d = size[static_cast<size_t>(m)];
+    const Eigen::Index cols = m + 2;  // columns past it are still zero
+    for (int i = d - 1; i > 0; --i) {
+      out.block(i * len, 0, len, cols) = value[i] * out.block(0, 0, len, cols);
+      out.block(i * len, m + 1, len, 1) = derivative[i] * out.block(0, 0, len, 1);
     }
-  }
-  std::fill(w.digits.begin(), w.digits.end(), 0);
-  for (Eigen::Index k = 0; k < out.rows(); ++k) {
-    w.prefix[0] = 1.0;
-    for (int m = 0; m < n; ++m) w.prefix[static_cast<size_t>(m) + 1] = w.prefix[static_cast<size_t>(m)] * w.monomials(m, w.digits[static_cast<size_t>(m)]);
-    w.suffix[static_cast<size_t>(n)] = 1.0;
-    for (int m = n; m-- > 0;) w.suffix[static_cast<size_t>(m)] = w.suffix[static_cast<size_t>(m) + 1] * w.monomials(m, w.digits[static_cast<size_t>(m)]);
-    out(k, 0) = w.prefix[static_cast<size_t>(n)];
-    for (int m = 0; m < n; ++m)
-      out(k, m + 1) = w.prefix[static_cast<size_t>(m)] * w.derivatives(m, w.digits[static_cast<size_t>(m)]) *
-                      w.suffix[static_cast<size_t>(m) + 1];
-    next_product(w.digits, size);
+    out.block(0, m + 1, len, 1) = derivative[0] * out.block(0, 0, len, 1);
+    out.block(0, 0, len, m + 1) *= value[0];
+    len *= d;
   }
 }
 
 LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& kernel, const Eigen::MatrixXd& X,
                                                      const Eigen::VectorXd& alpha)
     : kernel_(kernel), n_(kernel.joints().size()) {
+  // Its products here and in every query: on one thread, as the library's others.
+  use_single_threaded_blas();
   const int n = n_;
   if (X.cols() != 3 * n || alpha.size() != X.rows() * n)
     throw Error("LagrangianWeightSpaceMean: inconsistent shapes (training states or weights)");
-  const double monomials = kinetic_monomials(kernel.joints());
-  if (monomials > 4e6)
-    throw Error("LagrangianWeightSpaceMean: " + std::to_string(monomials) + " monomials per coefficient for joints " +
+  const double basis = kinetic_basis_size(kernel.joints());
+  if (basis > 4e6)
+    throw Error("LagrangianWeightSpaceMean: " + std::to_string(basis) + " basis functions per coefficient for joints " +
                 kernel.joints().str() + "; use the kernel-space mean");
   kinetic_count_ = potential_count_ = 1;
   for (int m = 0; m < n; ++m) {
@@ -115,63 +151,57 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
     for (int b = a; b < n; ++b) pairs_.emplace_back(a, b);
   const Eigen::Index P = static_cast<Eigen::Index>(pairs_.size());
 
-  // cov(weights of h_ab, tau_j(x_r)) is lambda_ab times the monomials' prior
-  // weights times the operator of the header applied to the monomials; summed
-  // with alpha, three vectors per row: the monomials, their rate along qd and
-  // their gradient along alpha_r.
+  // cov(weights of h_ab, tau_j(x_r)) is the weights' prior covariance times
+  // the operator of the header applied to the basis; summed with alpha, three
+  // vectors per row: the basis products, their rate along qd and their
+  // gradient along alpha_r.
   Workspace w(*this);
   kinetic_weights_.setZero(kinetic_count_, P);
   potential_weights_.setZero(potential_count_);
   if (kernel.has_friction()) friction_weights_.setZero(4, n);
-  Eigen::MatrixXd along(kinetic_count_, 3), pair_coefficients(3, P);
-  for (Eigen::Index r = 0; r < X.rows(); ++r) {
-    const Eigen::VectorXd x = X.row(r).transpose();
-    const auto q = x.head(n), qd = x.segment(n, n), qdd = x.segment(2 * n, n);
-    const auto a = alpha.segment(r * n, n);
-    features(q.data(), true, w, w.kinetic_features);
-    along.col(0) = w.kinetic_features.col(0);
-    along.col(1).noalias() = w.kinetic_features.rightCols(n) * qd;
-    along.col(2).noalias() = w.kinetic_features.rightCols(n) * a;
-    for (Eigen::Index p = 0; p < P; ++p) {
-      const auto [i, j] = pairs_[static_cast<size_t>(p)];
-      pair_coefficients(0, p) = a(i) * qdd(j) + a(j) * qdd(i);
-      pair_coefficients(1, p) = a(i) * qd(j) + a(j) * qd(i);
-      pair_coefficients(2, p) = -qd(i) * qd(j);
+  // Rows in blocks, so that the sum is one matrix product a block (not a
+  // rank-3 update of the whole F x pairs matrix a row).
+  constexpr Eigen::Index kBlock = 32;
+  Eigen::MatrixXd along(kinetic_count_, 3 * kBlock), pair_coefficients(3 * kBlock, P);
+  for (Eigen::Index r0 = 0; r0 < X.rows(); r0 += kBlock) {
+    const Eigen::Index rows = std::min(kBlock, X.rows() - r0);
+    for (Eigen::Index b = 0; b < rows; ++b) {
+      const Eigen::Index r = r0 + b;
+      const Eigen::VectorXd x = X.row(r).transpose();
+      const auto q = x.head(n), qd = x.segment(n, n), qdd = x.segment(2 * n, n);
+      const auto a = alpha.segment(r * n, n);
+      features(q.data(), true, w.kinetic_features);
+      along.col(3 * b) = w.kinetic_features.col(0);
+      along.col(3 * b + 1).noalias() = w.kinetic_features.rightCols(n) * qd;
+      along.col(3 * b + 2).noalias() = w.kinetic_features.rightCols(n) * a;
+      for (Eigen::Index p = 0; p < P; ++p) {
+        const auto [i, j] = pairs_[static_cast<size_t>(p)];
+        pair_coefficients(3 * b, p) = a(i) * qdd(j) + a(j) * qdd(i);
+        pair_coefficients(3 * b + 1, p) = a(i) * qd(j) + a(j) * qd(i);
+        pair_coefficients(3 * b + 2, p) = -qd(i) * qd(j);
+      }
+      features(q.data(), false, w.potential_features);
+      potential_weights_.noalias() += w.potential_features.rightCols(n) * a;
+      for (int m = 0; m < n && kernel.has_friction(); ++m) {
+        const Eigen::Vector4d f = kernel.friction_features_at(m, qd(m));
+        for (int k = 0; k < 4; ++k) friction_weights_(k, m) += a(m) * f(k);
+      }
     }
-    kinetic_weights_.noalias() += along * pair_coefficients;
-    features(q.data(), false, w, w.potential_features);
-    potential_weights_.noalias() += w.potential_features.rightCols(n) * a;
-    for (int m = 0; m < n && kernel.has_friction(); ++m) {
-      const Eigen::Vector4d f = kernel.friction_features_at(m, qd(m));
-      for (int k = 0; k < 4; ++k) friction_weights_(k, m) += a(m) * f(k);
-    }
+    kinetic_weights_.noalias() += along.leftCols(3 * rows) * pair_coefficients.topRows(3 * rows);
   }
 
-  // The prior weights of the monomial products, the same recursion on weights instead of values.
-  auto prior = [&](bool kinetic, Eigen::Index count) {
-    const std::vector<int>& size = kinetic ? kinetic_size_ : potential_size_;
-    Eigen::VectorXd out(count);
-    std::vector<int> digits(static_cast<size_t>(n), 0);
-    Eigen::MatrixXd joint(n, kMaxMonomials);
-    for (int m = 0; m < n; ++m) {
-      double v[kMaxMonomials];
-      kinetic ? kernel.kinetic_monomial_weights(m, v) : kernel.potential_monomial_weights(m, v);
-      for (int k = 0; k < size[static_cast<size_t>(m)]; ++k) joint(m, k) = v[k];
-    }
-    for (Eigen::Index k = 0; k < count; ++k) {
-      double product = 1.0;
-      for (int m = 0; m < n; ++m) product *= joint(m, digits[static_cast<size_t>(m)]);
-      out(k) = product;
-      next_product(digits, size);
-    }
-    return out;
-  };
-  const Eigen::VectorXd kinetic_prior = prior(true, kinetic_count_);
+  // Times the prior covariance of the weights: lambda_ab times each joint's factor's.
+  std::vector<Eigen::MatrixXd> kinetic_prior, potential_prior;
+  for (int m = 0; m < n; ++m) {
+    kinetic_prior.push_back(joint_prior(kernel, m, true));
+    potential_prior.push_back(joint_prior(kernel, m, false));
+  }
+  multiply_per_joint(kinetic_prior, kinetic_weights_);
   for (Eigen::Index p = 0; p < P; ++p) {
     const auto [i, j] = pairs_[static_cast<size_t>(p)];
-    kinetic_weights_.col(p) = kinetic_weights_.col(p).cwiseProduct(kinetic_prior) * kernel.velocity_weight(i, j);
+    kinetic_weights_.col(p) *= kernel.velocity_weight(i, j);
   }
-  potential_weights_ = potential_weights_.cwiseProduct(prior(false, potential_count_));
+  multiply_per_joint(potential_prior, potential_weights_);
   for (int m = 0; m < n && kernel.has_friction(); ++m) {
     const Eigen::Vector4d s = kernel.friction_variances(m);
     for (int k = 0; k < 4; ++k) friction_weights_(k, m) *= s(k);
@@ -182,7 +212,7 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
   const int n = n_;
   const Eigen::Map<const Eigen::VectorXd> qd(x + n, n), qdd(x + 2 * n, n);
   Eigen::Map<Eigen::VectorXd> tau(tau_out, n);
-  features(x, true, w, w.kinetic_features);
+  features(x, true, w.kinetic_features);
   // Each h_ab and its gradient in q at this state.
   w.coefficients.noalias() = kinetic_weights_.transpose() * w.kinetic_features;
   tau.setZero();
@@ -197,7 +227,7 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
     const double velocities = qd(a) * qd(b);
     for (int i = 0; i < n; ++i) tau(i) -= velocities * row(i + 1);
   }
-  features(x, false, w, w.potential_features);
+  features(x, false, w.potential_features);
   for (int i = 0; i < n; ++i) tau(i) += w.potential_features.col(i + 1).dot(potential_weights_);
   for (int m = 0; m < n && friction_weights_.size() > 0; ++m) {
     const Eigen::Vector4d f = kernel_.friction_features_at(m, qd(m));

@@ -4,18 +4,21 @@
 //
 // Every factor of the Lagrangian kernel is a finite sum of monomials in
 // (cos q, sin q) or q (LagrangianKernel::kinetic_monomial_weights), so each
-// kinetic coefficient h_ab(q) and the potential V(q) are polynomials with
-// finitely many weights, and the torque is linear in them:
+// kinetic coefficient h_ab(q) and the potential V(q) are sums of products of
+// one basis function per joint (1, cos q, sin q, cos 2q, sin 2q for a revolute
+// joint's kinetic factors, 1, q, q^2 for a prismatic one's; 1, cos q, sin q or
+// 1, q for the potential's), with finitely many weights, and the torque is
+// linear in them:
 //
 //   tau_i = sum_{a<=b} (d_ai qdd_b + d_bi qdd_a) h_ab + (d_ai qd_b + d_bi qd_a) dh_ab/dt
 //           - qd_a qd_b dh_ab/dq_i + dV/dq_i  (+ friction_i(qd_i)).
 //
 // The posterior mean of those weights, cov(weights, tau(X)) alpha, is computed
-// once (O(N F n^2)); a query then evaluates the polynomials and their
-// gradients at q, in O(F n^3) with F monomials per coefficient (the product
-// over joints of 6 for a revolute joint, 3 for a prismatic one: 648 for a
-// SCARA), instead of one n x n kernel block per training row. F grows as 6^n, so this pays for small
-// arms only: worthwhile() decides.
+// once (O(N F n^2)); a query then evaluates the basis products and their
+// gradients at q, in O(F n^3) with F products per coefficient (the product over
+// joints of 5 for a revolute joint, 3 for a prismatic one: 375 for a SCARA,
+// 15625 for a 6R arm), instead of one n x n kernel block per training row. F
+// grows as 5^n, so this pays for short chains or many rows: worthwhile() decides.
 #include <Eigen/Dense>
 #include <utility>
 #include <vector>
@@ -26,10 +29,10 @@ namespace gipdyn {
 
 class LagrangianWeightSpaceMean {
  public:
-  // Monomials per kinetic coefficient for these joints (a double: 6^n overflows int for long chains).
-  static double kinetic_monomials(const JointTypes& joints);
+  // Basis products per kinetic coefficient for these joints (a double: 5^n overflows int for long chains).
+  static double kinetic_basis_size(const JointTypes& joints);
   // Whether a query in weight space costs less than one in kernel space over
-  // `rows` training states (an operation count; bench/RESULTS.md).
+  // `rows` training states (measured costs; bench/RESULTS.md).
   static bool worthwhile(const JointTypes& joints, Eigen::Index rows);
 
   // alpha: the kernel-space weights (rows(X) n, sample-major), so that the mean
@@ -44,9 +47,6 @@ class LagrangianWeightSpaceMean {
    private:
     friend class LagrangianWeightSpaceMean;
     Eigen::MatrixXd kinetic_features, potential_features, coefficients;
-    Eigen::MatrixXd monomials, derivatives;  // n x 6: each joint's monomials at q
-    std::vector<int> digits;
-    std::vector<double> prefix, suffix;
   };
 
   int num_joints() const { return n_; }
@@ -57,12 +57,12 @@ class LagrangianWeightSpaceMean {
 
  private:
   // Value (column 0) and gradient in q (columns 1..n) of every product of one
-  // monomial per joint, joint 0's index varying fastest.
-  void features(const double* q, bool kinetic, Workspace& w, Eigen::MatrixXd& out) const;
+  // basis function per joint, joint 0's index varying fastest.
+  void features(const double* q, bool kinetic, Eigen::MatrixXd& out) const;
 
   LagrangianKernel kernel_;
   int n_ = 0;
-  std::vector<int> kinetic_size_, potential_size_;  // monomials per joint
+  std::vector<int> kinetic_size_, potential_size_;  // basis functions per joint
   Eigen::Index kinetic_count_ = 0, potential_count_ = 0;
   std::vector<std::pair<int, int>> pairs_;  // (a, b), a <= b, in the columns' order
   Eigen::MatrixXd kinetic_weights_;         // kinetic_count_ x pairs: posterior mean of each h_ab's weights
