@@ -34,27 +34,38 @@ Jet jet_product(const Jet& a, const Jet& b) {
           a[3] * b[0] + a[1] * b[2] + a[2] * b[1] + a[0] * b[3]};
 }
 
+// One joint's positions in a pair of states and, for a revolute joint, their
+// cosines and sines: computed once per pair, read by every factor's jets.
+struct AnglePair {
+  double q1 = 0.0, q2 = 0.0, c1 = 0.0, s1 = 0.0, c2 = 0.0, s2 = 0.0;
+};
+
+AnglePair angle_pair(bool revolute, double q1, double q2) {
+  if (!revolute) return {q1, q2, 0.0, 0.0, 0.0, 0.0};
+  return {q1, q2, std::cos(q1), std::sin(q1), std::cos(q2), std::sin(q2)};
+}
+
 // One linear factor s0 + sum_k l_k z_k(q1) z_k(q2) and its derivatives.
 // params: (s0, l_cos, l_sin) for a revolute joint, (s0, l) for a prismatic one.
-Jet factor_jet(bool revolute, const double* params, double q1, double q2) {
+Jet factor_jet(bool revolute, const double* params, const AnglePair& a) {
   if (!revolute) {
     const double l = params[1];
-    return {params[0] + l * q1 * q2, l * q2, l * q1, l};
+    return {params[0] + l * a.q1 * a.q2, l * a.q2, l * a.q1, l};
   }
-  const double c1 = std::cos(q1), s1 = std::sin(q1), c2 = std::cos(q2), s2 = std::sin(q2);
+  const double c1 = a.c1, s1 = a.s1, c2 = a.c2, s2 = a.s2;
   const double lc = params[1], ls = params[2];
   return {params[0] + lc * c1 * c2 + ls * s1 * s2, -lc * s1 * c2 + ls * c1 * s2, -lc * c1 * s2 + ls * s1 * c2,
           lc * s1 * s2 + ls * c1 * c2};
 }
 
 // d factor_jet / d log(param k).
-Jet factor_jet_derivative(bool revolute, const double* params, int k, double q1, double q2) {
+Jet factor_jet_derivative(bool revolute, const double* params, int k, const AnglePair& a) {
   if (k == 0) return {params[0], 0.0, 0.0, 0.0};
   if (!revolute) {
     const double l = params[1];
-    return {l * q1 * q2, l * q2, l * q1, l};
+    return {l * a.q1 * a.q2, l * a.q2, l * a.q1, l};
   }
-  const double c1 = std::cos(q1), s1 = std::sin(q1), c2 = std::cos(q2), s2 = std::sin(q2);
+  const double c1 = a.c1, s1 = a.s1, c2 = a.c2, s2 = a.s2;
   if (k == 1) {
     const double lc = params[1];
     return {lc * c1 * c2, -lc * s1 * c2, -lc * c1 * s2, lc * s1 * s2};
@@ -80,8 +91,9 @@ struct PositionCoefficients {
 // prefix[m] = product of the jets' values before joint m, suffix[m] = from joint m on.
 void value_products(const std::vector<Jet>& jets, std::vector<double>& prefix, std::vector<double>& suffix) {
   const size_t n = jets.size();
-  prefix.assign(n + 1, 1.0);
-  suffix.assign(n + 1, 1.0);
+  prefix.resize(n + 1);  // sized once per scratch; every entry is written below
+  suffix.resize(n + 1);
+  prefix[0] = suffix[n] = 1.0;
   for (size_t m = 0; m < n; ++m) prefix[m + 1] = prefix[m] * jets[m][0];
   for (size_t m = n; m-- > 0;) suffix[m] = suffix[m + 1] * jets[m][0];
 }
@@ -106,6 +118,42 @@ double contract_position(const std::vector<Jet>& jets, const PositionCoefficient
     }
   }
   return value;
+}
+
+// Entries 1-3 of the derivative of contract_position with respect to jets[m]:
+// the terms in which jet m's derivative entries appear, multiplied and summed
+// in contract_position's order, so that each equals contract_position with
+// jets[m] a unit jet (the terms without them are exact zeros there), in O(n^2)
+// instead of three O(n^2) contractions with most terms zero. prefix and
+// suffix: value_products of the jets; their entries up to m and from m + 1,
+// the only ones read, do not involve jet m.
+void derivative_sensitivities(const std::vector<Jet>& jets, const PositionCoefficients& c, int m,
+                              const std::vector<double>& prefix, const std::vector<double>& suffix, Jet& d) {
+  const int n = static_cast<int>(jets.size());
+  const size_t um = static_cast<size_t>(m);
+  double d1 = 0.0, d2 = 0.0;
+  for (int i = 0; i < m; ++i) {  // the pairs (i, m)
+    const Jet& ji = jets[static_cast<size_t>(i)];
+    double between = 1.0;
+    for (int k = i + 1; k < m; ++k) between *= jets[static_cast<size_t>(k)][0];
+    const double all_but_im = prefix[static_cast<size_t>(i)] * between * suffix[um + 1];
+    d1 += (c.cH(m, i) * ji[2]) * all_but_im;
+    d2 += (c.cH(i, m) * ji[1]) * all_but_im;
+  }
+  const double all_but_m = prefix[um] * suffix[um + 1];
+  d1 += c.cg(m) * all_but_m;
+  d2 += c.cgp(m) * all_but_m;
+  double between = 1.0;
+  for (int j = m + 1; j < n; ++j) {  // the pairs (m, j)
+    const Jet& jj = jets[static_cast<size_t>(j)];
+    const double all_but_mj = prefix[um] * between * suffix[static_cast<size_t>(j) + 1];
+    d1 += (c.cH(m, j) * jj[2]) * all_but_mj;
+    d2 += (c.cH(j, m) * jj[1]) * all_but_mj;
+    between *= jj[0];
+  }
+  d[1] = d1;
+  d[2] = d2;
+  d[3] = c.cH(m, m) * all_but_m;
 }
 
 // The position quantities themselves (P, g, g', H) of the product of `jets`.
@@ -199,6 +247,7 @@ void parallel_chunks(Eigen::Index rows, Body&& body) {
 
 // Scratch for one pair of states.
 struct LagrangianKernel::PairTerms {
+  std::vector<AnglePair> angles;
   std::vector<Jet> kinetic, potential;
   double P = 0.0, PV = 0.0;
   Eigen::VectorXd g, gp, gV, gpV;
@@ -209,10 +258,17 @@ struct LagrangianKernel::PairTerms {
   double P1 = 0.0, P1p = 0.0, Q = 0.0;
   Eigen::MatrixXd H, HV, S;
   std::vector<double> prefix, suffix;
+  // Scratch of add_pair_gradient.
+  Eigen::MatrixXd G;
+  Eigen::VectorXd v;
+  PositionCoefficients kin, pot;
   explicit PairTerms(int n)
-      : kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), e(n), b(n),
+      : angles(static_cast<size_t>(n)), kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), e(n), b(n),
         a5(n), c7(n), h6(n), h8(n), product(n), H(n, n), HV(n, n), S(n, n), prefix(static_cast<size_t>(n) + 1),
-        suffix(static_cast<size_t>(n) + 1) {}
+        suffix(static_cast<size_t>(n) + 1), G(n, n), v(n) {
+    kin.reset(n);
+    pot.reset(n);
+  }
 };
 
 LagrangianKernel::LagrangianKernel(JointTypes joints, bool friction) : joints_(std::move(joints)), n_(joints_.size()) {
@@ -281,10 +337,9 @@ void LagrangianKernel::position_jets(const double* q1, const double* q2, PairTer
   for (int m = 0; m < n_; ++m) {
     const bool rev = joints_.is_revolute(m);
     const double* kp = params_.data() + kinetic_offset_[static_cast<size_t>(m)];
-    t.kinetic[static_cast<size_t>(m)] =
-        jet_product(factor_jet(rev, kp, q1[m], q2[m]), factor_jet(rev, kp + factor_size(m), q1[m], q2[m]));
-    t.potential[static_cast<size_t>(m)] =
-        factor_jet(rev, params_.data() + potential_joint_[static_cast<size_t>(m)], q1[m], q2[m]);
+    const AnglePair& a = t.angles[static_cast<size_t>(m)] = angle_pair(rev, q1[m], q2[m]);
+    t.kinetic[static_cast<size_t>(m)] = jet_product(factor_jet(rev, kp, a), factor_jet(rev, kp + factor_size(m), a));
+    t.potential[static_cast<size_t>(m)] = factor_jet(rev, params_.data() + potential_joint_[static_cast<size_t>(m)], a);
   }
 }
 
@@ -439,22 +494,28 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
   const double P1 = t.P1, P1p = t.P1p, Q = t.Q, WH = W.cwiseProduct(t.H).sum();
 
   // Velocity weights: G_ab = d<W, K>/d nu_ab with the entries of nu independent.
-  Eigen::MatrixXd G = Eigen::MatrixXd::Zero(n, n);
+  // Products into the scratch's named vectors: as nested expressions they would allocate.
+  Eigen::MatrixXd& G = t.G;
+  G.setZero();
   add_symmetric_term_gradient(W, qdd1, qdd2, t.P, G);
   add_symmetric_term_gradient(W, qdd1, qd2, P1p, G);
   add_symmetric_term_gradient(W, qd1, qdd2, P1, G);
   add_symmetric_term_gradient(W, qd1, qd2, Q, G);
-  G.noalias() -= 2.0 * qd2.cwiseProduct(W * t.gp) * qdd1.cwiseProduct(qd2).transpose();
-  G.noalias() -= 2.0 * qd2.cwiseProduct(W * h6) * e.transpose();
-  G.noalias() -= 2.0 * qd1.cwiseProduct(W.transpose() * t.g) * qdd2.cwiseProduct(qd1).transpose();
-  G.noalias() -= 2.0 * qd1.cwiseProduct(W.transpose() * h8) * e.transpose();
+  t.v.noalias() = W * t.gp;
+  G.noalias() -= 2.0 * qd2.cwiseProduct(t.v) * qdd1.cwiseProduct(qd2).transpose();
+  t.v.noalias() = W * h6;
+  G.noalias() -= 2.0 * qd2.cwiseProduct(t.v) * e.transpose();
+  t.v.noalias() = W.transpose() * t.g;
+  G.noalias() -= 2.0 * qd1.cwiseProduct(t.v) * qdd2.cwiseProduct(qd1).transpose();
+  t.v.noalias() = W.transpose() * h8;
+  G.noalias() -= 2.0 * qd1.cwiseProduct(t.v) * e.transpose();
   G.noalias() += WH * e * e.transpose();
   int k = 0;
   for (int a = 0; a < n; ++a)
     for (int c = a; c < n; ++c, ++k) grad(k) += a == c ? nu_(a, a) * G(a, a) : nu_(a, c) * (G(a, c) + G(c, a));
 
   // Position parameters: <W, K> as a linear function of each energy's position quantities.
-  PositionCoefficients kin;
+  PositionCoefficients& kin = t.kin;
   kin.reset(n);
   symmetric_term(nu_, qdd1, qdd2, t.S);
   kin.cP = W.cwiseProduct(t.S).sum();
@@ -467,7 +528,7 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
   kin.cH.noalias() -= 2.0 * qd1 * (W.transpose() * qd2.cwiseProduct(b)).transpose();
   kin.cH.noalias() -= 2.0 * (W * qd1.cwiseProduct(b)) * qd2.transpose();
   kin.cH += e.dot(b) * W;
-  PositionCoefficients pot;
+  PositionCoefficients& pot = t.pot;
   pot.reset(n);
   pot.cH = W;
 
@@ -476,31 +537,28 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
   auto jet_sensitivity = [&](std::vector<Jet>& jets, const PositionCoefficients& c, int m) {
     const Jet saved = jets[static_cast<size_t>(m)];
     Jet d{};
-    for (int r = 0; r < 4; ++r) {
-      Jet unit{0.0, 0.0, 0.0, 0.0};
-      unit[static_cast<size_t>(r)] = 1.0;
-      jets[static_cast<size_t>(m)] = unit;
-      d[static_cast<size_t>(r)] = contract_position(jets, c, t.prefix, t.suffix);
-    }
+    jets[static_cast<size_t>(m)] = {1.0, 0.0, 0.0, 0.0};
+    d[0] = contract_position(jets, c, t.prefix, t.suffix);  // leaves value_products of these jets
     jets[static_cast<size_t>(m)] = saved;
+    derivative_sensitivities(jets, c, m, t.prefix, t.suffix, d);
     return d;
   };
   auto dot = [](const Jet& a, const Jet& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]; };
   for (int m = 0; m < n; ++m) {
     const bool rev = joints_.is_revolute(m);
     const int fs = factor_size(m);
-    const double q1 = x1[m], q2 = x2[m];
+    const AnglePair& a = t.angles[static_cast<size_t>(m)];  // set by kinetic_pair_terms
     const Jet dk = jet_sensitivity(t.kinetic, kin, m);
     const int ko = kinetic_offset_[static_cast<size_t>(m)];
-    const Jet f1 = factor_jet(rev, params_.data() + ko, q1, q2);
-    const Jet f2 = factor_jet(rev, params_.data() + ko + fs, q1, q2);
+    const Jet f1 = factor_jet(rev, params_.data() + ko, a);
+    const Jet f2 = factor_jet(rev, params_.data() + ko + fs, a);
     for (int p = 0; p < fs; ++p) {
-      grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, q1, q2), f2));
-      grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, q1, q2)));
+      grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, a), f2));
+      grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, a)));
     }
     const Jet dv = jet_sensitivity(t.potential, pot, m);
     const int po = potential_joint_[static_cast<size_t>(m)];
-    for (int p = 0; p < fs; ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, q1, q2));
+    for (int p = 0; p < fs; ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, a));
     if (has_friction()) add_friction_gradient(m, qd1(m), qd2(m), W(m, m), grad);
   }
 }
@@ -515,8 +573,10 @@ void LagrangianKernel::add_gradient(const Eigen::MatrixXd& X, const Eigen::Matri
     Eigen::VectorXd& g = partial[static_cast<size_t>(thread)];
     Eigen::MatrixXd Wd(n, n);
     for (Eigen::Index r = r0; r < r1; ++r) {
-      for (Eigen::Index s = 0; s < r; ++s)  // the upper block (s, r) is the transpose: counted twice
-        add_pair_gradient(A.col(r).data(), A.col(s).data(), 2.0 * W_lower.block(r * n, s * n, n, n), t, g);
+      for (Eigen::Index s = 0; s < r; ++s) {  // the upper block (s, r) is the transpose: counted twice
+        Wd = 2.0 * W_lower.block(r * n, s * n, n, n);  // into the sized buffer: no allocation per pair
+        add_pair_gradient(A.col(r).data(), A.col(s).data(), Wd, t, g);
+      }
       Wd = W_lower.block(r * n, r * n, n, n).selfadjointView<Eigen::Lower>();
       add_pair_gradient(A.col(r).data(), A.col(r).data(), Wd, t, g);
     }
