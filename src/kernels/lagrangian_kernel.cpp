@@ -421,11 +421,8 @@ Eigen::Vector4d LagrangianKernel::friction_variances(int joint) const {
 }
 
 double LagrangianKernel::friction_covariance(int m, double v1, double v2) const {
-  const int o = friction_offset_ + FrictionKernel::kNumParams * m;
-  const double log_vc = log_params_(o + FrictionKernel::kCoulombVelocity);
-  const double log_vr = log_params_(o + FrictionKernel::kStribeckVelocity);
-  const Eigen::Vector4d f1 = friction_features(v1, log_vc, log_vr), f2 = friction_features(v2, log_vc, log_vr);
-  return (params_.segment<4>(o).array() * f1.array() * f2.array()).sum();
+  const Eigen::Vector4d f1 = friction_features_at(m, v1), f2 = friction_features_at(m, v2);
+  return (friction_variances(m).array() * f1.array() * f2.array()).sum();
 }
 
 void LagrangianKernel::add_friction_gradient(int m, double v1, double v2, double w,
