@@ -22,6 +22,7 @@ const FieldNames& cli_field_names() {
       {"TeacherOptions::name", "--teacher"},
       {"TeacherOptions::states", "--teacher-states"},
       {"TeacherOptions::hyperparameter_rows", "--teacher-hyperparameter-rows"},
+      {"TeacherOptions::student_hyperparameter_rows", "--student-hyperparameter-rows"},
       {kMatFileAdvice,
        "convert it to a CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or read it with a command that "
        "takes --mat-variable NAME (experiment real, inspect)"},

@@ -26,7 +26,8 @@ namespace {
 struct TrainArgs {
   std::string data, joints, kernel = "gip", out, preset, teacher;
   long subsample = 0;
-  int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows;
+  int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
+      student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
   bool quiet = false, distributed = false;
   EstimatorArgs estimator;
 };
@@ -104,6 +105,11 @@ Command add_train(CLI::App& app) {
                  "With --teacher: the teacher learns its hyperparameters on a constant-step subsample of this many "
                  "logged rows, then is conditioned on every row; 0: all rows")
       ->capture_default_str()->needs(teacher);
+  app.add_option("--student-hyperparameter-rows", a->student_hyperparameter_rows,
+                 "With --teacher: the student learns its hyperparameters on a constant-step subsample of this many "
+                 "drawn states (independent draws over the box: a few hundred inform the NLL as well as thousands), "
+                 "then is conditioned on every state; 0: all states. --hyperparameter-rows, if given, wins")
+      ->capture_default_str()->needs(teacher);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   app.add_flag("--distributed", a->distributed,
@@ -133,6 +139,7 @@ Command add_train(CLI::App& app) {
         t.name = a->teacher;
         t.states = a->teacher_states;
         t.hyperparameter_rows = a->teacher_hyperparameter_rows;
+        t.student_hyperparameter_rows = a->student_hyperparameter_rows;
         t.seed = o.gp.seed;
         o.teacher = t;
       }
@@ -166,13 +173,17 @@ Command add_train(CLI::App& app) {
         std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
       if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
       if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
-      if (o.teacher)
-        std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box",
+      if (o.teacher) {
+        const int student_rows = o.teacher->student_train_options(o.gp).hyperparameter_rows;
+        std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box "
+                    "(the student's hyperparameters on %s of them)",
                     o.teacher->name.c_str(),
                     o.teacher->hyperparameter_rows > 0 && o.teacher->hyperparameter_rows < data.rows()
                         ? std::to_string(o.teacher->hyperparameter_rows).c_str()
                         : "all",
-                    o.teacher->states);
+                    o.teacher->states,
+                    student_rows > 0 && student_rows < o.teacher->states ? std::to_string(student_rows).c_str() : "all");
+      }
       std::printf("\n");
       std::fflush(stdout);
     }
@@ -207,6 +218,7 @@ Command add_train(CLI::App& app) {
       model.header["teacher"] = {{"estimator", o.teacher->name},
                                  {"states", o.teacher->states},
                                  {"hyperparameter_rows", o.teacher->hyperparameter_rows},
+                                 {"student_hyperparameter_rows", o.teacher->student_train_options(o.gp).hyperparameter_rows},
                                  {"seed", o.teacher->seed},
                                  {"label_noise_std", std::vector<double>(r.label_noise_std.data(), r.label_noise_std.data() + r.label_noise_std.size())},
                                  {"status", to_string(r.teacher_report->status)},

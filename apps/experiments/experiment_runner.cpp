@@ -173,6 +173,7 @@ nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<st
       const TeacherOptions teacher;  // what options_for uses
       j["teacher_states"] = teacher.states;
       j["teacher_hyperparameter_rows"] = teacher.hyperparameter_rows;
+      j["student_hyperparameter_rows"] = teacher.student_train_options(b.gp).hyperparameter_rows;
       break;
     }
   return j;

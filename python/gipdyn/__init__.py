@@ -138,7 +138,10 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     states drawn uniformly from the box X spans; seed draws them. On one short
     motion this gives a GIP model that extrapolates like LIP and answers like
     GIP: docs/training.md), teacher_states, teacher_hyperparameter_rows (the
-    teacher learns its hyperparameters on that many rows, 0: all)
+    teacher learns its hyperparameters on that many rows, 0: all),
+    student_hyperparameter_rows (with a teacher, the student learns its
+    hyperparameters on that many of the drawn states, 0: all; a
+    hyperparameter_rows above 0 wins)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
@@ -165,7 +168,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  hyperparameter_rows=_DEFAULTS.hyperparameter_rows,
                  hyperparameter_objective=_DEFAULTS.hyperparameter_objective, teacher=None,
                  teacher_states=_TEACHER_DEFAULTS.states,
-                 teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows):
+                 teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows,
+                 student_hyperparameter_rows=_TEACHER_DEFAULTS.student_hyperparameter_rows):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -193,6 +197,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.teacher = teacher
         self.teacher_states = teacher_states
         self.teacher_hyperparameter_rows = teacher_hyperparameter_rows
+        self.student_hyperparameter_rows = student_hyperparameter_rows
 
     def teacher_options(self):
         """The library's TeacherOptions for these parameters, or None without a teacher."""
@@ -202,6 +207,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.name = str(self.teacher)
         o.states = int(self.teacher_states)
         o.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
+        o.student_hyperparameter_rows = int(self.student_hyperparameter_rows)
         o.seed = int(self.seed)
         return o
 
@@ -286,6 +292,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                 _warn_unconverged_joints(lesson["teacher"], f"teacher {teacher.name}: ")
             self.teacher_report_ = lesson["teacher_report"]
             self.label_noise_std_ = lesson["label_noise_std"]
+            options = teacher.student_train_options(options)
         self.model_ = _core.train(X, Y, str(self.joints), options, bool(self.verbose))
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)

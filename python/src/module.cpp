@@ -57,6 +57,7 @@ const FieldNames& python_field_names() {
       {"TeacherOptions::name", "teacher"},
       {"TeacherOptions::states", "teacher_states"},
       {"TeacherOptions::hyperparameter_rows", "teacher_hyperparameter_rows"},
+      {"TeacherOptions::student_hyperparameter_rows", "student_hyperparameter_rows"},
       {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
       {"TrainOptions::scaling", "scaling"},
       {"TrainOptions::mean", "mean"},
@@ -545,6 +546,9 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("name", &TeacherOptions::name)
       .def_readwrite("states", &TeacherOptions::states)
       .def_readwrite("hyperparameter_rows", &TeacherOptions::hyperparameter_rows)
+      .def_readwrite("student_hyperparameter_rows", &TeacherOptions::student_hyperparameter_rows)
+      .def("student_train_options", &TeacherOptions::student_train_options, py::arg("student"),
+           "The student's TrainOptions: `student` with its hyperparameter subsample")
       .def_readwrite("seed", &TeacherOptions::seed)
       .def("validate", &TeacherOptions::validate);
   m.def("teach", &teach_states, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),

@@ -604,12 +604,15 @@ def test_neighbour_consistency_finds_the_noise_and_a_changed_torque():
 
 def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     train = gipdyn.simulate("scara", samples=120, seed=1)
-    kwargs = dict(joints="RRPR", max_iter=40, teacher="lip", teacher_states=150, teacher_hyperparameter_rows=0, seed=3)
+    kwargs = dict(joints="RRPR", max_iter=40, teacher="lip", teacher_states=150, teacher_hyperparameter_rows=0,
+                  student_hyperparameter_rows=100, seed=3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", gipdyn.ConvergenceWarning)
         taught = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"], train["tau"])
     assert isinstance(taught.teacher_, gipdyn.LagrangianGP)
     assert taught.model_.num_training_samples == 150  # the drawn states, not the log's 120 rows
+    # The student's hyperparameters on 100 of them, then conditioned on all.
+    assert [r["hyperparameter_rows"] for r in taught.model_.training_report] == [100] * 4
     residual = train["tau"] - taught.teacher_.predict(train["X"])
     np.testing.assert_allclose(taught.label_noise_std_, np.sqrt((residual ** 2).mean(axis=0)), rtol=1e-10)
     assert [r["joint"] for r in taught.teacher_report_] == [1, 2, 3, 4]
@@ -623,5 +626,7 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     np.testing.assert_allclose(again.predict(train["X"][:5]), taught.predict(train["X"][:5]))
     with pytest.raises(ValueError, match="teacher_states must be at least"):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", teacher_states=2).fit(train["X"], train["tau"])
+    with pytest.raises(ValueError, match="student_hyperparameter_rows must be >= 0"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", student_hyperparameter_rows=-1).fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="needs a nominal robot"):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="fe").fit(train["X"], train["tau"])

@@ -91,6 +91,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
       result.report.message = lesson.teacher_report.message;
     } else {
       EstimatorOptions student = options;
+      student.gp = options.teacher->student_train_options(options.gp);
       student.teacher.reset();
       result = fit_function(estimator_family(options.name))(student, lesson.X, lesson.Y, joints, progress);
       result.label_noise_std = std::move(lesson.label_noise_std);

@@ -18,6 +18,11 @@ void TeacherOptions::validate() const {
   if (hyperparameter_rows < 0) throw Error("TeacherOptions::hyperparameter_rows must be >= 0 (0: all rows)");
   if (hyperparameter_rows > 0 && hyperparameter_rows < kMinTrainingRows)
     throw Error("TeacherOptions::hyperparameter_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+  if (student_hyperparameter_rows < 0)
+    throw Error("TeacherOptions::student_hyperparameter_rows must be >= 0 (0: all drawn states)");
+  if (student_hyperparameter_rows > 0 && student_hyperparameter_rows < kMinTrainingRows)
+    throw Error("TeacherOptions::student_hyperparameter_rows must be 0 or at least " +
+                std::to_string(kMinTrainingRows));
 }
 
 TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) const {
@@ -34,6 +39,12 @@ TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) 
   o.threads = student.threads;
   o.hyperparameter_rows = hyperparameter_rows;
   o.keep_factor = false;  // the teacher only predicts means
+  return o;
+}
+
+TrainOptions TeacherOptions::student_train_options(const TrainOptions& student) const {
+  TrainOptions o = student;
+  if (o.hyperparameter_rows == 0) o.hyperparameter_rows = student_hyperparameter_rows;
   return o;
 }
 

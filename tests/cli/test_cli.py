@@ -148,9 +148,11 @@ def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "log.csv", 80, 1)
     out = tmp_path / "m.gipdyn"
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(out), "--teacher",
-            "lip", "--teacher-states", "150", "--teacher-hyperparameter-rows", "0", "--max-iter", "60", "--seed", "4")
+            "lip", "--teacher-states", "150", "--teacher-hyperparameter-rows", "0", "--student-hyperparameter-rows", "100",
+            "--max-iter", "60", "--seed", "4")
     assert r.returncode == 0, r.stderr
-    assert "taught by lip (hyperparameters on all rows) at 150 states drawn from the log's box" in r.stdout
+    assert ("taught by lip (hyperparameters on all rows) at 150 states drawn from the log's box (the student's "
+            "hyperparameters on 100 of them)") in r.stdout
     assert "teacher lip: fit" in r.stdout and "student gip on the teacher's torques" in r.stdout
     noise = [float(v) for v in re.search(r"label noise .*per joint: (.*)", r.stdout).group(1).split()]
     assert len(noise) == 2 and all(0.005 < v < 0.02 for v in noise), r.stdout  # the log's noise is 0.01
@@ -158,14 +160,16 @@ def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     assert header["kernel"] == "gip" and header["num_training_samples"] == 150  # the drawn states, not the 80 rows
     teacher = header["teacher"]
     assert teacher["estimator"] == "lip" and teacher["states"] == 150 and teacher["seed"] == 4
+    assert teacher["student_hyperparameter_rows"] == 100
+    assert [j["training"]["hyperparameter_rows"] for j in header["joint_models"]] == [100, 100]
     assert teacher["label_noise_std"] == pytest.approx(noise, rel=1e-2)
     # The teacher's warnings are told apart from the student's.
     assert all(line.startswith("gipdyn: warning: ") for line in r.stderr.splitlines()), r.stderr
     # The seed draws the states: the same seed, the same model.
     again = tmp_path / "again.gipdyn"
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(again), "--teacher",
-            "lip", "--teacher-states", "150", "--teacher-hyperparameter-rows", "0", "--max-iter", "60", "--seed", "4",
-            "--quiet")
+            "lip", "--teacher-states", "150", "--teacher-hyperparameter-rows", "0", "--student-hyperparameter-rows", "100",
+            "--max-iter", "60", "--seed", "4", "--quiet")
     assert r.returncode == 0, r.stderr
     predictions = []
     for model in (out, again):
@@ -180,6 +184,10 @@ def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(lone),
             "--teacher-states", "100")
     assert r.returncode != 0 and "--teacher-states requires --teacher" in r.stderr and not lone.exists()
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(lone),
+            "--teacher", "lip", "--student-hyperparameter-rows", "-1")
+    assert r.returncode != 0 and not lone.exists()
+    assert len(r.stderr.strip().splitlines()) == 1 and "--student-hyperparameter-rows must be >= 0" in r.stderr, r.stderr
 
 
 def test_lbfgs_memory_reaches_the_optimiser(trained, tmp_path, gipdyn_bin):

@@ -54,6 +54,7 @@ def test_accuracy_compares_a_student_taught_by_lip_with_its_teacher(tmp_path, gi
     # config.json records what the teacher used, so a resume with other teacher defaults is refused.
     options = json.loads((out / "config.json").read_text())["options"]
     assert (options["teacher_states"], options["teacher_hyperparameter_rows"]) == (2000, 300)
+    assert options["student_hyperparameter_rows"] == 500
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "40",
             "--estimators", "gip@fe", "--out", str(tmp_path / "bad"))
     assert r.returncode != 0 and "'gip@fe' names a teacher it cannot use" in r.stderr
