@@ -99,6 +99,41 @@ TEST(Lbfgs, StaysInsideTheBoxAndProjectsTheGradientThere) {
   EXPECT_LT(r.grad_norm, 1e-4);  // the outward gradient at the active bound does not count
 }
 
+// A quadratic whose values carry a deterministic roughness of 1e-3, as an
+// ill-conditioned NLL's rounding does, while its gradient is exact. Near the
+// minimum no line search can see a decrease below that roughness: the run is
+// done to the objective's precision, and says so instead of "stalled".
+TEST(Lbfgs, ALineSearchDefeatedByTheObjectivesRoundingIsConvergence) {
+  const Objective rough = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+    const Eigen::VectorXd d = x.array() - 3.0;
+    const double hash = std::sin(x.dot(Eigen::VectorXd::LinSpaced(x.size(), 12.9898, 78.233)) * 1e4) * 43758.5453;
+    f = d.squaredNorm() + 1e-3 * (hash - std::floor(hash));
+    g = 2.0 * d;
+    return true;
+  };
+  OptimizerOptions o;
+  o.gradient_tolerance = 1e-9;  // far below what the roughness lets any method verify
+  o.f_relative_tolerance = 0.0;
+  const OptimizerResult r = minimize(rough, Eigen::VectorXd::Constant(4, 0.0), o);
+  EXPECT_EQ(r.status, OptimizerResult::Status::Converged) << r.message;
+  EXPECT_NE(r.message.find("rounding"), std::string::npos) << r.message;
+  EXPECT_LT((r.x.array() - 3.0).abs().maxCoeff(), 0.05);  // within sqrt(1e-3) of the minimum
+}
+
+// A gradient that points uphill: every line search fails at once, yet the
+// objective is smooth and falls steeply the other way. That is a stall to
+// report, not rounding.
+TEST(Lbfgs, ALineSearchThatFailsOnASmoothObjectiveIsAStall) {
+  const Objective uphill = [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+    const Eigen::VectorXd d = x.array() - 3.0;
+    f = d.squaredNorm();
+    g = -2.0 * d;
+    return true;
+  };
+  const OptimizerResult r = minimize(uphill, Eigen::VectorXd::Constant(2, 0.0), OptimizerOptions{});
+  EXPECT_EQ(r.status, OptimizerResult::Status::Stalled) << r.message;
+}
+
 TEST(Minimize, ReportsFailureWhenNoPointCanBeEvaluated) {
   const Objective broken = [](const Eigen::VectorXd&, double&, Eigen::VectorXd&) { return false; };
   for (OptimizerKind kind : {OptimizerKind::Lbfgs, OptimizerKind::Adam}) {

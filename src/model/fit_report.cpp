@@ -65,9 +65,8 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
                   " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");
   if (!stalled.empty())
     out.push_back("joint(s) " + stalled +
-                  " stalled (the line search broke down) before converging; more starts (TrainOptions::restarts) may "
-                  "find a lower NLL, and if they end at the same NLL the stall is the NLL's rounding near its optimum "
-                  "and the model is usable");
+                  " stalled (the line search broke down with more decrease left along the gradient than the NLL's "
+                  "rounding hides) before converging; more starts (TrainOptions::restarts) may find a lower NLL");
   return out;
 }
 
