@@ -164,7 +164,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   return t.gradient_small ? nlopt::SUCCESS : result;
 }
 
-// Where a line search breaks down at the best point, is the objective's
+// Where L-BFGS can no longer improve on its best point, is the objective's
 // rounding what hides the rest of the descent? An ill-conditioned NLL is
 // deterministic but rough at the scale of its rounding (docs/training.md
 // measured 1e-3 to 6e-3 nats at steps of 1e-7 to 1e-4), while its gradient
