@@ -8,9 +8,12 @@
 namespace gipdyn {
 
 constexpr int kMinTrainingRows = 5;
+// Largest magnitude of a training value: sums of N squares must stay finite.
+constexpr double kMaxTrainingMagnitude = 1e150;
 
-// Checks shapes (X: N x 3n, Y: N x n), finiteness and N >= kMinTrainingRows;
-// throws gipdyn::Error with the first problem found.
+// Checks shapes (X: N x 3n, Y: N x n), finiteness, magnitudes up to
+// kMaxTrainingMagnitude and N >= kMinTrainingRows; throws gipdyn::Error with
+// the first problem found.
 void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints);
 
 // Rows floor(k rows / count), k = 0..count-1: `count` rows with a constant

@@ -3,8 +3,10 @@
 #include "gipdyn/error.hpp"
 
 #include <algorithm>
+#include <cstdio>
 #include <string>
 #include <unordered_set>
+#include <utility>
 
 namespace gipdyn {
 
@@ -21,6 +23,19 @@ void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, 
     throw Error("only " + std::to_string(X.rows()) + " training rows; at least " + std::to_string(kMinTrainingRows) +
                 " are needed");
   if (!X.allFinite() || !Y.allFinite()) throw Error("training data contain NaN or Inf; remove or repair those rows");
+  // Finite is not enough: scaling sums squares, and a square of 1e300 is Inf,
+  // which turned into a model of nulls that no reader could load.
+  for (const auto& [name, M] : {std::pair<const char*, const Eigen::MatrixXd*>{"inputs", &X}, {"torques", &Y}}) {
+    Eigen::Index row = 0, col = 0;
+    const double largest = M->cwiseAbs().maxCoeff(&row, &col);
+    if (largest > kMaxTrainingMagnitude) {
+      char value[32];
+      std::snprintf(value, sizeof value, "%.3g", (*M)(row, col));
+      throw Error(std::string("training ") + name + " column " + std::to_string(col + 1) + " holds " + value +
+                  " (row " + std::to_string(row + 1) + "): beyond 1e150 their squares overflow; rescale the data (e.g. "
+                  "to N m and rad)");
+    }
+  }
 }
 
 std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count) {
