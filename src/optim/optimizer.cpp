@@ -58,15 +58,18 @@ void OptimizerOptions::validate() const {
 
 namespace {
 
+// Whether descent along -g(k) would leave the box at an active bound of x(k).
+bool points_out_of_the_box(const Eigen::VectorXd& x, const Eigen::VectorXd& g, const OptimizerOptions& o,
+                           Eigen::Index k) {
+  if (o.lower_bounds.size() != x.size()) return false;
+  return (x(k) <= o.lower_bounds(k) && g(k) > 0.0) || (x(k) >= o.upper_bounds(k) && g(k) < 0.0);
+}
+
 // Projected gradient: components at an active bound that point outwards are zero.
 double projected_gradient_norm(const Eigen::VectorXd& x, const Eigen::VectorXd& g, const OptimizerOptions& o) {
   double norm = 0.0;
-  for (Eigen::Index k = 0; k < g.size(); ++k) {
-    const bool bounded = o.lower_bounds.size() == x.size();
-    if (bounded && x(k) <= o.lower_bounds(k) && g(k) > 0.0) continue;
-    if (bounded && x(k) >= o.upper_bounds(k) && g(k) < 0.0) continue;
-    norm = std::max(norm, std::abs(g(k)));
-  }
+  for (Eigen::Index k = 0; k < g.size(); ++k)
+    if (!points_out_of_the_box(x, g, o, k)) norm = std::max(norm, std::abs(g(k)));
   return norm;
 }
 
@@ -186,10 +189,8 @@ RoundingCheck check_rounding(Tracker& t, const OptimizerOptions& o) {
   if (t.evaluations + 3 > o.max_iterations) return c;  // the cap is a promise
   const Eigen::VectorXd x0 = t.best_x;
   Eigen::VectorXd d = -t.best_g;
-  for (Eigen::Index k = 0; k < d.size(); ++k)  // no step out of the box
-    if (o.lower_bounds.size() == d.size() &&
-        ((x0(k) <= o.lower_bounds(k) && d(k) < 0.0) || (x0(k) >= o.upper_bounds(k) && d(k) > 0.0)))
-      d(k) = 0.0;
+  for (Eigen::Index k = 0; k < d.size(); ++k)
+    if (points_out_of_the_box(x0, t.best_g, o, k)) d(k) = 0.0;
   const double slope = d.norm(), f0 = t.best_f;
   if (!(slope > 0.0)) return c;
   d /= slope;
