@@ -3,6 +3,9 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <mutex>
+#include <set>
+#include <thread>
 #include <random>
 
 #include "gipdyn/estimators/estimator_file.hpp"
@@ -401,6 +404,42 @@ TEST(LagrangianEstimator, HyperparametersFromASubsampleConditionOnEveryRow) {
   EXPECT_EQ(with_variance.predict(test.X), predicted);
   // Not a clipped zero: the test states are new, so the model is uncertain about them.
   EXPECT_GT(sd.minCoeff(), 1e-4 * std::sqrt(s2));
+}
+
+// The starts (three noise levels plus the restarts) run side by side on
+// TrainOptions::threads threads, and the kept optimum, every start's NLL and
+// the evaluation count are those of the starts run one after another.
+TEST(LagrangianEstimator, StartsRunSideBySideWithTheSequentialResult) {
+  const SimulationResult train = small_scara(5, 40), test = small_scara(6, 10);
+  const JointTypes joints = JointTypes::parse("RRPR");
+  TrainOptions o;
+  o.optimizer.max_iterations = 25;
+  o.restarts = 2;
+  auto fit_on = [&](int threads, std::set<std::thread::id>& ids, std::set<int>& restarts) {
+    o.threads = threads;
+    std::mutex mu;
+    return LagrangianEstimator::fit(train.X, train.tau, joints, o, [&](const ProgressEvent& e) {
+      const std::lock_guard<std::mutex> lock(mu);
+      ids.insert(std::this_thread::get_id());
+      restarts.insert(e.restart);
+    });
+  };
+  std::set<std::thread::id> one_ids, four_ids;
+  std::set<int> one_restarts, four_restarts;
+  const auto one = fit_on(1, one_ids, one_restarts);
+  const auto four = fit_on(4, four_ids, four_restarts);
+  ASSERT_TRUE(one.report.ok()) << one.report.message;
+  ASSERT_TRUE(four.report.ok()) << four.report.message;
+  EXPECT_EQ(one_ids.size(), 1u);
+  EXPECT_GE(four_ids.size(), 2u);
+  EXPECT_EQ(one_restarts, (std::set<int>{0, 1, 2, 3, 4}));
+  EXPECT_EQ(four_restarts, one_restarts);
+  ASSERT_EQ(one.report.joints.front().restart_nlls.size(), 5u);
+  EXPECT_EQ(four.report.joints.front().restart_nlls, one.report.joints.front().restart_nlls);
+  EXPECT_EQ(four.report.joints.front().evaluations, one.report.joints.front().evaluations);
+  EXPECT_EQ(four.estimator->kernel().log_params(), one.estimator->kernel().log_params());
+  EXPECT_EQ(four.estimator->noise_variances(), one.estimator->noise_variances());
+  EXPECT_EQ(four.estimator->predict(test.X), one.estimator->predict(test.X));
 }
 
 TEST(LagrangianEstimator, RefusesOptionsItCannotHonourAndBadInput) {

@@ -1,12 +1,18 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 
+#include <algorithm>
+#include <atomic>
 #include <chrono>
 #include <cmath>
+#include <exception>
+#include <mutex>
 #include <random>
+#include <thread>
 #include <vector>
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
+#include "gipdyn/floating_point.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/memory.hpp"
@@ -192,12 +198,13 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const Eigen::MatrixXd& Xh = subsampled ? X_subsample : X;
   const Eigen::MatrixXd& Yh = subsampled ? Y_subsample : Y;
   const double system = static_cast<double>(X.rows()) * n;
-  const double subsystem = subsampled ? static_cast<double>(Xh.rows()) * n : 0.0;
-  // One (N n)^2 matrix: the kernel, its factor and then its inverse in place;
-  // with a subsample, its (H n)^2 matrix beside the final one.
-  require_memory((system * system + subsystem * subsystem) * 8.0, "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) +
-                                            " joints (one " + std::to_string(static_cast<long>(system)) +
-                                            "-square matrix)",
+  const double subsystem = static_cast<double>(Xh.rows()) * n;
+  // Each start in flight holds one (H n)^2 matrix (the kernel, its factor and
+  // then its inverse in place); they are freed before the final fit's (N n)^2.
+  const double start_bytes = 8.0 * subsystem * subsystem;
+  require_memory(8.0 * std::max(system * system, subsystem * subsystem),
+                 "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints (one " +
+                     std::to_string(static_cast<long>(system)) + "-square matrix)",
                  subsampled ? "train on fewer rows" : "train on fewer rows, or learn the hyperparameters on a "
                                                       "subsample (TrainOptions::hyperparameter_rows) and train on "
                                                       "fewer rows");
@@ -227,14 +234,11 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   opt.upper_bounds.tail(n) = (10.0 * joint_variance).array().log();
   opt.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xh.rows()) * n;
 
-  LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
-  LagrangianKernel trial = kernel;
   std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
   std::normal_distribution<double> normal(0.0, 1.0);
 
   FitOutcome out;
   JointReport shared;
-  BestOfStarts starts;
   // The coupled likelihood has optima that explain whole joints as noise
   // (UR10, 150 rows: NLL -2406 against -4600, test nMSE 100-1000x worse), and
   // which start reaches the better one depends on the starting noise. So the
@@ -242,31 +246,69 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   // TrainOptions::initial_noise_fraction (never below the floor); the restarts
   // perturb the first of them. The lowest NLL is kept.
   const int noise_starts = 3;
+  std::vector<Eigen::VectorXd> start_points;
   for (int r = 0; r < noise_starts + o.restarts; ++r) {
     Eigen::VectorXd start = x0;
     if (r > 0 && r < noise_starts) start.tail(n).array() += std::log(std::pow(0.1, r));
     if (r >= noise_starts)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    start = start.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
-    Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-      trial.set_log_params(x.head(P));
-      const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
-      if (!e.ok) return false;
-      f = e.nll;
-      g = e.gradient;
-      return true;
+    start_points.push_back(start.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds));
+  }
+  // One fit is a single coupled optimisation whose factorisations run on one
+  // core, so the starts run side by side (TrainOptions::threads, 0: one per
+  // core) as far as memory allows. Each start depends on its starting point
+  // alone and BLAS runs on one thread, so the kept optimum does not depend on
+  // how many run at once.
+  const int num_starts = static_cast<int>(start_points.size());
+  int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
+  threads = std::clamp(threads, 1, num_starts);
+  threads = std::min<int>(threads, static_cast<int>(std::max(1.0, static_cast<double>(available_memory_bytes()) / start_bytes)));
+  std::vector<OptimizerResult> results(static_cast<size_t>(num_starts));
+  {
+    std::atomic<int> next{0};
+    std::mutex failure_mutex;
+    std::exception_ptr failure;
+    auto worker = [&] {
+      const FlushSubnormalsToZero fast_floats;
+      try {
+        LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
+        LagrangianKernel trial = kernel;
+        for (int r = next++; r < num_starts; r = next++) {
+          Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+            trial.set_log_params(x.head(P));
+            const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
+            if (!e.ok) return false;
+            f = e.nll;
+            g = e.gradient;
+            return true;
+          };
+          ProgressCallback cb;
+          if (progress)
+            cb = [&, r](const ProgressEvent& optimizer_event) {
+              ProgressEvent e = optimizer_event;
+              e.estimator = friction ? "lip+friction" : "lip";
+              e.restart = r;
+              e.rows = static_cast<long>(Xh.rows());
+              e.seconds = seconds();
+              progress(e);
+            };
+          results[static_cast<size_t>(r)] = minimize(objective, start_points[static_cast<size_t>(r)], opt, cb);
+        }
+      } catch (...) {
+        // Rethrown on the calling thread once every worker has stopped.
+        const std::lock_guard<std::mutex> lock(failure_mutex);
+        if (!failure) failure = std::current_exception();
+        next = num_starts;
+      }
     };
-    ProgressCallback cb;
-    if (progress)
-      cb = [&](const ProgressEvent& optimizer_event) {
-        ProgressEvent e = optimizer_event;
-        e.estimator = friction ? "lip+friction" : "lip";
-        e.restart = r;
-        e.rows = static_cast<long>(Xh.rows());
-        e.seconds = seconds();
-        progress(e);
-      };
-    OptimizerResult res = minimize(objective, start, opt, cb);
+    std::vector<std::thread> pool;
+    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
+    worker();
+    for (auto& t : pool) t.join();
+    if (failure) std::rethrow_exception(failure);
+  }
+  BestOfStarts starts;
+  for (const OptimizerResult& res : results) {
     shared.evaluations += res.evaluations;
     starts.add(res);
   }
@@ -282,8 +324,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   }
   kernel.set_log_params(kept.x.head(P));
   const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
-  LikelihoodWorkspace all_rows(X, y, n, o.jitter);
-  LikelihoodWorkspace& final_ws = subsampled ? all_rows : ws;
+  LikelihoodWorkspace final_ws(X, y, n, o.jitter);
   if (subsampled) shared.hyperparameter_rows = static_cast<long>(Xh.rows());
   const Evaluation final_fit = final_ws.evaluate(kernel, noise, false);
   if (!final_fit.ok) {
