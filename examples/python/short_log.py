@@ -10,13 +10,16 @@ example trains GIP on one short simulated SCARA log, then GIP taught by LIP
 (teacher="lip"): LIP is fitted on the log and GIP learns from LIP's torques at
 states drawn uniformly from the log's box (q, qd, qdd per joint): a GIP model,
 microseconds a query, that extrapolates like LIP. The teacher is kept as
-teacher_ and compared too. `gipdyn train --teacher lip` does the same.
+teacher_ and compared too. `gipdyn train --teacher lip` does the same. The
+recipe is for a short, clean log: on a real robot's log the drawn states are
+mostly extrapolation for LIP and its labels are noisy, and the taught model is
+far worse than GIP (docs/real-robots.md); use preset="real" there.
 
     python3 examples/python/short_log.py [SAMPLES] [HYPERPARAMETER_ROWS] [VIRTUAL] [MAX_ITER]
 
-Defaults 2000, 300, 2000 and the library's cap: about 2 minutes on 2 cores
-(GIP on the log 57 s, GIP taught by LIP 54 s, on the idle AMD EPYC machine of
-bench/RESULTS.md).
+Defaults 2000, 300, 2000 and the library's cap: about 1.5 minutes on 2 cores
+(GIP on the log 51 s, GIP taught by LIP 35 s with LIP's starts side by side,
+on the idle AMD EPYC machine of bench/RESULTS.md).
 VIRTUAL is the number of drawn states (teacher_states).
 """
 import sys
