@@ -3,6 +3,10 @@
 #include <gtest/gtest.h>
 
 #include <functional>
+#include <thread>
+#include <set>
+#include <mutex>
+#include <atomic>
 
 #include <cstdio>
 #include <cstring>
@@ -20,6 +24,7 @@
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/memory.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/training_data.hpp"
@@ -696,6 +701,37 @@ TEST(Progress, DescribesOptimiserStepsJointEndsAndWholeFits) {
   epoch.objective = 0.25;
   epoch.seconds = 1.0;
   EXPECT_EQ(describe(epoch), "nn iteration 7: objective 0.25 (1.0 s)");
+}
+
+// Every task runs once, on as many threads as asked; a task's exception
+// reaches the caller after the threads stop, and later tasks do not start.
+TEST(ParallelTasks, RunEachTaskOnceAndRethrowTheFirstFailure) {
+  std::vector<int> runs(7, 0);
+  std::mutex mu;
+  std::set<std::thread::id> ids;
+  gipdyn::run_tasks(7, 3, [&](int t) {
+    const std::lock_guard<std::mutex> lock(mu);
+    ++runs[static_cast<size_t>(t)];
+    ids.insert(std::this_thread::get_id());
+  });
+  EXPECT_EQ(runs, std::vector<int>(7, 1));
+  EXPECT_LE(ids.size(), 3u);
+  std::atomic<int> started{0};
+  EXPECT_EQ(gipdyn::test::error_of([&] {
+              gipdyn::run_tasks(50, 1, [&](int t) {
+                ++started;
+                if (t == 2) throw gipdyn::Error("task 2 failed");
+              });
+            }),
+            "task 2 failed");
+  EXPECT_EQ(started.load(), 3);
+  EXPECT_EQ(gipdyn::worker_threads(4, 2), 2);
+  EXPECT_EQ(gipdyn::worker_threads(3, 5), 3);
+  EXPECT_EQ(gipdyn::worker_threads(0, 0), 1);
+  // No more threads than memory holds tasks, and at least one.
+  const double available = static_cast<double>(gipdyn::available_memory_bytes());
+  EXPECT_EQ(gipdyn::worker_threads(8, 8, available / 2.5), 2);
+  EXPECT_EQ(gipdyn::worker_threads(8, 8, 10.0 * available), 1);
 }
 
 TEST(Memory, RefusesWhatTheMachineCannotHoldWithTheEstimate) {

@@ -50,6 +50,7 @@
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/optim/optimizer.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/preprocess/log_preprocessing.hpp"
 #include "gipdyn/preprocess/signal.hpp"
 #include "gipdyn/progress.hpp"

@@ -1,21 +1,16 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 
-#include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
-#include <exception>
-#include <mutex>
 #include <random>
-#include <thread>
 #include <vector>
 
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
-#include "gipdyn/floating_point.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/memory.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
@@ -260,53 +255,30 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   // alone and BLAS runs on one thread, so the kept optimum does not depend on
   // how many run at once.
   const int num_starts = static_cast<int>(start_points.size());
-  int threads = o.threads > 0 ? o.threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-  threads = std::clamp(threads, 1, num_starts);
-  threads = std::min<int>(threads, static_cast<int>(std::max(1.0, static_cast<double>(available_memory_bytes()) / start_bytes)));
   std::vector<OptimizerResult> results(static_cast<size_t>(num_starts));
-  {
-    std::atomic<int> next{0};
-    std::mutex failure_mutex;
-    std::exception_ptr failure;
-    auto worker = [&] {
-      const FlushSubnormalsToZero fast_floats;
-      try {
-        LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
-        LagrangianKernel trial = kernel;
-        for (int r = next++; r < num_starts; r = next++) {
-          Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-            trial.set_log_params(x.head(P));
-            const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
-            if (!e.ok) return false;
-            f = e.nll;
-            g = e.gradient;
-            return true;
-          };
-          ProgressCallback cb;
-          if (progress)
-            cb = [&, r](const ProgressEvent& optimizer_event) {
-              ProgressEvent e = optimizer_event;
-              e.estimator = friction ? "lip+friction" : "lip";
-              e.restart = r;
-              e.rows = static_cast<long>(Xh.rows());
-              e.seconds = seconds();
-              progress(e);
-            };
-          results[static_cast<size_t>(r)] = minimize(objective, start_points[static_cast<size_t>(r)], opt, cb);
-        }
-      } catch (...) {
-        // Rethrown on the calling thread once every worker has stopped.
-        const std::lock_guard<std::mutex> lock(failure_mutex);
-        if (!failure) failure = std::current_exception();
-        next = num_starts;
-      }
+  run_tasks(num_starts, worker_threads(o.threads, num_starts, start_bytes), [&](int r) {
+    LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
+    LagrangianKernel trial = kernel;
+    Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+      trial.set_log_params(x.head(P));
+      const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
+      if (!e.ok) return false;
+      f = e.nll;
+      g = e.gradient;
+      return true;
     };
-    std::vector<std::thread> pool;
-    for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-    worker();
-    for (auto& t : pool) t.join();
-    if (failure) std::rethrow_exception(failure);
-  }
+    ProgressCallback cb;
+    if (progress)
+      cb = [&](const ProgressEvent& optimizer_event) {
+        ProgressEvent e = optimizer_event;
+        e.estimator = friction ? "lip+friction" : "lip";
+        e.restart = r;
+        e.rows = static_cast<long>(Xh.rows());
+        e.seconds = seconds();
+        progress(e);
+      };
+    results[static_cast<size_t>(r)] = minimize(objective, start_points[static_cast<size_t>(r)], opt, cb);
+  });
   BestOfStarts starts;
   for (const OptimizerResult& res : results) {
     shared.evaluations += res.evaluations;

@@ -1,20 +1,18 @@
 #include "gipdyn/model/training.hpp"
 
 #include <algorithm>
-#include <atomic>
 #include <chrono>
 #include <cmath>
 #include <limits>
 #include <mutex>
 #include <optional>
 #include <random>
-#include <thread>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/floating_point.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/gp/weight_space_nll.hpp"
 #include "gipdyn/memory.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 
 namespace gipdyn {
@@ -317,8 +315,6 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   }
 
   std::vector<JointOutcome> outcomes(static_cast<size_t>(n));
-  int threads = options.threads > 0 ? options.threads : static_cast<int>(std::thread::hardware_concurrency());
-  threads = std::clamp(threads, 1, n);
   // Every joint in flight holds two N x N matrices (the kernel, reused for its
   // inverse, and the gradient's scratch); kept factors add one per joint. A
   // sparse joint holds about ten M x M matrices and three row blocks, and keeps
@@ -340,21 +336,12 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
                                : ", or a sparse GP (TrainOptions::inducing_points), or distributed over processes "
                                  "(TrainOptions::nll_backend)"));
   }
-  threads = std::min<int>(threads, std::max(1.0, (static_cast<double>(available_memory_bytes()) - kept) / per_joint));
   // A backend's evaluations are collective: one joint at a time, in the same order everywhere.
-  if (options.nll_backend) threads = 1;
-  std::atomic<int> next{0};
-  auto worker = [&] {
-    const FlushSubnormalsToZero fast_floats;
-    for (int j = next++; j < n; j = next++) {
-      const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
-      outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, progress);
-    }
-  };
-  std::vector<std::thread> pool;
-  for (int t = 1; t < threads; ++t) pool.emplace_back(worker);
-  worker();
-  for (auto& t : pool) t.join();
+  const int threads = options.nll_backend ? 1 : worker_threads(options.threads, n, per_joint, kept);
+  run_tasks(n, threads, [&](int j) {
+    const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
+    outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, progress);
+  });
 
   TrainResult result;
   std::vector<GpRegressor> gps;

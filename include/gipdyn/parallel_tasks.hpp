@@ -1,0 +1,20 @@
+#pragma once
+// Fork-join over independent tasks: how the library trains GP joints, and
+// LIP's starts, on several cores. Each task writes only its own outputs, so
+// results do not depend on the number of threads.
+#include <functional>
+
+namespace gipdyn {
+
+// Threads for `tasks` tasks: `requested` (0: one per core), at most `tasks`,
+// and no more than the memory available, less `reserved_bytes`, holds at
+// `bytes_per_task` each (0: no limit); at least 1.
+int worker_threads(int requested, int tasks, double bytes_per_task = 0.0, double reserved_bytes = 0.0);
+
+// Runs task(0), ..., task(tasks - 1) on `threads` threads, the caller's among
+// them, each taking the next task when it finishes one, with subnormals
+// flushed to zero (floating_point.hpp). The first exception a task throws is
+// rethrown here once every thread has stopped; tasks not yet begun then do not run.
+void run_tasks(int tasks, int threads, const std::function<void(int)>& task);
+
+}  // namespace gipdyn
