@@ -5,7 +5,6 @@
 #include <map>
 #include <memory>
 #include <mutex>
-#include <thread>
 
 #include "commands.hpp"
 #include "distributed_run.hpp"
@@ -17,6 +16,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/text_format.hpp"
 
@@ -39,8 +39,8 @@ struct TrainArgs {
 class LongFitNotice {
  public:
   LongFitNotice(int joints, int threads) {
-    const int cores = threads > 0 ? threads : static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
-    waves_ = (joints + std::min(cores, joints) - 1) / std::min(cores, joints);
+    const int parallel = worker_threads(threads, joints);
+    waves_ = (joints + parallel - 1) / parallel;
   }
   void observe(const ProgressEvent& e) {
     if (said_ || e.finished || e.joint < 0 || e.rows <= 0) return;
