@@ -101,6 +101,56 @@ TEST(Teacher, GipTaughtByLipOnAShortMotionPredictsANewMotionLikeLip) {
   // its hyperparameters on all 600 states instead of 500).
   EXPECT_LT(e_taught, 3.0 * e_lip) << "GIP on the log " << e_gip << ", LIP " << e_lip;
   EXPECT_LT(30.0 * e_taught, e_gip) << "LIP " << e_lip;
+
+  // On the log it was taught from, the student fits as its teacher does: no warning.
+  ASSERT_TRUE(student.teaching_check);
+  const TeachingCheck& check = *student.teaching_check;
+  const Eigen::VectorXd on_the_log = compute_accuracy(Y, student.estimator->predict(X)).nmse;
+  for (int j = 0; j < 2; ++j) {
+    EXPECT_NEAR(check.student_nmse(j), on_the_log(j), 1e-12) << "joint " << j + 1;
+    const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
+    EXPECT_NEAR(check.teacher_nmse(j), std::pow(student.label_noise_std(j), 2) / variance, 1e-12) << "joint " << j + 1;
+    EXPECT_LT(check.student_nmse(j) - check.teacher_nmse(j), 0.01) << "joint " << j + 1;
+  }
+  EXPECT_EQ(check.warning("lip"), "");
+}
+
+TEST(Teacher, AStudentThatMissesTheLogItsTeacherFitsIsWarnedAbout) {
+  // Ten drawn states cannot tell the student the 2R arm's torque over a
+  // six-dimensional box: it then fits the log far worse than LIP does, the
+  // way a real robot's log, whose states fill little of their box, makes it.
+  const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  EstimatorOptions taught;
+  taught.teacher = TeacherOptions{};
+  taught.teacher->states = 10;
+  const FitResult student = fit_estimator(taught, X, Y, kTwoLink);
+  ASSERT_TRUE(student.report.ok()) << student.report.message;
+  ASSERT_TRUE(student.teaching_check);
+  const TeachingCheck& check = *student.teaching_check;
+  // Measured: teacher 2.9e-4 and 1.3e-4, student 0.057 and 2.56.
+  EXPECT_LT(check.teacher_nmse.maxCoeff(), 0.01);
+  EXPECT_GT(check.student_nmse(1), check.teacher_nmse(1) + kTaughtNmseGapWarning);
+  const std::string warning = check.warning("lip");
+  EXPECT_NE(warning.find("taught by lip"), std::string::npos) << warning;
+  EXPECT_NE(warning.find("joint 2 ("), std::string::npos) << warning;
+  EXPECT_NE(warning.find("without a teacher"), std::string::npos) << warning;
+}
+
+TEST(Teacher, TheWarningNamesOnlyTheJointsPastTheGap) {
+  TeachingCheck check;
+  check.teacher_nmse = Eigen::Vector4d(0.01, 0.2, 0.01, std::nan(""));
+  check.student_nmse = Eigen::Vector4d(0.01 + 0.9 * kTaughtNmseGapWarning, 3.0, 0.5, std::nan(""));
+  const std::string warning = check.warning("lip");
+  EXPECT_EQ(warning.find("joint 1 "), std::string::npos) << warning;
+  EXPECT_NE(warning.find("joint 2 (3 against 0.2), 3 (0.5 against 0.01)"), std::string::npos) << warning;
+  EXPECT_EQ(warning.find(", 4"), std::string::npos) << warning;
+  check.student_nmse(1) = 0.25;
+  check.student_nmse(2) = 0.02;
+  EXPECT_EQ(check.warning("lip"), "");
+  EXPECT_NE(test::error_of([&] { check_teaching(Eigen::MatrixXd::Ones(3, 2), Eigen::VectorXd::Ones(2),
+                                                Eigen::MatrixXd::Ones(3, 1)); }),
+            "");
 }
 
 TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {

@@ -223,6 +223,11 @@ Command add_train(CLI::App& app) {
                                  {"label_noise_std", std::vector<double>(r.label_noise_std.data(), r.label_noise_std.data() + r.label_noise_std.size())},
                                  {"status", to_string(r.teacher_report->status)},
                                  {"seconds", r.teacher_report->seconds}};
+    if (r.teaching_check) {
+      const auto values = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
+      model.header["teacher"]["log_nmse"] = {{"teacher", values(r.teaching_check->teacher_nmse)},
+                                             {"student", values(r.teaching_check->student_nmse)}};
+    }
     write_container(model, a->out);
     if (!a->quiet) {
       if (r.teacher_report) {
@@ -232,6 +237,12 @@ Command add_train(CLI::App& app) {
         std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
       }
       std::printf("\n%s", r.report.brief_report().c_str());
+      if (r.teaching_check) {
+        std::printf("nMSE on the logged rows, per joint, teacher / student:");
+        for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
+          std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
+        std::printf("\n");
+      }
       const InverseDynamicsModel* gp = r.estimator->gp_model();
       if (gp && gp->is_sparse())
         std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
@@ -248,6 +259,10 @@ Command add_train(CLI::App& app) {
         print_warnings(lines);
       }
       print_warnings(r.report.warnings());
+      if (r.teaching_check) {
+        const std::string w = r.teaching_check->warning(o.teacher->name);
+        if (!w.empty()) print_warnings({w});
+      }
     }
     return 0;
   };

@@ -18,7 +18,7 @@ from ._core import __version__
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
                     SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -59,6 +59,10 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
 class NoiseWarning(UserWarning):
     """A joint's fit calls most of its torque noise: its predictions stay near the training mean."""
+
+
+class TeachingWarning(UserWarning):
+    """A model taught by a teacher fits the logged rows far worse than its teacher did (teaching_check_)."""
 
 
 def _warn_unconverged_joints(model, prefix=""):
@@ -283,6 +287,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             if self.distributed:
                 raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
             lesson = _core.teach(X, Y, str(self.joints), teacher, options, bool(self.verbose))
+            X_log, Y_log = X, Y
             X, Y = np.asfortranarray(lesson["X"]), np.asfortranarray(lesson["tau"])
             self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
             if lesson["teacher"] is not None:
@@ -297,6 +302,11 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)
+        if teacher is not None:
+            self.teaching_check_ = _core.check_teaching(
+                Y_log, self.label_noise_std_, np.asfortranarray(self.model_.predict(X_log)), teacher.name)
+            if self.teaching_check_["warning"]:
+                warnings.warn(self.teaching_check_["warning"], TeachingWarning, stacklevel=2)
         return self
 
     def partial_fit(self, X, Y, window=0, refit=False):

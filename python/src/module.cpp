@@ -551,6 +551,20 @@ PYBIND11_MODULE(_core, m) {
            "The student's TrainOptions: `student` with its hyperparameter subsample")
       .def_readwrite("seed", &TeacherOptions::seed)
       .def("validate", &TeacherOptions::validate);
+  m.def(
+      "check_teaching",
+      [](ConstRef Y, const Eigen::VectorXd& teacher_residual_rms, ConstRef student_prediction,
+         const std::string& teacher) {
+        const TeachingCheck c = check_teaching(Y, teacher_residual_rms, student_prediction);
+        py::dict d;
+        d["teacher_nmse"] = c.teacher_nmse;
+        d["student_nmse"] = c.student_nmse;
+        d["warning"] = c.warning(teacher);
+        return d;
+      },
+      py::arg("Y"), py::arg("teacher_residual_rms"), py::arg("student_prediction"), py::arg("teacher"),
+      "The teacher's and the student's nMSE on the logged rows, and the library's warning when the student misses "
+      "the log its teacher fits: {teacher_nmse, student_nmse, warning} (gipdyn/estimators/teacher.hpp)");
   m.def("teach", &teach_states, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("student"), py::arg("verbose") = false,
         "Fits the teacher on (X, Y) and labels options.states states drawn from X's box with its torques plus noise "

@@ -616,6 +616,12 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     residual = train["tau"] - taught.teacher_.predict(train["X"])
     np.testing.assert_allclose(taught.label_noise_std_, np.sqrt((residual ** 2).mean(axis=0)), rtol=1e-10)
     assert [r["joint"] for r in taught.teacher_report_] == [1, 2, 3, 4]
+    # The check on the log: both fits' nMSE on the logged rows, no warning when the student fits it as its teacher.
+    check = taught.teaching_check_
+    np.testing.assert_allclose(check["student_nmse"], gipdyn.nmse(train["tau"], taught.predict(train["X"])), rtol=1e-9)
+    np.testing.assert_allclose(check["teacher_nmse"], gipdyn.nmse(train["tau"], taught.teacher_.predict(train["X"])),
+                               rtol=1e-9)
+    assert check["warning"] == ""
     # The student follows its teacher at fresh states of the same box far closer than the torque varies.
     rng = np.random.default_rng(0)
     X_box = rng.uniform(train["X"].min(axis=0), train["X"].max(axis=0), size=(200, 12))
@@ -624,6 +630,13 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     again = pickle.loads(pickle.dumps(taught))
     assert not hasattr(again, "teacher_")
     np.testing.assert_allclose(again.predict(train["X"][:5]), taught.predict(train["X"][:5]))
+    # Ten drawn states over a 12-dimensional box teach the student too little to fit the log: warned.
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        few = gipdyn.InverseDynamicsGP(**dict(kwargs, teacher_states=10)).fit(train["X"], train["tau"])
+    taught_warnings = [w for w in caught if issubclass(w.category, gipdyn.TeachingWarning)]
+    assert len(taught_warnings) == 1 and "taught by lip fits the logged rows far worse" in str(taught_warnings[0].message)
+    assert np.max(few.teaching_check_["student_nmse"] - few.teaching_check_["teacher_nmse"]) > 0.1
     with pytest.raises(ValueError, match="teacher_states must be at least"):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", teacher_states=2).fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="student_hyperparameter_rows must be >= 0"):

@@ -95,6 +95,8 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
       student.teacher.reset();
       result = fit_function(estimator_family(options.name))(student, lesson.X, lesson.Y, joints, progress);
       result.label_noise_std = std::move(lesson.label_noise_std);
+      if (result.report.ok())
+        result.teaching_check = check_teaching(Y, result.label_noise_std, result.estimator->predict(X));
     }
     result.teacher_report = std::move(lesson.teacher_report);
   } else {

@@ -1,10 +1,14 @@
 #include "gipdyn/estimators/teacher.hpp"
 
+#include <cmath>
+#include <cstdio>
+#include <limits>
 #include <random>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/metrics.hpp"
 #include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
@@ -46,6 +50,41 @@ TrainOptions TeacherOptions::student_train_options(const TrainOptions& student) 
   TrainOptions o = student;
   if (o.hyperparameter_rows == 0) o.hyperparameter_rows = student_hyperparameter_rows;
   return o;
+}
+
+TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& teacher_residual_rms,
+                             const Eigen::MatrixXd& student_prediction) {
+  if (student_prediction.rows() != Y.rows() || student_prediction.cols() != Y.cols() ||
+      teacher_residual_rms.size() != Y.cols())
+    throw Error("check_teaching: Y, teacher_residual_rms and student_prediction must have the same joints and rows");
+  const Accuracy student = compute_accuracy(Y, student_prediction);
+  TeachingCheck check;
+  check.student_nmse = student.nmse;
+  check.teacher_nmse.resize(Y.cols());
+  for (Eigen::Index j = 0; j < Y.cols(); ++j) {
+    const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
+    const bool constant = !(variance > 0.0);
+    check.teacher_nmse(j) =
+        constant ? std::numeric_limits<double>::quiet_NaN() : teacher_residual_rms(j) * teacher_residual_rms(j) / variance;
+    if (constant) check.student_nmse(j) = std::numeric_limits<double>::quiet_NaN();
+  }
+  return check;
+}
+
+std::string TeachingCheck::warning(const std::string& teacher_name) const {
+  std::string joints;
+  for (Eigen::Index j = 0; j < student_nmse.size(); ++j) {
+    if (!(student_nmse(j) - teacher_nmse(j) > kTaughtNmseGapWarning)) continue;
+    char buf[96];
+    std::snprintf(buf, sizeof buf, "%s%ld (%.3g against %.3g)", joints.empty() ? "" : ", ", static_cast<long>(j + 1),
+                  student_nmse(j), teacher_nmse(j));
+    joints += buf;
+  }
+  if (joints.empty()) return "";
+  return "the model taught by " + teacher_name + " fits the logged rows far worse than its teacher (nMSE on the log, joint " +
+         joints + "): the log's states fill too little of their box for the teacher's torques there to be more than "
+         "extrapolation, as on a real robot's log; train without a teacher (e.g. the teacher's kernel " + teacher_name +
+         " itself, or gip)";
 }
 
 TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,

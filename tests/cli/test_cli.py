@@ -167,8 +167,23 @@ def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     assert teacher["student_hyperparameter_rows"] == 100
     assert [j["training"]["hyperparameter_rows"] for j in header["joint_models"]] == [100, 100]
     assert teacher["label_noise_std"] == pytest.approx(noise, rel=1e-2)
+    # Both fits' nMSE on the logged rows, printed and recorded; the student fits the log as its teacher does.
+    printed = re.search(r"nMSE on the logged rows, per joint, teacher / student: (.*)", r.stdout).group(1).split()
+    pairs = [[float(v) for v in p.split("/")] for p in printed]
+    assert [p[0] for p in pairs] == pytest.approx(teacher["log_nmse"]["teacher"], rel=1e-2)
+    assert [p[1] for p in pairs] == pytest.approx(teacher["log_nmse"]["student"], rel=1e-2)
+    assert all(s - t < 0.1 for t, s in pairs), r.stdout
+    assert "fits the logged rows far worse" not in r.stderr
     # The teacher's warnings are told apart from the student's.
     assert all(line.startswith("gipdyn: warning: ") for line in r.stderr.splitlines()), r.stderr
+    # Ten drawn states teach the student too little to fit the log: warned, the model still written.
+    few = tmp_path / "few.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(few), "--teacher",
+            "lip", "--teacher-states", "10", "--teacher-hyperparameter-rows", "0", "--max-iter", "60", "--seed", "4")
+    assert r.returncode == 0 and few.exists(), r.stderr
+    assert "gipdyn: warning: the model taught by lip fits the logged rows far worse than its teacher" in r.stderr
+    log_nmse = model_header(few)["teacher"]["log_nmse"]
+    assert max(s - t for t, s in zip(log_nmse["teacher"], log_nmse["student"])) > 0.1
     # The seed draws the states: the same seed, the same model.
     again = tmp_path / "again.gipdyn"
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(again), "--teacher",

@@ -39,6 +39,9 @@ struct FitResult {
   // (per joint) of the states the estimator learned from.
   std::optional<FitReport> teacher_report;
   Eigen::VectorXd label_noise_std;
+  // With a teacher and a fitted student: the two's nMSE on the logged rows (its
+  // warning() says when the student misses the log its teacher fits).
+  std::optional<TeachingCheck> teaching_check;
 };
 
 // Fits the named estimator (with a teacher: the teacher, then the estimator on

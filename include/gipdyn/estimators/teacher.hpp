@@ -60,6 +60,31 @@ struct TeachingSet {
   Eigen::VectorXd label_noise_std;
 };
 
+// A gap between the student's and the teacher's nMSE on the logged rows above
+// which the taught model is warned about. The student learns the teacher's
+// torques over the whole box of the log; where the log's states fill that box
+// (simulated motions), it fits the log as its teacher does (gaps of 2e-3 or
+// less on the SCARA and UR10); where they lie on a thin set of it (a real
+// robot's log), the teacher's torques over the box are extrapolation and the
+// student can miss the log by more than the torque's variance (gaps of 2.5-50
+// on the real UR10 log, docs/training.md).
+inline constexpr double kTaughtNmseGapWarning = 0.1;
+
+// How well the teacher and its student fit the logged rows they came from.
+struct TeachingCheck {
+  Eigen::VectorXd teacher_nmse;  // per joint: the teacher's MSE on the logged rows over the torque's variance
+  Eigen::VectorXd student_nmse;  // the same for the student; NaN where the logged torque is constant
+  // One line naming every joint whose student_nmse exceeds teacher_nmse by more
+  // than kTaughtNmseGapWarning, with both, and what to do instead; "" when none.
+  std::string warning(const std::string& teacher_name) const;
+};
+
+// The check from the logged torques Y (N x n), the teacher's RMS residual on
+// them (TeachingSet::label_noise_std) and the student's predictions at the
+// logged states (N x n).
+TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& teacher_residual_rms,
+                             const Eigen::MatrixXd& student_prediction);
+
 // Fits the teacher on (X, Y) and labels TeacherOptions::states drawn states.
 // Bad options or data throw gipdyn::Error before any work; a teacher that
 // fails to fit is reported in TeachingSet::teacher_report, whose message then
