@@ -1,4 +1,6 @@
 // gipdyn: learn robot inverse dynamics with Gaussian processes and the GIP kernel.
+#include <malloc.h>
+
 #include <iostream>
 #include <map>
 #include <string>
@@ -29,6 +31,13 @@ std::string out_of_memory_advice(const std::string& command) {
 }  // namespace
 
 int main(int argc, char** argv) {
+  // libtorch allocates and frees a few hundred kilobytes per layer and batch
+  // while training the nn estimator; with glibc's default 128 KiB pad the
+  // heap's top was returned to the system and faulted back in every step:
+  // 34 s of which 10 s in the kernel for 300 epochs on 2000 SCARA rows,
+  // 21 s with this pad (bench/RESULTS.md). It costs at most this much resident
+  // memory held back after a large free.
+  mallopt(M_TOP_PAD, 64 << 20);
   CLI::App app{
       "gipdyn: learn a robot's inverse dynamics (q, qd, qdd -> tau) with Gaussian processes and the\n"
       "Geometrically Inspired Polynomial kernel (Dalla Libera & Carli, RA-L 2019).\n"
