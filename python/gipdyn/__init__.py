@@ -145,7 +145,10 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     teacher learns its hyperparameters on that many rows, 0: all),
     student_hyperparameter_rows (with a teacher, the student learns its
     hyperparameters on that many of the drawn states, 0: all; a
-    hyperparameter_rows above 0 wins)
+    hyperparameter_rows above 0 wins; after fit, teaching_check_ holds the
+    teacher's and the student's nMSE on (X, Y), and a TeachingWarning says
+    when the student misses that log by more than 0.1 of a joint's torque
+    variance where its teacher does not, as on real robots' logs)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
