@@ -82,6 +82,10 @@ FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::Matr
     out.report = r.report;
     if (out.ok) out.prediction = r.estimator->predict(Xtest);
     if (out.ok && r.estimator->gp_model()) out.log_params = learned_log_params(*r.estimator->gp_model());
+    if (out.ok && r.teaching_check) {
+      out.teaching_check = r.teaching_check;
+      out.teacher = options.teacher->name;
+    }
     if (out.ok && !out.prediction.allFinite()) {
       out.ok = false;
       out.message = "predictions contain NaN or Inf";
@@ -228,6 +232,18 @@ void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key
   eta.record(eta_key, f.seconds);
   eta.finish(eta_key);
   note(progress, "  " + estimator + " done in " + duration(f.seconds) + ", " + metrics);
+  if (f.teaching_check) {
+    std::string pairs;
+    for (Eigen::Index j = 0; j < f.teaching_check->student_nmse.size(); ++j)
+      pairs += " " + format_number(f.teaching_check->teacher_nmse(j)) + "/" +
+               format_number(f.teaching_check->student_nmse(j));
+    log_line(out, where + estimator + " nMSE on the training rows, per joint, teacher / student:" + pairs);
+    const std::string warning = f.teaching_check->warning(f.teacher);
+    if (!warning.empty()) {
+      log_line(out, where + estimator + " warning: " + warning);
+      note(progress, "  " + estimator + " warning: " + warning);
+    }
+  }
 }
 
 void record_fit_report(const std::string& out, const std::vector<std::pair<std::string, std::string>>& key,

@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <map>
 #include <nlohmann/json.hpp>
+#include <optional>
 #include <string>
 #include <utility>
 #include <vector>
@@ -54,6 +55,9 @@ struct FitAndPredict {
   // GP estimators: per joint, the learned [kernel log-parameters, log noise
   // variance] (learned_log_params); empty for the others.
   std::vector<Eigen::VectorXd> log_params;
+  // A student taught by a teacher: how it and its teacher fit the training rows, and the teacher's name.
+  std::optional<TeachingCheck> teaching_check;
+  std::string teacher;
 };
 // Fits and predicts Xtest; every error becomes a message (an experiment goes on).
 FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

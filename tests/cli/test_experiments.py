@@ -51,6 +51,12 @@ def test_accuracy_compares_a_student_taught_by_lip_with_its_teacher(tmp_path, gi
     log_error = [abs(np.log10(nmse[("gip@lip", str(j))] / nmse[("lip", str(j))])) for j in range(1, 5)]
     gip_error = [abs(np.log10(nmse[("gip", str(j))] / nmse[("lip", str(j))])) for j in range(1, 5)]
     assert sum(log_error) < sum(gip_error), nmse
+    # The log says how the student and its teacher fit the training rows; here the student fits them as LIP does.
+    line = [x for x in (out / "experiment.log").read_text().splitlines() if "gip@lip nMSE on the training rows" in x]
+    assert len(line) == 1 and line[0].startswith("run 1 gip@lip"), line
+    pairs = [[float(v) for v in p.split("/")] for p in line[0].split(":")[-1].split()]
+    assert len(pairs) == 4 and all(s - t < 0.1 for t, s in pairs), line
+    assert "warning" not in (out / "experiment.log").read_text()
     # config.json records what the teacher used, so a resume with other teacher defaults is refused.
     options = json.loads((out / "config.json").read_text())["options"]
     assert (options["teacher_states"], options["teacher_hyperparameter_rows"]) == (2000, 300)
