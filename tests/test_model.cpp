@@ -635,6 +635,25 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
               read_dataset(write("u.csv", "Q_1,Q_2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n"), rr, true);
             }).find("no column 'q1' (its column 'Q_1' looks like it: rename it)"),
             std::string::npos);
+  // Other common spellings of the derivatives and torques, and joints counted from 0.
+  const auto error_reading = [&](const char* name, const std::string& header) {
+    return error_of([&] { read_dataset(write(name, header + "\n1,2,3,4,5,6,7,8\n"), rr, true); });
+  };
+  EXPECT_NE(error_reading("d.csv", "q1,q2,dq_1,dq_2,ddq1,ddq2,tau1,tau2")
+                .find("no column 'qd1' (its column 'dq_1' looks like it: rename it)"),
+            std::string::npos);
+  EXPECT_NE(error_reading("a.csv", "q1,q2,qd1,qd2,qddot1,qddot2,tau1,tau2")
+                .find("no column 'qdd1' (its column 'qddot1' looks like it"),
+            std::string::npos);
+  EXPECT_NE(error_reading("f.csv", "q1,q2,qd1,qd2,qdd1,qdd2,effort1,effort2")
+                .find("no column 'tau1' (its column 'effort1' looks like it"),
+            std::string::npos);
+  EXPECT_NE(error_reading("z.csv", "q0,q1,qd0,qd1,qdd0,qdd1,tau0,tau1")
+                .find("z.csv' has a column 'q0': its joints are counted from 0, gipdyn's from 1 (q1 is the first "
+                      "joint); rename the columns q0..q(n-1) to q1..qn, and qd, qdd and tau likewise"),
+            std::string::npos);
+  // A name that only shares its letters is not offered: qd1 is not tau1.
+  EXPECT_EQ(error_reading("o.csv", "q1,q2,qd1,qd2,qdd1,qdd2,x1,x2").find("looks like it"), std::string::npos);
   EXPECT_NE(error_of([&] {
               read_dataset(write("t.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,x,5,6,7,8\n"), rr, true);
             }).find("line 2, column 'qd2': 'x' is not a number"),

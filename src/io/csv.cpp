@@ -58,19 +58,33 @@ CsvHeader parse_header(std::ifstream& in, const std::string& path) {
   return h;
 }
 
+// A column name in lower case without separators, its leading letters
+// written the way gipdyn spells them when they are another common spelling
+// of the same quantity: "dq_1", "qdot1" -> "qd1"; "ddq1", "qddot1" -> "qdd1";
+// "torque1", "effort1" -> "tau1"; "pos1", "theta1" -> "q1".
+std::string canonical_column(const std::string& name) {
+  std::string out;
+  for (char ch : name)
+    if (ch != '_' && ch != '-' && ch != ' ' && ch != '.') out += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  const size_t letters = static_cast<size_t>(
+      std::find_if(out.begin(), out.end(), [](char ch) { return !std::isalpha(static_cast<unsigned char>(ch)); }) -
+      out.begin());
+  static const std::unordered_map<std::string, std::string> kSpellings = {
+      {"pos", "q"},      {"position", "q"}, {"theta", "q"},    {"dq", "qd"},     {"qdot", "qd"},
+      {"dotq", "qd"},    {"vel", "qd"},     {"velocity", "qd"}, {"ddq", "qdd"},  {"qddot", "qdd"},
+      {"acc", "qdd"},    {"accel", "qdd"},  {"acceleration", "qdd"}, {"torque", "tau"}, {"effort", "tau"}};
+  const auto it = kSpellings.find(out.substr(0, letters));
+  return it == kSpellings.end() ? out : it->second + out.substr(letters);
+}
+
 // Names the file's columns, and one that differs from the wanted one only in
-// case or separators ("Q_1" for "q1"), so that a log with its own naming
-// is fixed by renaming, not guessed at.
+// case, separators or a common spelling ("Q_1" or "pos1" for "q1", "dq1" for
+// "qd1"), so that a log with its own naming is fixed by renaming, not guessed at.
 std::string missing_column_message(const std::string& path, const std::string& wanted, const CsvHeader& header) {
-  auto normalised = [](const std::string& name) {
-    std::string out;
-    for (char ch : name)
-      if (ch != '_' && ch != '-' && ch != ' ' && ch != '.') out += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
-    return out;
-  };
   std::string message = "'" + path + "' has no column '" + wanted + "'";
   for (const auto& name : header.names)
-    if (normalised(name) == normalised(wanted)) return message + " (its column '" + name + "' looks like it: rename it)";
+    if (canonical_column(name) == canonical_column(wanted))
+      return message + " (its column '" + name + "' looks like it: rename it)";
   std::string listed;
   const size_t shown = std::min<size_t>(header.names.size(), 10);
   for (size_t k = 0; k < shown; ++k) listed += (k ? ", " : "") + header.names[k];
@@ -79,6 +93,14 @@ std::string missing_column_message(const std::string& path, const std::string& w
 }
 
 }  // namespace
+
+void require_joints_counted_from_one(const CsvHeader& header, const std::string& path) {
+  for (const auto& name : header.names)
+    if (canonical_column(name) == "q0")
+      throw Error("'" + path + "' has a column '" + name +
+                  "': its joints are counted from 0, gipdyn's from 1 (q1 is the first joint); rename the columns "
+                  "q0..q(n-1) to q1..qn, and qd, qdd and tau likewise");
+}
 
 bool CsvHeader::has(const std::string& name) const {
   return std::find(names.begin(), names.end(), name) != names.end();

@@ -40,6 +40,7 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
       throw Error("'" + path + "' is a MATLAB .mat file, not a CSV; " + kMatFileAdvice);
   }
   const CsvHeader header = read_csv_header(path);
+  require_joints_counted_from_one(header, path);
   int file_joints = 0;
   while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;
   if (file_joints != n && file_joints > 0)

@@ -141,6 +141,7 @@ Eigen::MatrixXd PreprocessedLog::table() const {
 PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions& o) {
   o.validate();
   const CsvHeader header = read_csv_header(path);
+  require_joints_counted_from_one(header, path);
   int n = 0;
   while (header.has("q" + std::to_string(n + 1))) ++n;
   if (n == 0) throw Error("'" + path + "' has no column q1; name the joint positions q1, q2, ...");

@@ -188,3 +188,13 @@ def test_a_gap_in_the_log_is_refused_unless_a_segment_starts_there(tmp_path, gip
              "--segment-starts", "301")
     assert ok.returncode == 0, ok.stderr
     assert read(tmp_path / "ok.csv").size == 600
+
+
+def test_a_log_with_joints_counted_from_0_is_refused(tmp_path, gipdyn_bin):
+    # Reading q1.. of a log whose joints are q0, q1 would take its second joint for the first.
+    t = 0.01 * np.arange(100)
+    write_log(tmp_path / "zero.csv", {"t": t, "q0": np.sin(t), "q1": np.cos(t), "tau0": t, "tau1": t})
+    r = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "zero.csv"), "--out", str(tmp_path / "out.csv"))
+    assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "has a column 'q0': its joints are counted from 0, gipdyn's from 1" in r.stderr
+    assert not (tmp_path / "out.csv").exists()

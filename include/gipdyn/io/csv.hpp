@@ -16,6 +16,11 @@ struct CsvHeader {
 
 CsvHeader read_csv_header(const std::string& path);
 
+// Throws gipdyn::Error when the header counts joints from 0 (a column q0, or
+// another spelling of it such as pos_0): gipdyn's joints are q1..qn, and
+// reading q1.. of such a log would shift every joint by one.
+void require_joints_counted_from_one(const CsvHeader& header, const std::string& path);
+
 // Reads the named columns (in the given order) into a rows x columns matrix.
 // Throws gipdyn::Error for a missing file or column, a header that names a
 // column twice, a row with more or fewer cells than the header, a non-numeric
