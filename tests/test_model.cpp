@@ -763,6 +763,18 @@ TEST(Memory, RefusesWhatTheMachineCannotHoldWithTheEstimate) {
   EXPECT_NE(message.find("available; ask less"), std::string::npos) << message;
 }
 
+TEST(TrainingData, FindsRevoluteJointsWhosePositionsSpanMoreThanTwoTurns) {
+  const gipdyn::JointTypes rpr = gipdyn::JointTypes::parse("RPR");
+  Eigen::MatrixXd X = gipdyn::test::random_inputs(rpr, 40, 3);
+  EXPECT_TRUE(gipdyn::revolute_joints_spanning_turns(X, rpr).empty());
+  X.col(0) *= 180.0 / 3.14159265358979323846;  // joint 1 in degrees
+  X.col(1) *= 100.0;                              // a prismatic joint may move far: not a turn
+  X(7, 2) = X.col(2).minCoeff() + 12.5;           // just under two turns (12.566 rad)
+  EXPECT_EQ(gipdyn::revolute_joints_spanning_turns(X, rpr), (std::vector<int>{0}));
+  X(7, 2) += 0.1;
+  EXPECT_EQ(gipdyn::revolute_joints_spanning_turns(X, rpr), (std::vector<int>{0, 2}));
+}
+
 TEST(TrainingData, FindsConstantColumnsAndRowsSharedWithTraining) {
   Eigen::MatrixXd X = gipdyn::test::random_inputs(gipdyn::JointTypes::parse("RR"), 30, 7);
   X.col(3).setConstant(0.25);

@@ -155,6 +155,13 @@ Command add_train(CLI::App& app) {
       for (Eigen::Index c : constant_columns(data.X))
         data_warnings.push_back("column " + names[static_cast<size_t>(c)] + " of " + a->data +
                                 " is constant: the model cannot learn how the torque depends on it");
+      for (int j : revolute_joints_spanning_turns(data.X, joints)) {
+        char span[32];
+        std::snprintf(span, sizeof span, "%.4g", data.X.col(j).maxCoeff() - data.X.col(j).minCoeff());
+        data_warnings.push_back("column " + names[static_cast<size_t>(j)] + " of " + a->data + " spans " + span +
+                                " rad, more than two turns of a revolute joint: if the log is in degrees, convert "
+                                "q, qd and qdd to radians (the kernels see cos q and sin q)");
+      }
       total = data.rows();
       if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
     } catch (const std::exception& e) {

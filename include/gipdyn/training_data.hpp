@@ -30,6 +30,12 @@ std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index 
 // (1 + max |value|). A model cannot learn how the torque depends on them.
 std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tolerance = 1e-12);
 
+// Revolute joints (0-based) whose logged positions span more than two turns
+// (4 pi rad). A log in degrees is the usual cause: a joint moving 30-300
+// degrees spans 30-300 "rad", and the kernels, which see cos q and sin q, find
+// no structure in them. A joint that turns without end is the other cause.
+std::vector<int> revolute_joints_spanning_turns(const Eigen::MatrixXd& X, const JointTypes& joints);
+
 // The box the training inputs span: per column of X (q, qd, qdd) its smallest
 // and largest value. Polynomial kernels grow without bound outside it;
 // saturate() clamps queries into it (docs/real-robots.md measures when that pays).

@@ -72,6 +72,15 @@ std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tole
   return out;
 }
 
+std::vector<int> revolute_joints_spanning_turns(const Eigen::MatrixXd& X, const JointTypes& joints) {
+  std::vector<int> out;
+  if (X.rows() == 0 || X.cols() < joints.size()) return out;
+  const double two_turns = 4.0 * 3.14159265358979323846;
+  for (int j = 0; j < joints.size(); ++j)
+    if (joints.is_revolute(j) && X.col(j).maxCoeff() - X.col(j).minCoeff() > two_turns) out.push_back(j);
+  return out;
+}
+
 Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::MatrixXd& test) {
   if (train.cols() != test.cols()) return 0;
   // Row-major copies make each row one contiguous run of bytes to compare.

@@ -152,6 +152,18 @@ def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, mes
     assert [p.name for p in tmp_path.iterdir()] == ["bad.csv"]  # no temporary left behind
 
 
+def test_train_warns_about_positions_that_look_like_degrees(tmp_path, gipdyn_bin):
+    # Joint 1 logged in degrees (0-90), joint 2 in radians; the prismatic joint 3 may span metres.
+    rows = "".join(f"{9.0 * k},{0.1 * k},{2.0 * k},1,2,3,4,5,6,{k},{2 * k},{3 * k}\n" for k in range(11))
+    data = write_text(tmp_path / "deg.csv", "q1,q2,q3,qd1,qd2,qd3,qdd1,qdd2,qdd3,tau1,tau2,tau3\n" + rows)
+    r = run(gipdyn_bin, "train", "--data", data, "--joints", "RRP", "--out", str(tmp_path / "m.gipdyn"),
+            "--max-iter", "3")
+    assert r.returncode == 0, r.stderr
+    warned = [line for line in r.stderr.splitlines() if "more than two turns" in line]
+    assert len(warned) == 1 and "column q1 of" in warned[0] and "spans 90 rad" in warned[0], r.stderr
+    assert "convert q, qd and qdd to radians" in warned[0]
+
+
 def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "log.csv", 80, 1)
     out = tmp_path / "m.gipdyn"
