@@ -18,7 +18,7 @@ from ._core import __version__
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
                     SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -59,6 +59,10 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
 class NoiseWarning(UserWarning):
     """A joint's fit calls most of its torque noise: its predictions stay near the training mean."""
+
+
+class DataWarning(UserWarning):
+    """The training data look wrong in a way a fit cannot fix (e.g. positions in degrees)."""
 
 
 class TeachingWarning(UserWarning):
@@ -277,7 +281,14 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         Y = _as_matrix("Y", Y, n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
-        return np.asfortranarray(X), np.asfortranarray(Y)
+        X, Y = np.asfortranarray(X), np.asfortranarray(Y)
+        if np.isfinite(X).all():
+            for j in _core.revolute_joints_spanning_turns(X, str(self.joints)):
+                span = X[:, j].max() - X[:, j].min()
+                warnings.warn(f"X's column {j} (q{j + 1}) spans {span:.4g} rad, more than two turns of a revolute "
+                              "joint: if the data are in degrees, convert q, qd and qdd to radians (the kernels see "
+                              "cos q and sin q)", DataWarning, stacklevel=3)
+        return X, Y
 
     def fit(self, X, Y):
         X, Y = self._training_arrays(X, Y)

@@ -23,6 +23,7 @@
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/fit_report.hpp"
+#include "gipdyn/training_data.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/dynamics.hpp"
@@ -573,6 +574,13 @@ PYBIND11_MODULE(_core, m) {
   m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "
         "(kernel, robot, scaling and mean from the model; optimiser settings from options)");
+  m.def(
+      "revolute_joints_spanning_turns",
+      [](ConstRef X, const std::string& joints) {
+        return revolute_joints_spanning_turns(X, JointTypes::parse(joints));
+      },
+      py::arg("X"), py::arg("joints"),
+      "0-based revolute joints whose positions in X span more than two turns (4 pi rad): usually a log in degrees");
   m.def("kernel_names", &kernel_names);
 
   py::class_<NeighbourConsistencyOptions>(m, "NeighbourConsistencyOptions")

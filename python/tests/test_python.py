@@ -643,3 +643,18 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", student_hyperparameter_rows=-1).fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="needs a nominal robot"):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="fe").fit(train["X"], train["tau"])
+
+
+def test_positions_that_look_like_degrees_are_warned_about():
+    train = gipdyn.simulate("scara", samples=60, seed=2)
+    X = train["X"].copy()
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
+    assert not [w for w in caught if issubclass(w.category, gipdyn.DataWarning)]
+    X[:, 0] = np.degrees(X[:, 0]) * 10  # joint 1 in (tenths of) degrees: far more than two turns
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
+    data = [str(w.message) for w in caught if issubclass(w.category, gipdyn.DataWarning)]
+    assert len(data) == 1 and "column 0 (q1)" in data[0] and "convert q, qd and qdd to radians" in data[0], data
