@@ -34,8 +34,8 @@ int main(int argc, char** argv) {
   // libtorch allocates and frees a few hundred kilobytes per layer and batch
   // while training the nn estimator; with glibc's default 128 KiB pad the
   // heap's top was returned to the system and faulted back in every step:
-  // 34 s of which 10 s in the kernel for 300 epochs on 2000 SCARA rows,
-  // 21 s with this pad (bench/RESULTS.md). It costs at most this much resident
+  // 33.6 s, 9.7 s of them in the kernel, for 300 epochs on 2000 SCARA rows;
+  // 22.4 s with this pad (bench/RESULTS.md). It costs at most this much resident
   // memory held back after a large free.
   mallopt(M_TOP_PAD, 64 << 20);
   CLI::App app{
