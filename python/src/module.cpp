@@ -23,12 +23,12 @@
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/fit_report.hpp"
-#include "gipdyn/training_data.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "gipdyn/training_data.hpp"
 #include "gipdyn/version.hpp"
 #ifdef GIPDYN_HAVE_MPI
 #include "gipdyn/distributed/distributed_nll.hpp"

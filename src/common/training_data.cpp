@@ -3,6 +3,7 @@
 #include "gipdyn/error.hpp"
 
 #include <algorithm>
+#include <cmath>
 #include <cstdio>
 #include <string>
 #include <unordered_set>
@@ -75,7 +76,7 @@ std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tole
 std::vector<int> revolute_joints_spanning_turns(const Eigen::MatrixXd& X, const JointTypes& joints) {
   std::vector<int> out;
   if (X.rows() == 0 || X.cols() < joints.size()) return out;
-  const double two_turns = 4.0 * 3.14159265358979323846;
+  const double two_turns = 4.0 * M_PI;
   for (int j = 0; j < joints.size(); ++j)
     if (joints.is_revolute(j) && X.col(j).maxCoeff() - X.col(j).minCoeff() > two_turns) out.push_back(j);
   return out;
