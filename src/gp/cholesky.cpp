@@ -45,20 +45,20 @@ CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void
           rebuild(K);
           K.diagonal().array() += jitter;
         }
-        return LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', n, K.data(), n) == 0;
+        return LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', n, K.data(), n) == 0;
       },
       policy);
 }
 
 void cholesky_solve(const Eigen::MatrixXd& L, Eigen::Ref<Eigen::MatrixXd> b) {
   const lapack_int n = static_cast<lapack_int>(L.rows());
-  LAPACKE_dpotrs(LAPACK_COL_MAJOR, 'L', n, static_cast<lapack_int>(b.cols()), L.data(), n, b.data(),
+  LAPACKE_dpotrs_work(LAPACK_COL_MAJOR, 'L', n, static_cast<lapack_int>(b.cols()), L.data(), n, b.data(),
                  static_cast<lapack_int>(b.outerStride()));
 }
 
 bool cholesky_inverse_in_place(Eigen::MatrixXd& L) {
   const lapack_int n = static_cast<lapack_int>(L.rows());
-  return LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', n, L.data(), n) == 0;
+  return LAPACKE_dpotri_work(LAPACK_COL_MAJOR, 'L', n, L.data(), n) == 0;
 }
 
 }  // namespace gipdyn
