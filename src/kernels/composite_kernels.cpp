@@ -255,13 +255,18 @@ void SumKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd&
 }
 
 void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const {
-  // Each child may use the scratch, so the running sum lives outside it.
+  // Each child may use the scratch's other buffers, so the running sum lives
+  // in K and each further child's matrix in this level's own buffer.
   children_[0]->gram_lower(Z, K, scratch);
-  Eigen::MatrixXd Kc;
+  const size_t level = scratch.gram_level;
+  if (scratch.child_grams.size() <= level) scratch.child_grams.resize(level + 1);
+  Eigen::MatrixXd& Kc = scratch.child_grams[level];
+  ++scratch.gram_level;
   for (size_t c = 1; c < children_.size(); ++c) {
     children_[c]->gram_lower(Z, Kc, scratch);
     K.triangularView<Eigen::Lower>() += Kc;
   }
+  --scratch.gram_level;
 }
 
 void SumKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,

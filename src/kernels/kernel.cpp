@@ -14,7 +14,9 @@ void Kernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha
   W.resize(Z.rows(), Z.rows());
   W.triangularView<Eigen::Lower>() = Kinv_lower.triangularView<Eigen::Lower>();
   W.triangularView<Eigen::StrictlyUpper>() = Kinv_lower.transpose().triangularView<Eigen::StrictlyUpper>();
-  W = alpha * alpha.transpose() - W;
+  // In place: `alpha * alpha^T - W` would first evaluate the outer product into an N x N temporary.
+  W = -W;
+  W.noalias() += alpha * alpha.transpose();
   contract(Z, W, grad, scratch);
 }
 

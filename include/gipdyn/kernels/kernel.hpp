@@ -34,6 +34,10 @@ struct KernelScratch {
   // the buffers of the levels above it.
   std::deque<Eigen::VectorXd> child_rows;
   size_t child_level = 0;
+  // A sum's further children's Gram matrices in gram_lower, one per nesting
+  // level likewise: an NLL evaluation then allocates no N x N matrix.
+  std::deque<Eigen::MatrixXd> child_grams;
+  size_t gram_level = 0;
 };
 
 class Kernel {
