@@ -5,6 +5,7 @@
 #include <functional>
 #include <thread>
 #include <set>
+#include <map>
 #include <mutex>
 #include <atomic>
 
@@ -102,6 +103,39 @@ TEST(Training, SameSeedSameModelWhateverTheThreads) {
   o.seed = 6;
   const TrainResult c = train_model(X, Y, joints, o);
   EXPECT_NE(a.report.joints[0].restart_nlls[1], c.report.joints[0].restart_nlls[1]);  // restarts depend on the seed
+}
+
+// By default every joint trains at once, on its own thread, whatever the core
+// count: more joints than cores share them, so that no core waits while the
+// longest joint finishes. On the 2-core CI machine the old rule (one thread
+// per core) would run three joints on two threads.
+TEST(Training, EveryJointTrainsAtOnceByDefault) {
+  const JointTypes joints = JointTypes::parse("RRR");
+  const Eigen::MatrixXd X = random_inputs(joints, 300, 44);
+  const Eigen::MatrixXd Y = test::random_matrix(300, 3, -1.0, 1.0, 911);
+  TrainOptions o;
+  o.optimizer.max_iterations = 30;
+  std::mutex m;
+  std::map<int, std::set<std::thread::id>> threads_of_joint;
+  const TrainResult a = train_model(X, Y, joints, o, [&](const ProgressEvent& e) {
+    const std::lock_guard<std::mutex> lock(m);
+    if (e.joint >= 0) threads_of_joint[e.joint].insert(std::this_thread::get_id());
+  });
+  ASSERT_TRUE(a.report.ok()) << a.report.message;
+  std::set<std::thread::id> all;
+  for (const auto& [joint, ids] : threads_of_joint) {
+    EXPECT_EQ(ids.size(), 1u) << "joint " << joint;
+    all.insert(ids.begin(), ids.end());
+  }
+  EXPECT_EQ(threads_of_joint.size(), 3u);
+  EXPECT_EQ(all.size(), 3u);
+  EXPECT_EQ(gipdyn::sharing_threads(0, 6), 6);
+  EXPECT_EQ(gipdyn::sharing_threads(2, 6), 2);
+  // The same model as one joint after another.
+  o.threads = 1;
+  const TrainResult b = train_model(X, Y, joints, o);
+  for (int j = 0; j < 3; ++j)
+    EXPECT_EQ(a.model.joint_gp(j).kernel().log_params(), b.model.joint_gp(j).kernel().log_params());
 }
 
 #if defined(__x86_64__) || defined(__SSE2__)

@@ -61,7 +61,7 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
                  "start, width^2))")
       ->capture_default_str();
   app.add_option("--prior-width", prior_width, "GP: standard deviation of the log-normal priors")->capture_default_str();
-  app.add_option("--threads", threads, "GP: joints trained in parallel; lip: starts run in parallel (0: one per core)")->capture_default_str();
+  app.add_option("--threads", threads, "GP: joints trained at once; lip: starts run at once (0: all, sharing the cores; results do not depend on it)")->capture_default_str();
   if (with_robot) {
     app.add_option("--robot", robot,
                    "Nominal robot for the model-based estimators fe, pp, sp: scara, ur10, a URDF or a JSON DH file");

@@ -39,7 +39,7 @@ struct TrainArgs {
 class LongFitNotice {
  public:
   LongFitNotice(int joints, int threads) {
-    const int parallel = worker_threads(threads, joints);
+    const int parallel = worker_threads(sharing_threads(threads, joints), joints);
     waves_ = (joints + parallel - 1) / parallel;
   }
   void observe(const ProgressEvent& e) {

@@ -43,7 +43,7 @@ Command add_update(CLI::App& app) {
                "periodic refit of online learning: minutes at a few thousand rows, against milliseconds per row "
                "without it)");
   app.add_option("--max-iter", a->max_iter, "--refit: safety cap on NLL evaluations per joint")->capture_default_str();
-  app.add_option("--threads", a->threads, "--refit: joints trained in parallel (0: one per core)")->capture_default_str();
+  app.add_option("--threads", a->threads, "--refit: joints trained at once (0: all, sharing the cores)")->capture_default_str();
   app.add_option("--out", a->out, "Updated model file")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {

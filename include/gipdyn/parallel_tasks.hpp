@@ -11,6 +11,12 @@ namespace gipdyn {
 // `bytes_per_task` each (0: no limit); at least 1.
 int worker_threads(int requested, int tasks, double bytes_per_task = 0.0, double reserved_bytes = 0.0);
 
+// The threads to ask worker_threads for, for `tasks` independent tasks that
+// share the cores: `requested`, or one per task for 0. More tasks than cores
+// then end together, instead of the last one running alone while other cores
+// wait; each task's result does not depend on it.
+int sharing_threads(int requested, int tasks);
+
 // Runs task(0), ..., task(tasks - 1) on `threads` threads, the caller's among
 // them, each taking the next task when it finishes one, with subnormals
 // flushed to zero (floating_point.hpp). The first exception a task throws is

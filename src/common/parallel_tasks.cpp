@@ -22,6 +22,8 @@ int worker_threads(int requested, int tasks, double bytes_per_task, double reser
   return threads;
 }
 
+int sharing_threads(int requested, int tasks) { return requested > 0 ? requested : tasks; }
+
 void run_tasks(int tasks, int threads, const std::function<void(int)>& task) {
   std::atomic<int> next{0};
   std::mutex failure_mutex;

@@ -250,13 +250,13 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
     start_points.push_back(start.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds));
   }
   // One fit is a single coupled optimisation whose factorisations run on one
-  // core, so the starts run side by side (TrainOptions::threads, 0: one per
-  // core) as far as memory allows. Each start depends on its starting point
+  // core, so the starts run side by side (TrainOptions::threads, 0: all at
+  // once, sharing the cores) as far as memory allows. Each start depends on its starting point
   // alone and BLAS runs on one thread, so the kept optimum does not depend on
   // how many run at once.
   const int num_starts = static_cast<int>(start_points.size());
   std::vector<OptimizerResult> results(static_cast<size_t>(num_starts));
-  run_tasks(num_starts, worker_threads(o.threads, num_starts, start_bytes), [&](int r) {
+  run_tasks(num_starts, worker_threads(sharing_threads(o.threads, num_starts), num_starts, start_bytes), [&](int r) {
     LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
     LagrangianKernel trial = kernel;
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {

@@ -337,7 +337,8 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
                                  "(TrainOptions::nll_backend)"));
   }
   // A backend's evaluations are collective: one joint at a time, in the same order everywhere.
-  const int threads = options.nll_backend ? 1 : worker_threads(options.threads, n, per_joint, kept);
+  const int threads =
+      options.nll_backend ? 1 : worker_threads(sharing_threads(options.threads, n), n, per_joint, kept);
   run_tasks(n, threads, [&](int j) {
     const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
     outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, progress);

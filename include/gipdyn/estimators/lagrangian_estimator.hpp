@@ -35,7 +35,7 @@ class LagrangianEstimator final : public Estimator {
   // initial_noise_fraction, min_noise_fraction, jitter, hyperparameter_rows
   // (optimise on that constant-step subsample, then condition on every row
   // once: the way to a few thousand rows), threads (how many starts run side
-  // by side, 0: one per core; the result does not depend on it). The others (kernel,
+  // by side, 0: all, sharing the cores; the result does not depend on it). The others (kernel,
   // scaling, mean, prior, warm_start_rows, keep_factor) belong to the
   // per-joint GPs: kernel and scaling are ignored, and mean, prior and
   // warm_start_rows must be left at their defaults (gipdyn::Error otherwise). Throws

@@ -84,7 +84,10 @@ struct TrainOptions {
   // of the data-driven start (clamped into the optimiser's bounds); empty: data-driven.
   // refit_model fills it with a model's current hyperparameters.
   std::vector<Eigen::VectorXd> initial_log_params;
-  int threads = 0;  // 0: min(hardware threads, joints)
+  // Joints trained at once; 0: every joint, as memory permits. More joints than
+  // cores share them, so that no core waits while the longest joint finishes
+  // (docs/training.md); the results do not depend on it.
+  int threads = 0;
   // Off: maximum marginal likelihood. On: MAP with log-normal priors centred on the data-driven start.
   HyperparameterPrior prior;
   bool keep_factor = true;  // keep Cholesky factors so the model can give variances
