@@ -68,6 +68,10 @@ Command add_experiment(CLI::App& app) {
   a->add_flag("--warm-start-runs", acc->config.warm_start_runs,
               "GP: runs after the first start from the first run's learned hyperparameters (kept in "
               "OUT/warm_starts.json) instead of the data-driven start");
+  a->add_option("--concurrent-runs", acc->config.concurrent_runs,
+                "Runs fitted at the same time, each fit on its share of the cores (e.g. 2 on a 2-core machine: no core "
+                "waits for a fit's last joint or its network). Results are the same; fit times are per share")
+      ->capture_default_str();
   a->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   acc->est.add_to(*a, false, false);  // the experiment's --seed drives everything
 

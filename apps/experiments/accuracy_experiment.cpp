@@ -1,14 +1,19 @@
 #include "experiments/accuracy_experiment.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
 #include <filesystem>
 #include <map>
+#include <mutex>
+#include <thread>
 
 #include "experiments/experiment_runner.hpp"
+#include "gipdyn/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/metrics.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
 #include "reports/result_table.hpp"
@@ -21,6 +26,7 @@ using Clock = std::chrono::steady_clock;
 
 void AccuracyConfig::validate() const {
   if (runs < 1) throw Error("--runs must be >= 1");
+  if (concurrent_runs < 1) throw Error("--concurrent-runs must be >= 1");
   if (samples < kMinTrainingRows) throw Error("--samples must be >= " + std::to_string(kMinTrainingRows));
   if (!(dt > 0.0)) throw Error("--dt must be > 0");
   if (!(noise_std >= 0.0)) throw Error("--noise must be >= 0");
@@ -58,11 +64,22 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
     note(progress, "resuming: " + std::to_string(outcome.units_skipped) + " fits already recorded in " + c.out);
   WarmStarts warm_starts(c.out);
   const auto t0 = Clock::now();
+  std::vector<int> pending_runs;
   for (int r = 1; r <= c.runs; ++r) {
     bool all_done = true;
     for (const auto& e : c.estimators)
       all_done = all_done && table.contains({{"run", std::to_string(r)}, {"estimator", e}});
-    if (all_done) continue;
+    if (!all_done) pending_runs.push_back(r);
+  }
+  // Runs fitted side by side share the table, the log, the time estimate and
+  // the progress output, and the cores: each fit gets its share of them
+  // unless the options ask for a thread count (measured: one thread a fit
+  // beats every joint at once here, bench/RESULTS.md).
+  std::mutex shared;
+  EstimatorOptions base = c.base;
+  if (c.concurrent_runs > 1 && base.gp.threads == 0)
+    base.gp.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / c.concurrent_runs);
+  auto fit_run = [&](int r) {
     nlohmann::json drawn;
     const RobotModel truth = nominal.with_perturbed_kinematics(mix_seed(c.seed, r, 0), 0.05, 5.0 * M_PI / 180.0, &drawn);
     SimulationOptions so;
@@ -74,24 +91,43 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
     so.seed = mix_seed(c.seed, r, 2);
     const SimulationResult test = simulate(truth, so);
     for (const auto& e : c.estimators) {
-      if (table.contains({{"run", std::to_string(r)}, {"estimator", e}})) continue;
-      note(progress, "[run " + std::to_string(r) + "/" + std::to_string(c.runs) + "] " + e + ": fitting " +
-                 std::to_string(c.samples) + " samples (elapsed " +
-                 duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
-      EstimatorOptions options = options_for(c.base, e, prior, c.seed + static_cast<std::uint64_t>(r));
-      const std::vector<Eigen::VectorXd>* start = c.warm_start_runs && r > 1 ? warm_starts.find(e) : nullptr;
-      if (start) options.gp.initial_log_params = *start;
+      EstimatorOptions options = options_for(base, e, prior, c.seed + static_cast<std::uint64_t>(r));
+      {
+        std::lock_guard<std::mutex> lock(shared);
+        if (table.contains({{"run", std::to_string(r)}, {"estimator", e}})) continue;
+        note(progress, "[run " + std::to_string(r) + "/" + std::to_string(c.runs) + "] " + e + ": fitting " +
+                   std::to_string(c.samples) + " samples (elapsed " +
+                   duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
+        const std::vector<Eigen::VectorXd>* start = c.warm_start_runs && r > 1 ? warm_starts.find(e) : nullptr;
+        if (start) options.gp.initial_log_params = *start;
+      }
       const FitAndPredict f = fit_and_predict(options, train.X, train.tau, joints, test.X);
-      if (c.warm_start_runs && r == 1) warm_starts.store(e, f.log_params);
       const Eigen::VectorXd nmse = f.ok ? compute_accuracy(test.tau_true, f.prediction).nmse
                                         : Eigen::VectorXd::Constant(n, std::nan(""));
       std::vector<std::vector<std::string>> rows;
       for (int j = 0; j < n; ++j)
         rows.push_back({std::to_string(r), e, std::to_string(j + 1), format_number(nmse(j)), format_number(f.seconds)});
+      std::lock_guard<std::mutex> lock(shared);
+      if (c.warm_start_runs && r == 1) warm_starts.store(e, f.log_params);
       table.append(rows);
       record_fit_report(c.out, {{"run", std::to_string(r)}}, e, f);
-      finish_fit(outcome, eta, e, c.out, "run " + std::to_string(r) + " ", e, f, per_joint("nMSE", nmse), progress);
+      // Side by side, a finished fit's line names its run: the lines of the runs interleave.
+      const std::string label = c.concurrent_runs > 1 ? "[run " + std::to_string(r) + "] " + e : e;
+      finish_fit(outcome, eta, e, c.out, "run " + std::to_string(r) + " ", e, f, per_joint("nMSE", nmse), progress,
+                 label);
     }
+  };
+  eta.set_concurrency(c.concurrent_runs);
+  size_t first = 0;
+  // Later runs start from run 1's hyperparameters: it must be done before they begin.
+  if (c.warm_start_runs && !pending_runs.empty() && pending_runs.front() == 1) fit_run(pending_runs[first++]);
+  const int remaining = static_cast<int>(pending_runs.size() - first);
+  if (c.concurrent_runs <= 1) {
+    for (size_t i = first; i < pending_runs.size(); ++i) fit_run(pending_runs[i]);
+  } else {
+    use_single_threaded_blas();  // before the threads: no fit sets it while another computes
+    run_tasks(remaining, std::min(c.concurrent_runs, std::max(1, remaining)),
+              [&](int i) { fit_run(pending_runs[first + static_cast<size_t>(i)]); });
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
 

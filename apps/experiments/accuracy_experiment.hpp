@@ -26,6 +26,11 @@ struct AccuracyConfig {
   // GP estimators: runs after the first start from the first run's learned
   // hyperparameters (OUT/warm_starts.json) instead of the data-driven start.
   bool warm_start_runs = false;
+  // Runs fitted at the same time, each fit on its share of the cores (unless
+  // base.gp.threads is set): no core waits for a fit's last joint or its
+  // single-threaded network. The results do not depend on it; the wall time
+  // and each fit's recorded seconds do.
+  int concurrent_runs = 1;
   std::string out;
   void validate() const;
   nlohmann::json to_json() const;

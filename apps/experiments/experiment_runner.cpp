@@ -68,7 +68,7 @@ std::string Eta::left() const {
     else if (known > 0) total += n * known_sum / known;
     else return "time left unknown yet";
   }
-  return "about " + duration(total) + " left";
+  return "about " + duration(total / concurrency_) + " left";
 }
 
 FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
@@ -221,17 +221,18 @@ void note(const ProgressCallback& progress, const std::string& line) {
 
 void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key, const std::string& out,
                 const std::string& where, const std::string& estimator, const FitAndPredict& f,
-                const std::string& metrics, const ProgressCallback& progress) {
+                const std::string& metrics, const ProgressCallback& progress, const std::string& label) {
+  const std::string name = label.empty() ? estimator : label;
   if (f.ok) {
     ++outcome.units_done;
   } else {
     ++outcome.units_failed;
     log_line(out, where + estimator + " failed: " + f.message);
-    note(progress, "  " + estimator + " failed: " + f.message);
+    note(progress, "  " + name + " failed: " + f.message);
   }
   eta.record(eta_key, f.seconds);
   eta.finish(eta_key);
-  note(progress, "  " + estimator + " done in " + duration(f.seconds) + ", " + metrics);
+  note(progress, "  " + name + " done in " + duration(f.seconds) + ", " + metrics);
   if (f.teaching_check) {
     std::string pairs;
     for (Eigen::Index j = 0; j < f.teaching_check->student_nmse.size(); ++j)
@@ -241,7 +242,7 @@ void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key
     const std::string warning = f.teaching_check->warning(f.teacher);
     if (!warning.empty()) {
       log_line(out, where + estimator + " warning: " + warning);
-      note(progress, "  " + estimator + " warning: " + warning);
+      note(progress, "  " + name + " warning: " + warning);
     }
   }
 }

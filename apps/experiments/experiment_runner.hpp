@@ -39,9 +39,12 @@ class Eta {
   void record(const std::string& key, double seconds);
   void add_pending(const std::string& key, int units);
   void finish(const std::string& key);
+  // Units that run side by side: the time left is the pending work over them.
+  void set_concurrency(int units) { concurrency_ = units > 1 ? units : 1; }
   std::string left() const;
 
  private:
+  int concurrency_ = 1;
   std::map<std::string, std::pair<double, int>> stats_;  // key -> (seconds, count)
   std::map<std::string, int> pending_;
 };
@@ -90,10 +93,11 @@ void note(const ProgressCallback& progress, const std::string& line);
 
 // The bookkeeping of one finished fit, whatever the experiment: counts, the
 // failure log, the time estimate and the progress line. `where` prefixes the
-// log line ("run 3 "), `metrics` ends the progress line ("nMSE 1e-3 ...").
+// log line ("run 3 "), `metrics` ends the progress line ("nMSE 1e-3 ...");
+// `label` names the fit in the progress lines (empty: the estimator).
 void finish_fit(ExperimentOutcome& outcome, Eta& eta, const std::string& eta_key, const std::string& out,
                 const std::string& where, const std::string& estimator, const FitAndPredict& f,
-                const std::string& metrics, const ProgressCallback& progress);
+                const std::string& metrics, const ProgressCallback& progress, const std::string& label = "");
 
 // Appends how one fit went to OUT/fit_reports.csv: per joint of a GP estimator
 // its stop reason, evaluations, NLL, gradient norm, noise variance and jitter

@@ -145,6 +145,26 @@ def test_accuracy_warm_start_runs_from_the_first_runs_hyperparameters(tmp_path, 
         assert resumed[("3", "gip", j)]["nll"] == fresh[("3", "gip", j)]["nll"]
 
 
+def test_accuracy_concurrent_runs_give_the_same_results(tmp_path, gipdyn_bin):
+    def e1(out, *extra):
+        r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "3", "--samples", "200",
+                "--dt", "0.1", "--seed", "5", "--estimators", "fe,gip,nn", "--out", str(out), *FAST, *extra)
+        assert r.returncode == 0, r.stderr
+        nmse = {(x["run"], x["estimator"], x["joint"]): x["nmse"] for x in rows(out / "nmse.csv")}
+        nll = {(x["run"], x["estimator"], x["joint"]): x["nll"] for x in rows(out / "fit_reports.csv")}
+        return nmse, nll
+
+    one_by_one = e1(tmp_path / "a")
+    assert e1(tmp_path / "b", "--concurrent-runs", "3") == one_by_one
+    # With warm starts, run 1 ends first and the others start from its hyperparameters, as one after another.
+    assert e1(tmp_path / "c", "--warm-start-runs", "--concurrent-runs", "2") == e1(tmp_path / "d", "--warm-start-runs")
+    # Concurrency is not a setting of the results: a folder resumes with another value.
+    assert e1(tmp_path / "b") == one_by_one
+    r = run(gipdyn_bin, "experiment", "accuracy", "--runs", "1", "--out", str(tmp_path / "e"), "--concurrent-runs", "0")
+    assert r.returncode != 0 and "--concurrent-runs must be >= 1" in r.stderr
+    assert not (tmp_path / "e").exists()
+
+
 def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
     out = tmp_path / "e1"
     assert accuracy(gipdyn_bin, out, 1).returncode == 0
