@@ -126,7 +126,7 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
     for (size_t i = first; i < pending_runs.size(); ++i) fit_run(pending_runs[i]);
   } else {
     use_single_threaded_blas();  // before the threads: no fit sets it while another computes
-    run_tasks(remaining, std::min(c.concurrent_runs, std::max(1, remaining)),
+    run_tasks(remaining, worker_threads(c.concurrent_runs, remaining),
               [&](int i) { fit_run(pending_runs[first + static_cast<size_t>(i)]); });
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
