@@ -601,6 +601,41 @@ TEST(ModelFile, FailedWriteLeavesNoFile) {
     EXPECT_EQ(entry.path().filename().string().find(".partial.csv.tmp"), std::string::npos);
 }
 
+// JSON cannot hold NaN: a fit report's missing numbers travel as nulls, and a
+// non-finite parameter is refused before anything is written, naming where it
+// is, instead of a file that saves and then never loads.
+TEST(ModelFile, ReportsKeepTheirMissingNumbersAndNonFiniteParametersAreNotWritten) {
+  const InverseDynamicsModel m = small_model("gip", 20, 50, 5);
+  ModelContainer c = model_to_container(m);
+  nlohmann::json& report = c.header["joint_models"][0]["training"];
+  report["grad_norm"] = nullptr;  // a fit whose every evaluation failed has no gradient
+  report["restart_nlls"] = {-12.5, nullptr};
+  const InverseDynamicsModel with_gaps = model_from_container(c, "test container");
+  EXPECT_TRUE(std::isnan(with_gaps.training_report()[0].grad_norm));
+  const fs::path path = temp_dir() / "report_gaps.gipdyn";
+  save_model(with_gaps, path.string());
+  const InverseDynamicsModel loaded = load_model(path.string());
+  EXPECT_TRUE(std::isnan(loaded.training_report()[0].grad_norm));
+  ASSERT_EQ(loaded.training_report()[0].restart_nlls.size(), 2u);
+  EXPECT_EQ(loaded.training_report()[0].restart_nlls[0], -12.5);
+  EXPECT_TRUE(std::isnan(loaded.training_report()[0].restart_nlls[1]));
+  EXPECT_EQ(loaded.training_report()[1].grad_norm, m.training_report()[1].grad_norm);
+
+  ModelContainer broken = model_to_container(m);
+  broken.header["joint_models"][1]["log_noise_variance"] = std::numeric_limits<double>::quiet_NaN();
+  const fs::path target = temp_dir() / "nan_header.gipdyn";
+  const std::string message = error_of([&] { write_container(broken, target.string()); });
+  EXPECT_NE(message.find("header field 'joint_models/1/log_noise_variance'"), std::string::npos) << message;
+  EXPECT_NE(message.find("nothing was written"), std::string::npos) << message;
+  EXPECT_FALSE(fs::exists(target));
+  EXPECT_NE(error_of([&] { pack_container(broken); }).find("joint_models/1/log_noise_variance"), std::string::npos);
+
+  ModelContainer broken_array = model_to_container(m);
+  broken_array.arrays.back().second(0, 0) = std::numeric_limits<double>::infinity();
+  const std::string array_message = error_of([&] { write_container(broken_array, target.string()); });
+  EXPECT_NE(array_message.find("array '" + broken_array.arrays.back().first + "'"), std::string::npos) << array_message;
+  EXPECT_FALSE(fs::exists(target));
+}
 std::string file_text(const fs::path& p) {
   std::ifstream in(p);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());

@@ -317,7 +317,8 @@ TEST(ForwardDynamics, IntegratingTheTorquesReproducesTheMotion) {
       integrate_forward_dynamics(*fe, q0, qd0, motion.tau_true, o.dt, Integrator::SemiImplicitEuler);
   ASSERT_EQ(rk4.rows(), 201);
   auto max_error = [&](const Eigen::MatrixXd& states, int rows) {
-    return (states.topRows(rows).leftCols(n) - motion.X.topRows(rows).leftCols(n)).cwiseAbs().maxCoeff();
+    const Eigen::MatrixXd error = states.topRows(rows).leftCols(n) - motion.X.topRows(rows).leftCols(n);
+    return error.cwiseAbs().maxCoeff();
   };
   std::printf("max position error: RK4 %.3g after 0.1 s, %.3g after 1 s; semi-implicit Euler %.3g, %.3g\n",
               max_error(rk4, 21), max_error(rk4, 201), max_error(euler, 21), max_error(euler, 201));

@@ -1,6 +1,7 @@
 #include "gipdyn/io/model_container.hpp"
 
 #include <cerrno>
+#include <cmath>
 #include <cstdint>
 #include <cstring>
 #include <fstream>
@@ -41,6 +42,32 @@ T get(const std::string& buf, size_t at) {
   return v;
 }
 
+// JSON has no NaN or Inf: nlohmann writes them as null, and the reader's get<double>() then
+// fails, so a model with one in its header would be saved and never load again. Returns where
+// the first one is ("joint_models/2/log_params/0"), or "" when there is none.
+std::string non_finite_header_number(const nlohmann::json& j, const std::string& at) {
+  if (j.is_number_float()) return std::isfinite(j.get<double>()) ? "" : at;
+  if (j.is_object()) {
+    for (auto it = j.begin(); it != j.end(); ++it)
+      if (auto where = non_finite_header_number(it.value(), at.empty() ? it.key() : at + "/" + it.key());
+          !where.empty())
+        return where;
+  } else if (j.is_array()) {
+    for (size_t k = 0; k < j.size(); ++k)
+      if (auto where = non_finite_header_number(j[k], at + "/" + std::to_string(k)); !where.empty()) return where;
+  }
+  return "";
+}
+
+// Names the first non-finite number of the container ("its array 'alpha2'", "its header field
+// 'joint_models/0/nll'"), or "" when every number is finite.
+std::string non_finite_number(const ModelContainer& c) {
+  for (const auto& [name, a] : c.arrays)
+    if (!a.allFinite()) return "its array '" + name + "'";
+  if (auto where = non_finite_header_number(c.header, ""); !where.empty()) return "its header field '" + where + "'";
+  return "";
+}
+
 }  // namespace
 
 const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std::string& what) const {
@@ -50,6 +77,8 @@ const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std:
 }
 
 std::string pack_container(const ModelContainer& c) {
+  if (auto where = non_finite_number(c); !where.empty())
+    throw Error("the model holds a non-finite number (NaN or Inf) in " + where + "; it cannot be saved: train it again");
   nlohmann::json h = c.header;
   // The container owns the format: nobody else writes these two keys.
   h["format"] = "gipdyn-model";
@@ -130,10 +159,9 @@ ModelContainer unpack_container(const std::string& buf, const std::string& what)
 }
 
 void write_container(const ModelContainer& container, const std::string& path) {
-  for (const auto& [name, a] : container.arrays)
-    if (!a.allFinite())
-      throw Error("the model to write to '" + path + "' holds a non-finite number (NaN or Inf) in its array '" + name +
-                  "'; nothing was written");
+  if (auto where = non_finite_number(container); !where.empty())
+    throw Error("the model to write to '" + path + "' holds a non-finite number (NaN or Inf) in " + where +
+                "; nothing was written: train it again");
   const std::string buf = pack_container(container);
   write_file_atomically(path, [&](std::ostream& out) { out.write(buf.data(), static_cast<std::streamsize>(buf.size())); },
                         true);

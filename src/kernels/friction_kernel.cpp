@@ -110,7 +110,12 @@ void FrictionKernel::plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& 
   Eigen::MatrixXd F;
   feature_matrix(Z, F);
   plan = MeanPlan{};
-  plan.weights = (F.transpose() * alpha).cwiseProduct(term_variances());
+  // Element by element: assigned as one expression into the dynamic vector, GCC 12 warns falsely of an 8-wide
+  // load from the 4-vector on -march=native builds (the packet loop it warns about never runs for 4 elements).
+  const Eigen::VectorXd projected = F.transpose() * alpha;
+  const Eigen::Vector4d variances = term_variances();
+  plan.weights.resize(4);
+  for (int k = 0; k < 4; ++k) plan.weights(k) = projected(k) * variances(k);
 }
 
 double FrictionKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,

@@ -12,12 +12,27 @@ namespace {
 
 std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
+// A report's number is NaN or Inf where there is none to report (the gradient of a fit whose every
+// evaluation failed, a failed restart's NLL); JSON holds that as null.
+nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
+double number_or_nan(const nlohmann::json& v) {
+  return v.is_null() ? std::numeric_limits<double>::quiet_NaN() : v.get<double>();
+}
+
 nlohmann::json training_to_json(const JointReport& r) {
-  nlohmann::json t = {{"status", to_string(r.status)},       {"evaluations", r.evaluations}, {"nll", r.nll},
-          {"warm_start_evaluations", r.warm_start_evaluations}, {"hyperparameter_rows", r.hyperparameter_rows},
-          {"grad_norm", r.grad_norm},            {"noise_variance", r.noise_variance},
-          {"jitter", r.jitter},                  {"seconds", r.seconds},         {"restart_nlls", r.restart_nlls},
-          {"message", r.message}};
+  nlohmann::json restart_nlls = nlohmann::json::array();
+  for (double v : r.restart_nlls) restart_nlls.push_back(number_or_null(v));
+  nlohmann::json t = {{"status", to_string(r.status)},
+                      {"evaluations", r.evaluations},
+                      {"nll", number_or_null(r.nll)},
+                      {"warm_start_evaluations", r.warm_start_evaluations},
+                      {"hyperparameter_rows", r.hyperparameter_rows},
+                      {"grad_norm", number_or_null(r.grad_norm)},
+                      {"noise_variance", number_or_null(r.noise_variance)},
+                      {"jitter", number_or_null(r.jitter)},
+                      {"seconds", r.seconds},
+                      {"restart_nlls", restart_nlls},
+                      {"message", r.message}};
   if (std::isfinite(r.noise_share)) t["noise_share"] = r.noise_share;
   return t;
 }
@@ -29,15 +44,13 @@ JointReport training_from_json(const nlohmann::json& t, int joint) {
   r.evaluations = t.at("evaluations").get<int>();
   r.warm_start_evaluations = t.value("warm_start_evaluations", 0);  // absent before warm starts existed
   r.hyperparameter_rows = t.value("hyperparameter_rows", 0L);       // absent before such subsamples existed
-  r.nll = t.at("nll").get<double>();
-  r.grad_norm = t.at("grad_norm").get<double>();
-  r.noise_variance = t.at("noise_variance").get<double>();
+  r.nll = number_or_nan(t.at("nll"));
+  r.grad_norm = number_or_nan(t.at("grad_norm"));
+  r.noise_variance = number_or_nan(t.at("noise_variance"));
   if (t.contains("noise_share")) r.noise_share = t.at("noise_share").get<double>();  // absent before it existed
-  r.jitter = t.at("jitter").get<double>();
+  r.jitter = number_or_nan(t.at("jitter"));
   r.seconds = t.at("seconds").get<double>();
-  // NaN marks a failed start; JSON stores it as null.
-  for (const auto& v : t.at("restart_nlls"))
-    r.restart_nlls.push_back(v.is_null() ? std::numeric_limits<double>::quiet_NaN() : v.get<double>());
+  for (const auto& v : t.at("restart_nlls")) r.restart_nlls.push_back(number_or_nan(v));
   r.message = t.at("message").get<std::string>();
   return r;
 }

@@ -29,11 +29,14 @@ struct ModelContainer {
   const Eigen::MatrixXd& array(const std::string& name, const std::string& what) const;
 };
 
+// Throws gipdyn::Error, naming the array or header field, where a number is NaN or Inf: JSON cannot
+// hold one, and no model of ours needs one (a fit report's missing numbers are nulls).
 std::string pack_container(const ModelContainer& container);
 // Throws gipdyn::Error naming `what` for bad magic, a newer version, truncation or a checksum mismatch.
 ModelContainer unpack_container(const std::string& bytes, const std::string& what);
 
-// Whole-file helpers: the write is atomic (temporary file + rename).
+// Whole-file helpers: the write is atomic (temporary file + rename), and writes nothing where
+// pack_container would throw.
 void write_container(const ModelContainer& container, const std::string& path);
 std::string read_model_bytes(const std::string& path);
 
