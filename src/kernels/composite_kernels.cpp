@@ -1,6 +1,7 @@
 #include "gipdyn/kernels/composite_kernels.hpp"
 
 #include <cmath>
+#include <deque>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
@@ -146,24 +147,47 @@ void EnvelopeKernel::initialize(const Eigen::MatrixXd& Z, double target_variance
   children_[1]->set_log_params(p);
 }
 
+namespace {
+
+// A composite's buffer for its further children at its own nesting level (a
+// product inside a sum has the level below its sum's), held for one scope: the
+// children it calls take the next level, and leaving the scope, even by an
+// exception, hands the level back. Sized by the caller once: a control-loop
+// query then allocates nothing.
+template <class Buffer>
+class LevelBuffer {
+ public:
+  LevelBuffer(std::deque<Buffer>& buffers, size_t& level) : level_(level) {
+    if (buffers.size() <= level) buffers.resize(level + 1);
+    buffer_ = &buffers[level];
+    ++level_;
+  }
+  ~LevelBuffer() { --level_; }
+  LevelBuffer(const LevelBuffer&) = delete;
+  LevelBuffer& operator=(const LevelBuffer&) = delete;
+  Buffer& operator*() const { return *buffer_; }
+
+ private:
+  size_t& level_;
+  Buffer* buffer_;
+};
+
 // The first child's row into out, each further child's combined into it by `combine(out, part)`.
 template <class Combine>
 void combine_child_rows(const std::vector<std::unique_ptr<Kernel>>& children, const double* z,
                         const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out, KernelScratch& scratch,
                         Combine&& combine) {
   children[0]->row(z, Z, out, scratch);
-  // This level's buffer, sized once: a control-loop query allocates nothing.
-  const size_t level = scratch.child_level;
-  if (scratch.child_rows.size() <= level) scratch.child_rows.resize(level + 1);
-  Eigen::VectorXd& part = scratch.child_rows[level];
+  LevelBuffer<Eigen::VectorXd> level(scratch.child_rows, scratch.child_level);
+  Eigen::VectorXd& part = *level;
   part.resize(Z.rows());
-  ++scratch.child_level;
   for (size_t c = 1; c < children.size(); ++c) {
     children[c]->row(z, Z, part, scratch);
     combine(out, part);
   }
-  --scratch.child_level;
 }
+
+}  // namespace
 
 void ProductKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                         KernelScratch& scratch) const {
@@ -258,15 +282,12 @@ void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelS
   // Each child may use the scratch's other buffers, so the running sum lives
   // in K and each further child's matrix in this level's own buffer.
   children_[0]->gram_lower(Z, K, scratch);
-  const size_t level = scratch.gram_level;
-  if (scratch.child_grams.size() <= level) scratch.child_grams.resize(level + 1);
-  Eigen::MatrixXd& Kc = scratch.child_grams[level];
-  ++scratch.gram_level;
+  LevelBuffer<Eigen::MatrixXd> level(scratch.child_grams, scratch.gram_level);
+  Eigen::MatrixXd& Kc = *level;
   for (size_t c = 1; c < children_.size(); ++c) {
     children_[c]->gram_lower(Z, Kc, scratch);
     K.triangularView<Eigen::Lower>() += Kc;
   }
-  --scratch.gram_level;
 }
 
 void SumKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
