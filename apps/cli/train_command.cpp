@@ -1,8 +1,6 @@
 // `gipdyn train`: fit any estimator on a CSV and write its model file.
 #include <algorithm>
-#include <chrono>
 #include <cstdio>
-#include <map>
 #include <memory>
 #include <mutex>
 
@@ -11,6 +9,7 @@
 #include "output_guard.hpp"
 #include "estimator_args.hpp"
 #include "field_names.hpp"
+#include "long_fit_notice.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
@@ -30,44 +29,6 @@ struct TrainArgs {
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
   bool quiet = false, distributed = false;
   EstimatorArgs estimator;
-};
-
-// An exact GP on a long log costs O(N^3) per NLL evaluation. Timed on a
-// joint's first two evaluations, a fit that will take long says so at once,
-// with what makes it fast, instead of leaving the user to work it out from
-// the progress lines.
-class LongFitNotice {
- public:
-  LongFitNotice(int joints, int threads) {
-    const int parallel = worker_threads(sharing_threads(threads, joints), joints);
-    waves_ = (joints + parallel - 1) / parallel;
-  }
-  void observe(const ProgressEvent& e) {
-    if (said_ || e.finished || e.joint < 0 || e.rows <= 0) return;
-    const auto now = std::chrono::steady_clock::now();
-    if (e.iteration == 1) {
-      first_[{e.joint, e.rows}] = now;
-      return;
-    }
-    const auto it = first_.find({e.joint, e.rows});
-    if (e.iteration != 2 || it == first_.end()) return;
-    const double per_evaluation = std::chrono::duration<double>(now - it->second).count();
-    // 80-300 evaluations a joint: the range of docs/training.md's fits.
-    const double low = 80.0 * per_evaluation * waves_, high = 300.0 * per_evaluation * waves_;
-    if (low < 600.0) return;
-    said_ = true;
-    std::printf("  note: %.1f s per NLL evaluation on %ld rows, and a joint usually needs 80-300, so this fit may take "
-                "%s to %s. For a log this long, --hyperparameter-rows 2000 learns the hyperparameters on a subsample "
-                "and conditions the model on every row, and --inducing 500 makes every evaluation O(N M^2) "
-                "(docs/training.md)\n",
-                per_evaluation, e.rows, duration(low).c_str(), duration(high).c_str());
-    std::fflush(stdout);
-  }
-
- private:
-  int waves_ = 1;
-  bool said_ = false;
-  std::map<std::pair<int, long>, std::chrono::steady_clock::time_point> first_;
 };
 
 }  // namespace
@@ -200,7 +161,10 @@ Command add_train(CLI::App& app) {
     if (!a->quiet) {
       progress = [&mu, &notice, sparse = o.gp.inducing_points > 0](const ProgressEvent& e) {
         std::lock_guard<std::mutex> lock(mu);
-        if (!sparse) notice.observe(e);
+        if (const std::string note = sparse ? "" : notice.observe(e); !note.empty()) {
+          std::printf("  %s\n", note.c_str());
+          std::fflush(stdout);
+        }
         // The optimiser reports every evaluation and a network every epoch: print a sample.
         if (!e.finished && e.iteration != 1 && e.iteration % 10 != 0) return;
         std::printf("  %s\n", describe(e).c_str());

@@ -1,0 +1,38 @@
+#include "long_fit_notice.hpp"
+
+#include <cstdio>
+
+#include "gipdyn/parallel_tasks.hpp"
+#include "reports/text_format.hpp"
+
+namespace gipdyn::cli {
+
+LongFitNotice::LongFitNotice(int joints, int threads) {
+  const int parallel = worker_threads(sharing_threads(threads, joints), joints);
+  waves_ = (joints + parallel - 1) / parallel;
+}
+
+std::string LongFitNotice::observe(const ProgressEvent& e, Clock::time_point now) {
+  if (said_ || e.finished || e.joint < 0 || e.rows <= 0) return "";
+  if (e.iteration == 1) {
+    first_[{e.joint, e.rows}] = now;
+    return "";
+  }
+  const auto it = first_.find({e.joint, e.rows});
+  if (e.iteration != 2 || it == first_.end()) return "";
+  const double per_evaluation = std::chrono::duration<double>(now - it->second).count();
+  // 80-300 evaluations a joint: the range of docs/training.md's fits.
+  const double low = 80.0 * per_evaluation * waves_, high = 300.0 * per_evaluation * waves_;
+  if (low < 600.0) return "";
+  said_ = true;
+  char buf[512];
+  std::snprintf(buf, sizeof(buf),
+                "note: %.1f s per NLL evaluation on %ld rows, and a joint usually needs 80-300, so this fit may take "
+                "%s to %s. For a log this long, --hyperparameter-rows 2000 learns the hyperparameters on a subsample "
+                "and conditions the model on every row, and --inducing 500 makes every evaluation O(N M^2) "
+                "(docs/training.md)",
+                per_evaluation, e.rows, duration(low).c_str(), duration(high).c_str());
+  return buf;
+}
+
+}  // namespace gipdyn::cli
