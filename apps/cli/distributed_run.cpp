@@ -52,7 +52,11 @@ void DistributedRun::fail(std::exception_ptr error) const {
   throw ExitQuietly();  // not reached
 }
 
+bool built_with_mpi() { return true; }
+
 #else
+
+bool built_with_mpi() { return false; }
 
 struct DistributedRun::State {};
 

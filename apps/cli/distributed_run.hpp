@@ -11,6 +11,9 @@
 
 namespace gipdyn::cli {
 
+// Whether this gipdyn can train with --distributed (MPI and ScaLAPACK found at build time).
+bool built_with_mpi();
+
 // Thrown on the processes that stay silent about an error another process
 // reports; main() exits with status 1 without a message.
 struct ExitQuietly : std::runtime_error {

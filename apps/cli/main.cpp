@@ -42,8 +42,10 @@ int main(int argc, char** argv) {
       "gipdyn: learn a robot's inverse dynamics (q, qd, qdd -> tau) with Gaussian processes and the\n"
       "Geometrically Inspired Polynomial kernel (Dalla Libera & Carli, RA-L 2019).\n"
       "Run `gipdyn COMMAND --help` for the options of a command."};
+  // What the build holds, so that a user (and the tests) can tell whether --distributed will work.
   app.set_version_flag("--version", std::string("gipdyn ") + gipdyn::version() + " (model file format " +
-                                        std::to_string(gipdyn::kModelFormatVersion) + ")");
+                                        std::to_string(gipdyn::kModelFormatVersion) + ", distributed training: " +
+                                        (gipdyn::cli::built_with_mpi() ? "MPI" : "not built") + ")");
   app.require_subcommand(1);
   std::map<CLI::App*, gipdyn::cli::Command> commands;
   auto add = [&](const char* name, const char* help, auto adder) {

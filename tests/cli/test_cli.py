@@ -38,6 +38,8 @@ def test_version_is_the_projects_and_model_files_record_it(trained, gipdyn_bin):
     declared = cmake.split("project(gipdyn VERSION ")[1].split()[0]
     r = run(gipdyn_bin, "--version")
     assert r.returncode == 0 and r.stdout.startswith(f"gipdyn {declared} (model file format "), r.stdout
+    # It also says whether --distributed can work (tests/cli/test_distributed.py relies on it).
+    assert ", distributed training: MPI)" in r.stdout or ", distributed training: not built)" in r.stdout, r.stdout
     d, _, _ = trained
     assert model_header(d / "m.gipdyn")["written_by"] == f"gipdyn {declared}"
 
