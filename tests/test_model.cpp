@@ -636,6 +636,7 @@ TEST(ModelFile, ReportsKeepTheirMissingNumbersAndNonFiniteParametersAreNotWritte
   EXPECT_NE(array_message.find("array '" + broken_array.arrays.back().first + "'"), std::string::npos) << array_message;
   EXPECT_FALSE(fs::exists(target));
 }
+
 std::string file_text(const fs::path& p) {
   std::ifstream in(p);
   return std::string(std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>());

@@ -68,17 +68,8 @@ std::string non_finite_number(const ModelContainer& c) {
   return "";
 }
 
-}  // namespace
-
-const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std::string& what) const {
-  for (const auto& [n, a] : arrays)
-    if (n == name) return a;
-  throw Error(what + " is corrupted (no array '" + name + "'); re-save the model");
-}
-
-std::string pack_container(const ModelContainer& c) {
-  if (auto where = non_finite_number(c); !where.empty())
-    throw Error("the model holds a non-finite number (NaN or Inf) in " + where + "; it cannot be saved: train it again");
+// The bytes of a container whose numbers are all finite (the callers check, each with its own message).
+std::string pack_finite_container(const ModelContainer& c) {
   nlohmann::json h = c.header;
   // The container owns the format: nobody else writes these two keys.
   h["format"] = "gipdyn-model";
@@ -97,6 +88,20 @@ std::string pack_container(const ModelContainer& c) {
     buf.append(reinterpret_cast<const char*>(a.data()), sizeof(double) * static_cast<size_t>(a.size()));
   put<std::uint64_t>(buf, fnv1a(buf.data(), buf.size()));
   return buf;
+}
+
+}  // namespace
+
+const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std::string& what) const {
+  for (const auto& [n, a] : arrays)
+    if (n == name) return a;
+  throw Error(what + " is corrupted (no array '" + name + "'); re-save the model");
+}
+
+std::string pack_container(const ModelContainer& c) {
+  if (auto where = non_finite_number(c); !where.empty())
+    throw Error("the model holds a non-finite number (NaN or Inf) in " + where + "; it cannot be saved: train it again");
+  return pack_finite_container(c);
 }
 
 ModelContainer unpack_container(const std::string& buf, const std::string& what) {
@@ -162,7 +167,7 @@ void write_container(const ModelContainer& container, const std::string& path) {
   if (auto where = non_finite_number(container); !where.empty())
     throw Error("the model to write to '" + path + "' holds a non-finite number (NaN or Inf) in " + where +
                 "; nothing was written: train it again");
-  const std::string buf = pack_container(container);
+  const std::string buf = pack_finite_container(container);
   write_file_atomically(path, [&](std::ostream& out) { out.write(buf.data(), static_cast<std::streamsize>(buf.size())); },
                         true);
 }
