@@ -13,23 +13,24 @@ from conftest import write_dataset
 from test_cli import run
 
 
-def _built_with_mpi():
-    binary = os.environ.get("GIPDYN_BIN") or shutil.which("gipdyn")
-    if not binary:
-        return False  # the gipdyn_bin fixture fails every test with the fix
-    r = subprocess.run([binary, "--version"], capture_output=True, text=True, timeout=60)
+@pytest.fixture(scope="session")
+def built_with_mpi(gipdyn_bin):
+    r = run(gipdyn_bin, "--version")
+    assert r.returncode == 0, r.stderr
     return "distributed training: MPI" in r.stdout
 
 
-BUILT_WITH_MPI = _built_with_mpi()
-MPIEXEC = os.environ.get("GIPDYN_MPIEXEC") or shutil.which("mpiexec")
-needs_mpi = pytest.mark.skipif(not (BUILT_WITH_MPI and MPIEXEC),
-                               reason="gipdyn built without MPI, or no mpiexec (GIPDYN_MPIEXEC unset, none on PATH)")
+@pytest.fixture
+def mpiexec(built_with_mpi):
+    launcher = os.environ.get("GIPDYN_MPIEXEC") or shutil.which("mpiexec")
+    if not (built_with_mpi and launcher):
+        pytest.skip("gipdyn built without MPI, or no mpiexec (GIPDYN_MPIEXEC unset, none on PATH)")
+    return launcher
 
 
-def mpirun(np_, binary, *args):
+def mpirun(launcher, np_, binary, *args):
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
-    return subprocess.run([MPIEXEC, "-np", str(np_), "--oversubscribe", binary, *args], capture_output=True,
+    return subprocess.run([launcher, "-np", str(np_), "--oversubscribe", binary, *args], capture_output=True,
                           text=True, timeout=300, env=env)
 
 
@@ -40,8 +41,7 @@ def predictions(binary, model, data, out):
     return np.column_stack([p["tau1_hat"], p["tau2_hat"]])
 
 
-@needs_mpi
-def test_distributed_training_gives_the_single_process_model(tmp_path, gipdyn_bin):
+def test_distributed_training_gives_the_single_process_model(tmp_path, gipdyn_bin, mpiexec):
     train, test = tmp_path / "train.csv", tmp_path / "test.csv"
     write_dataset(train, 230, seed=21, noise=0.05)
     write_dataset(test, 100, seed=22)
@@ -51,7 +51,7 @@ def test_distributed_training_gives_the_single_process_model(tmp_path, gipdyn_bi
     single, dist = tmp_path / "single.gipdyn", tmp_path / "dist.gipdyn"
     r = run(gipdyn_bin, "train", *common, "--out", str(single))
     assert r.returncode == 0, r.stderr
-    r = mpirun(2, gipdyn_bin, "train", *common, "--distributed", "--out", str(dist))
+    r = mpirun(mpiexec, 2, gipdyn_bin, "train", *common, "--distributed", "--out", str(dist))
     assert r.returncode == 0, r.stderr
     assert "distributed over 2 MPI processes, a 1 x 2 ScaLAPACK grid" in r.stdout
     assert r.stdout.count("saved gip model to") == 1, r.stdout  # only the first process reports
@@ -60,7 +60,7 @@ def test_distributed_training_gives_the_single_process_model(tmp_path, gipdyn_bi
     assert np.linalg.norm(a - b) < 1e-7 * np.linalg.norm(a)
 
 
-@needs_mpi
+@pytest.mark.usefixtures("mpiexec")
 def test_a_single_process_run_without_mpirun_works(tmp_path, gipdyn_bin):
     train = tmp_path / "train.csv"
     write_dataset(train, 80, seed=23)
@@ -70,15 +70,15 @@ def test_a_single_process_run_without_mpirun_works(tmp_path, gipdyn_bin):
     assert "distributed over 1 MPI process" in r.stdout
 
 
-@needs_mpi
 @pytest.mark.parametrize("extra, named", [(["--inducing", "20"], "--inducing"), (["--kernel", "nn"], "nn"),
                                           (["--mean", "linear"], "--mean")])
-def test_options_that_cannot_be_distributed_stop_every_process_with_one_line(tmp_path, gipdyn_bin, extra, named):
+def test_options_that_cannot_be_distributed_stop_every_process_with_one_line(tmp_path, gipdyn_bin, mpiexec, extra,
+                                                                            named):
     train = tmp_path / "train.csv"
     write_dataset(train, 80, seed=24)
     out = tmp_path / "m.gipdyn"
-    r = mpirun(2, gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--distributed", *extra, "--out",
-               str(out))
+    r = mpirun(mpiexec, 2, gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--distributed", *extra,
+               "--out", str(out))
     assert r.returncode != 0
     errors = [line for line in r.stderr.splitlines() if line.startswith("gipdyn: error:")]
     assert len(errors) == 1, r.stderr
@@ -86,8 +86,7 @@ def test_options_that_cannot_be_distributed_stop_every_process_with_one_line(tmp
     assert not out.exists()
 
 
-@needs_mpi
-def test_a_file_only_one_process_cannot_read_is_reported_by_that_process(tmp_path, gipdyn_bin):
+def test_a_file_only_one_process_cannot_read_is_reported_by_that_process(tmp_path, gipdyn_bin, mpiexec):
     # Every process reads --data itself; here the file differs per rank through
     # OpenMPI's rank variable, as a node with a stale copy would see it.
     train, stale = tmp_path / "train.csv", tmp_path / "stale.csv"
@@ -98,7 +97,7 @@ def test_a_file_only_one_process_cannot_read_is_reported_by_that_process(tmp_pat
                        f'exec {gipdyn_bin} "$@" --data "$d"\n')
     wrapper.chmod(0o755)
     out = tmp_path / "m.gipdyn"
-    r = mpirun(2, str(wrapper), "train", "--joints", "RR", "--distributed", "--out", str(out))
+    r = mpirun(mpiexec, 2, str(wrapper), "train", "--joints", "RR", "--distributed", "--out", str(out))
     assert r.returncode != 0
     errors = [line for line in r.stderr.splitlines() if line.startswith("gipdyn: error:")]
     assert len(errors) == 1, r.stderr
@@ -106,8 +105,9 @@ def test_a_file_only_one_process_cannot_read_is_reported_by_that_process(tmp_pat
     assert not out.exists()
 
 
-@pytest.mark.skipif(BUILT_WITH_MPI, reason="gipdyn built with MPI")
-def test_without_mpi_distributed_says_how_to_get_it(tmp_path, gipdyn_bin):
+def test_without_mpi_distributed_says_how_to_get_it(tmp_path, gipdyn_bin, built_with_mpi):
+    if built_with_mpi:
+        pytest.skip("gipdyn built with MPI")
     train = tmp_path / "train.csv"
     write_dataset(train, 40, seed=26)
     r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RR", "--distributed", "--out",
