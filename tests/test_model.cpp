@@ -746,6 +746,12 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
   const std::string three = write("3.csv", "q1,q2,q3,qd1,qd2,qd3,qdd1,qdd2,qdd3,tau1,tau2,tau3\n1,2,3,4,5,6,7,8,9,1,2,3\n");
   EXPECT_NE(error_of([&] { read_dataset(three, rr, true); }).find("pass a joint string of length 3"),
             std::string::npos);
+  // Joint types that come with a model: the file is what must change.
+  const std::string model_says = error_of([&] { read_dataset(three, rr, true, "the model 'm.gipdyn'"); });
+  EXPECT_NE(model_says.find("but the model 'm.gipdyn' is for 2 joints (RR); give it a file of the same robot: joint "
+                            "columns q1..q2"),
+            std::string::npos)
+      << model_says;
   EXPECT_NE(error_of([&] { read_dataset((dir / "absent.csv").string(), rr, true); }).find("cannot open"),
             std::string::npos);
 }

@@ -211,7 +211,7 @@ Command add_evaluate(CLI::App& app) {
     std::unique_ptr<PhysicsComparison> physics;
     if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
-    const Dataset data = read_dataset(a->data, model->joints(), true);
+    const Dataset data = read_dataset(a->data, model->joints(), true, "the model '" + a->model + "'");
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
     const Eigen::MatrixXd prediction = model->predict(data.X);

@@ -10,6 +10,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/dataset.hpp"
 
 namespace gipdyn::cli {
 
@@ -46,8 +47,10 @@ Command add_physics(CLI::App& app) {
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     require_physics(*model);
     const int n = model->joints().size();
+    const CsvHeader columns = read_csv_header(a->data);
+    require_joint_columns(columns, a->data, model->joints(), "the model '" + a->model + "'");
     const Eigen::MatrixXd Q = read_csv_columns(a->data, names("q", n));
-    const bool with_velocity = read_csv_header(a->data).has("qd1");
+    const bool with_velocity = columns.has("qd1");
     const Eigen::MatrixXd g = gravity(*model, Q);
     const std::vector<Eigen::MatrixXd> M = inertia(*model, Q);
     const std::vector<Eigen::MatrixXd> M_learned = inertia(*model, Q, InertiaForm::AsLearned);

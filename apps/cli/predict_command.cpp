@@ -27,7 +27,7 @@ Command add_predict(CLI::App& app) {
   return [a]() -> int {
     refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
-    const Dataset data = read_dataset(a->data, estimator->joints(), false);
+    const Dataset data = read_dataset(a->data, estimator->joints(), false, "the model '" + a->model + "'");
     const int n = estimator->joints().size();
     Eigen::MatrixXd mean, sd;
     std::vector<std::string> header = torque_column_names(n, "_hat");

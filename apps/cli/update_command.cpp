@@ -54,7 +54,7 @@ Command add_update(CLI::App& app) {
     if (!model)
       throw Error("--model holds a " + estimator->name() +
                   " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
-    const Dataset data = read_dataset(a->data, model->joints(), true);
+    const Dataset data = read_dataset(a->data, model->joints(), true, "the model '" + a->model + "'");
     if (a->replace && model->is_sparse())
       throw Error("--replace needs an exact GP model: a sparse model's inducing rows come from its own data "
                   "(train the sparse model on the new log instead)");

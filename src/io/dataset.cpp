@@ -31,7 +31,23 @@ Dataset Dataset::subset(const std::vector<Eigen::Index>& idx) const {
   return d;
 }
 
-Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau) {
+void require_joint_columns(const CsvHeader& header, const std::string& path, const JointTypes& joints,
+                           const std::string& joints_owner) {
+  require_joints_counted_from_one(header, path);
+  const int n = joints.size();
+  int file_joints = 0;
+  while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;
+  if (file_joints == n || file_joints == 0) return;  // no q1 at all: the missing-column error says more
+  const std::string found = "'" + path + "' has joint columns q1..q" + std::to_string(file_joints);
+  if (joints_owner.empty())
+    throw Error(found + " but the joint types " + joints.str() + " name " + std::to_string(n) +
+                " joints; pass a joint string of length " + std::to_string(file_joints));
+  throw Error(found + " but " + joints_owner + " is for " + std::to_string(n) + " joints (" + joints.str() +
+              "); give it a file of the same robot: joint columns q1..q" + std::to_string(n));
+}
+
+Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau,
+                     const std::string& joints_owner) {
   const int n = joints.size();
   if (std::ifstream probe(path, std::ios::binary); probe) {
     char magic[6] = {};
@@ -40,13 +56,7 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
       throw Error("'" + path + "' is a MATLAB .mat file, not a CSV; " + kMatFileAdvice);
   }
   const CsvHeader header = read_csv_header(path);
-  require_joints_counted_from_one(header, path);
-  int file_joints = 0;
-  while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;
-  if (file_joints != n && file_joints > 0)
-    throw Error("'" + path + "' has joint columns q1..q" + std::to_string(file_joints) + " but the joint types " +
-                joints.str() + " name " + std::to_string(n) + " joints; pass a joint string of length " +
-                std::to_string(file_joints));
+  require_joint_columns(header, path, joints, joints_owner);
   Dataset d;
   std::vector<std::string> cols = input_column_names(n);
   const auto tau_cols = torque_column_names(n);

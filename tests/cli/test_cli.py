@@ -268,14 +268,22 @@ def test_bad_model_files(trained, tmp_path, gipdyn_bin):
         assert r.returncode != 0 and message in r.stderr, case
 
 
-def test_predict_rejects_data_for_another_robot(trained, tmp_path, gipdyn_bin):
+def test_predict_evaluate_and_update_reject_data_for_another_robot(trained, tmp_path, gipdyn_bin):
+    # The joint types come from the model, so the error asks for the model's robot's file, not for other joint types.
     d, _, _ = trained
-    data = write_text(tmp_path / "three.csv",
-                      "q1,q2,q3,qd1,qd2,qd3,qdd1,qdd2,qdd3\n" + "1,2,3,4,5,6,7,8,9\n")
-    r = run(gipdyn_bin, "predict", "--model", str(d / "m.gipdyn"), "--data", data, "--out", str(tmp_path / "p.csv"))
-    assert r.returncode != 0
-    assert "joint" in r.stderr
-    assert not (tmp_path / "p.csv").exists()
+    model = str(d / "m.gipdyn")
+    data = write_text(tmp_path / "three.csv", "q1,q2,q3,qd1,qd2,qd3,qdd1,qdd2,qdd3,tau1,tau2,tau3\n"
+                      + "1,2,3,4,5,6,7,8,9,1,2,3\n")
+    out = tmp_path / "out"
+    for command, extra in [("predict", ["--out", str(out)]), ("evaluate", ["--json", str(out)]),
+                           ("update", ["--out", str(out)]), ("physics", ["--out", str(out)])]:
+        r = run(gipdyn_bin, command, "--model", model, "--data", data, *extra)
+        assert r.returncode != 0, command
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1, r.stderr
+        assert f"has joint columns q1..q3 but the model '{model}' is for 2 joints" in lines[0], r.stderr
+        assert "give it a file of the same robot: joint columns q1..q2" in lines[0], r.stderr
+        assert not out.exists(), command
 
 
 def test_evaluate_needs_torques(trained, tmp_path, gipdyn_bin):

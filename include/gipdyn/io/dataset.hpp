@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/io/csv.hpp"
 #include "gipdyn/joint_types.hpp"
 
 namespace gipdyn {
@@ -26,8 +27,16 @@ std::vector<std::string> torque_column_names(int num_joints, const std::string& 
 // The advice read_dataset gives for a MATLAB file; front ends rename it to their own.
 extern const char* const kMatFileAdvice;
 
+// Throws gipdyn::Error when the file's joint columns q1, q2, ... (counted from 1) are not those
+// of joints. joints_owner names where fixed joint types come from (e.g. "the model 'm.gipdyn'"),
+// so that the error asks for the right file instead of other joint types; empty: the caller
+// chose them.
+void require_joint_columns(const CsvHeader& header, const std::string& path, const JointTypes& joints,
+                           const std::string& joints_owner = "");
+
 // Throws gipdyn::Error for a MATLAB file, a missing column, a joint count that does not match
-// the file (e.g. joints RRPR on a file with q5), bad cells or no rows.
-Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau);
+// the file (e.g. joints RRPR on a file with q5; joints_owner as above), bad cells or no rows.
+Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau,
+                     const std::string& joints_owner = "");
 
 }  // namespace gipdyn
