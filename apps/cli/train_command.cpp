@@ -15,6 +15,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/model_container.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/text_format.hpp"
@@ -194,11 +195,9 @@ Command add_train(CLI::App& app) {
                                  {"label_noise_std", std::vector<double>(r.label_noise_std.data(), r.label_noise_std.data() + r.label_noise_std.size())},
                                  {"status", to_string(r.teacher_report->status)},
                                  {"seconds", r.teacher_report->seconds}};
-    if (r.teaching_check) {
-      const auto values = [](const Eigen::VectorXd& v) { return std::vector<double>(v.data(), v.data() + v.size()); };
-      model.header["teacher"]["log_nmse"] = {{"teacher", values(r.teaching_check->teacher_nmse)},
-                                             {"student", values(r.teaching_check->student_nmse)}};
-    }
+    if (r.teaching_check)  // null for a joint whose logged torque is constant
+      model.header["teacher"]["log_nmse"] = {{"teacher", numbers_or_null(r.teaching_check->teacher_nmse)},
+                                             {"student", numbers_or_null(r.teaching_check->student_nmse)}};
     write_container(model, a->out);
     if (!a->quiet) {
       if (r.teacher_report) {

@@ -12,13 +12,8 @@ namespace {
 
 std::vector<double> to_vector(const Eigen::VectorXd& v) { return {v.data(), v.data() + v.size()}; }
 
-// A report's number is NaN or Inf where there is none to report (the gradient of a fit whose every
-// evaluation failed, a failed restart's NLL); JSON holds that as null.
-nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
-double number_or_nan(const nlohmann::json& v) {
-  return v.is_null() ? std::numeric_limits<double>::quiet_NaN() : v.get<double>();
-}
-
+// A report's number is NaN where there is none to report (the gradient of a fit whose every
+// evaluation failed, a failed restart's NLL): number_or_null writes it as null.
 nlohmann::json training_to_json(const JointReport& r) {
   nlohmann::json restart_nlls = nlohmann::json::array();
   for (double v : r.restart_nlls) restart_nlls.push_back(number_or_null(v));

@@ -166,6 +166,21 @@ def test_train_warns_about_positions_that_look_like_degrees(tmp_path, gipdyn_bin
     assert "convert q, qd and qdd to radians" in warned[0]
 
 
+def test_train_taught_by_lip_keeps_a_constant_joint(tmp_path, gipdyn_bin):
+    # A joint that never moves its torque (a locked joint, a dead sensor) has no nMSE on the log: it is recorded as
+    # null, and the model is written (the model file refused the NaN before).
+    data = write_dataset(tmp_path / "log.csv", 60, 1)
+    rows = "".join(",".join(repr(float(v)) for v in list(r[:7]) + [0.0]) + "\n" for r in data)
+    log = write_text(tmp_path / "locked.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n" + rows)
+    out = tmp_path / "m.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", log, "--joints", "RR", "--out", str(out), "--teacher", "lip",
+            "--teacher-states", "100", "--teacher-hyperparameter-rows", "0", "--max-iter", "30", "--quiet")
+    assert r.returncode == 0 and out.exists(), r.stderr
+    log_nmse = model_header(out)["teacher"]["log_nmse"]
+    assert log_nmse["teacher"][1] is None and log_nmse["student"][1] is None
+    assert all(isinstance(v, float) and np.isfinite(v) for v in (log_nmse["teacher"][0], log_nmse["student"][0]))
+
+
 def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "log.csv", 80, 1)
     out = tmp_path / "m.gipdyn"
