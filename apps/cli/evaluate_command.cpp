@@ -231,6 +231,14 @@ Command add_evaluate(CLI::App& app) {
     std::printf(" joint  MSE           nMSE\n");
     for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
+    std::string constant;
+    for (int j = 0; j < model->joints().size(); ++j)
+      if (!std::isfinite(acc.nmse(j))) constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
+    if (!constant.empty())
+      std::fprintf(stderr,
+                   "gipdyn: warning: joint(s) %s: the target torque is constant in %s, so nMSE (MSE over its "
+                   "variance) is undefined there (inf; null in JSON): judge those joints by their MSE\n",
+                   constant.c_str(), a->data.c_str());
     if (noise_free && data.tau.size() > 0) {
       const std::string below = joints_below_noise(data);
       if (!below.empty()) std::fprintf(stderr, "gipdyn: warning: %s\n", below.c_str());

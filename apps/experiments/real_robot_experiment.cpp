@@ -118,6 +118,14 @@ RealSplit load_real_split(const RealRobotConfig& c) {
   if (const Eigen::Index shared = count_shared_rows(s.train.X, s.test.X); shared > 0)
     s.warnings.push_back(std::to_string(shared) + " of the " + std::to_string(s.test.rows()) +
                          " test rows also appear among the training rows: their error is not a test error");
+  std::string constant;
+  for (Eigen::Index j = 0; j < s.test.tau.cols(); ++j)
+    if (s.test.tau.col(j).maxCoeff() == s.test.tau.col(j).minCoeff())
+      constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
+  if (!constant.empty())
+    s.warnings.push_back("joint(s) " + constant + ": the torque is constant over the test rows (a dead sensor, a column "
+                         "of zeros?), so their nMSE, and the mean over joints, is undefined (inf): judge the other "
+                         "joints one by one");
   for (int size : c.sizes)
     if (size > s.train.rows())
       throw Error("--sizes: " + std::to_string(size) + " is more than the " + std::to_string(s.train.rows()) +

@@ -30,10 +30,12 @@ const char* plot_script() { return kPlotScript; }
 PlotResult render_plot(const std::string& kind, const std::string& input, const std::string& png) {
   PlotResult r;
   const std::string tmp = png + ".tmp.png";
-  const std::string cmd = python() + " - " + quoted(kind) + " " + quoted(input) + " " + quoted(tmp) + " 2>&1";
-  // The script arrives on stdin; whatever python prints comes back in a file for the message.
+  // The script arrives on stdin; whatever python prints, on either stream, goes to a file for the
+  // message instead of the user's terminal.
   const std::string log = png + ".log";
-  FILE* pipe = ::popen((cmd + " > " + quoted(log)).c_str(), "w");
+  const std::string cmd =
+      python() + " - " + quoted(kind) + " " + quoted(input) + " " + quoted(tmp) + " > " + quoted(log) + " 2>&1";
+  FILE* pipe = ::popen(cmd.c_str(), "w");
   if (!pipe) {
     r.message = "could not start " + python() + " to draw " + png;
     return r;
@@ -51,8 +53,16 @@ PlotResult render_plot(const std::string& kind, const std::string& input, const 
   if (status != 0 || !std::filesystem::exists(tmp)) {
     std::filesystem::remove(tmp, ec);
     while (!output.empty() && (output.back() == '\n' || output.back() == '\r')) output.pop_back();
-    r.message = "no plot " + png + " (" + (output.empty() ? "python failed" : output) +
-                "); install python3-matplotlib or set GIPDYN_PYTHON to a python with matplotlib";
+    // Only a python that cannot run the script at all is fixed by installing something; a script
+    // that fails on its input is our bug, and its last line says where.
+    const bool no_matplotlib = output.empty() || output.find("No module named") != std::string::npos ||
+                               WIFEXITED(status) == 0 || WEXITSTATUS(status) == 127;
+    if (no_matplotlib)
+      r.message = "no plot " + png + " (" + (output.empty() ? "python failed" : output) +
+                  "); install python3-matplotlib or set GIPDYN_PYTHON to a python with matplotlib";
+    else
+      r.message = "no plot " + png + ": the plotting script failed on its input (" + output +
+                  "); the data files beside it are complete; please report this";
     return r;
   }
   std::filesystem::rename(tmp, png, ec);

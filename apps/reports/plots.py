@@ -180,9 +180,13 @@ def noise_ratio(json_path, out):
 
     with open(json_path) as f:
         d = json.load(f)
-    ratios = d["noise_ratio"]
+    # null where a joint's training torque is constant (no variance to compare the noise with)
+    ratios = [math.nan if r is None else r for r in d["noise_ratio"]]
     fig, ax = plt.subplots(figsize=(1.5 + 0.6 * len(ratios), 3.5))
     ax.bar(range(1, len(ratios) + 1), ratios)
+    for j, r in enumerate(ratios, start=1):
+        if not math.isfinite(r):
+            ax.text(j, 0.02, "n/a", ha="center", fontsize=8)
     ax.set_ylim(0, 1)
     ax.set_xlabel("joint")
     ax.set_ylabel("learned noise variance / output variance")

@@ -371,6 +371,48 @@ def test_evaluate_writes_diagnostic_plots(trained, gipdyn_bin):
     assert len(window) == 50
 
 
+def test_evaluate_plots_a_joint_whose_training_torque_is_constant(tmp_path, gipdyn_bin):
+    # Its learned noise share has no variance to compare with: null in the JSON, "n/a" in the plot, no failure.
+    data = write_dataset(tmp_path / "log.csv", 60, 1)
+    rows = "".join(",".join(repr(float(v)) for v in list(r[:7]) + [0.0]) + "\n" for r in data)
+    log = write_text(tmp_path / "locked.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n" + rows)
+    model = str(tmp_path / "m.gipdyn")
+    assert run(gipdyn_bin, "train", "--data", log, "--joints", "RR", "--out", model, "--max-iter", "30",
+               "--quiet").returncode == 0
+    out = tmp_path / "diag"
+    r = run(gipdyn_bin, "evaluate", "--model", model, "--data", log, "--plots", str(out))
+    assert r.returncode == 0, r.stderr
+    assert f"warning: joint(s) 2: the target torque is constant in {log}, so nMSE" in r.stderr
+    assert (out / "noise_ratio.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
+    ratios = json.loads((out / "diagnostics.json").read_text())["noise_ratio"]
+    assert isinstance(ratios[0], float) and ratios[1] is None
+
+
+@pytest.mark.parametrize("python_says, advice", [
+    ("ModuleNotFoundError: No module named 'matplotlib'", "install python3-matplotlib"),
+    ("TypeError: unsupported operand type(s)", "the plotting script failed on its input (TypeError"),
+])
+def test_a_plot_that_fails_says_why(trained, tmp_path, gipdyn_bin, python_says, advice):
+    # A python without matplotlib is the user's to fix; a script that fails on its data is ours, and installing
+    # matplotlib would not help.
+    d, _, _ = trained
+    python = tmp_path / "python"
+    python.write_text(f"#!/bin/sh\ncat > /dev/null\necho 'Traceback (most recent call last):' >&2\n"
+                      f"echo \"{python_says}\" >&2\nexit 1\n")  # python's errors go to stderr
+    python.chmod(0o755)
+    out = tmp_path / "diag"
+    r = subprocess.run([gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"),
+                        "--plots", str(out)], capture_output=True, text=True, timeout=300,
+                       env={**os.environ, "GIPDYN_PYTHON": str(python)})
+    assert r.returncode == 2, r.stderr  # the numbers are written; only the plots are missing
+    warnings = [line for line in r.stderr.splitlines() if "no plot" in line]
+    assert len(warnings) == 3 and all(advice in w for w in warnings), r.stderr
+    other = "the plotting script failed" if advice.startswith("install") else "install python3-matplotlib"
+    assert not any(other in w for w in warnings), r.stderr
+    assert "Traceback" not in r.stderr  # python's own output stays out of the terminal
+    assert (out / "diagnostics.json").exists() and not list(out.glob("*.png"))
+
+
 def two_link_terms(q, qd):
     """Gravity, inertia and Coriolis of conftest's 2R arm, from its torque formula."""
     zero = np.zeros_like(q)

@@ -232,6 +232,27 @@ def test_real_on_a_csv_log_with_row_ranges(tmp_path, gipdyn_bin):
     assert bad.returncode != 0 and "has 300 data rows" in bad.stderr
 
 
+def test_real_warns_about_a_joint_whose_test_torque_is_constant(tmp_path, gipdyn_bin):
+    # A dead torque sensor (a column of zeros) leaves its joint's nMSE undefined; the warning says so, and the other
+    # joints' results stand.
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 200)
+    table = rows(log)
+    for row in table:
+        row["tau2"] = "0"
+    with open(log, "w", newline="") as f:
+        w = csv.DictWriter(f, fieldnames=list(table[0]))
+        w.writeheader()
+        w.writerows(table)
+    out = tmp_path / "real"
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-150",
+            "--test-rows", "151-200", "--estimators", "gip", "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    assert "warning: joint(s) 2: the torque is constant over the test rows" in r.stderr
+    nmse = {x["joint"]: float(x["nmse"]) for x in rows(out / "nmse.csv")}
+    assert nmse["2"] == float("inf") and all(np.isfinite(nmse[j]) for j in ("1", "3", "4"))
+
+
 def test_real_with_alternating_blocks_and_a_subsampled_network(tmp_path, gipdyn_bin):
     log = tmp_path / "log.csv"
     simulated_log(gipdyn_bin, log, 300)
