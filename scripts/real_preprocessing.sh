@@ -29,6 +29,6 @@ run() {  # name data
 run as-logged "$UR10"
 for name in zero-phase-whole zero-phase-segments causal-segments zero-phase-torque-filtered; do
   # shellcheck disable=SC2086
-  "$G" preprocess --in "$UR10" --log-period 0.008 ${VARIANTS[$name]} --out "$OUT/$name.csv" --quiet
+  "$G" preprocess --data "$UR10" --log-period 0.008 ${VARIANTS[$name]} --out "$OUT/$name.csv" --quiet
   run "$name" "$OUT/$name.csv"
 done

@@ -23,7 +23,7 @@ Command add_preprocess(CLI::App& app) {
       "when the log has none, qdd from the filtered qd, optionally drop stretches at rest; --segment-starts\n"
       "processes train and test stretches separately. The log needs a time column (or --log-period), q1..qn and\n"
       "tau1..taun (qd1..qn optional). Writes t, q, qd, qdd, tau columns and OUT.json, which records every step.");
-  app.add_option("--in", a->in, "Raw log (CSV with a header row)")->required()->check(CLI::ExistingFile);
+  app.add_option("--data,--in", a->in, "Raw log (CSV with a header row); --in is the older name")->required()->check(CLI::ExistingFile);
   app.add_option("--out", a->out, "Output dataset CSV (+ OUT.json)")->required();
   app.add_option("--time-column", a->options.time_column, "Name of the time column in seconds (default: t, else time)");
   app.add_option("--log-period", a->options.log_period,
@@ -53,7 +53,7 @@ Command add_preprocess(CLI::App& app) {
       ->capture_default_str();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--in", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
+    refuse_overwriting_inputs({{"--data", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
     const PreprocessedLog log = preprocess_log(a->in, a->options);
     write_csv_with_sidecar(a->out, log.column_names(), log.table(), log.report);
     if (!a->quiet) {

@@ -78,8 +78,8 @@ void cascade_in_place(const std::vector<Biquad>& sections, Eigen::Ref<Eigen::Vec
 Eigen::MatrixXd filtfilt(const std::vector<Biquad>& sections, const Eigen::MatrixXd& x) {
   const Eigen::Index n = x.rows(), pad = filtfilt_padding(sections);
   if (n <= pad)
-    throw Error("zero-phase filtering needs more than " + std::to_string(pad) + " samples, the log has " +
-                std::to_string(n));
+    throw Error("zero-phase filtering needs more than " + std::to_string(pad) + " samples, the log (or segment) has " +
+                std::to_string(n) + "; filter a longer stretch, or leave this one unfiltered");
   Eigen::MatrixXd y(n, x.cols());
   Eigen::VectorXd e(n + 2 * pad);
   for (Eigen::Index c = 0; c < x.cols(); ++c) {

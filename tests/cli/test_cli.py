@@ -93,7 +93,7 @@ def test_quiet_and_subsample(tmp_path, gipdyn_bin):
     ("predict", ["--model", "--data", "--out"]),
     ("evaluate", ["--model", "--data", "--json", "--plots"]),
     ("simulate", ["--robot", "--samples", "--seed", "--out"]),
-    ("preprocess", ["--in", "--out", "--cutoff"]),
+    ("preprocess", ["--data", "--out", "--cutoff"]),
     ("inspect", ["--data", "--joints", "--test", "--radius", "--out", "--plot"]),
 ])
 def test_help(gipdyn_bin, command, flags):

@@ -31,7 +31,7 @@ def test_matches_scipy_filter_numpy_gradient_and_interp(tmp_path, gipdyn_bin):
     log = tmp_path / "log.csv"
     write_log(log, {"time": t, "q1": q[:, 0], "q2": q[:, 1], "tau1": tau[:, 0], "tau2": tau[:, 1]})
     out = tmp_path / "data.csv"
-    r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--dt", "0.002", "--cutoff", "15",
+    r = run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(out), "--dt", "0.002", "--cutoff", "15",
             "--order", "3", "--filter-torque")
     assert r.returncode == 0, r.stderr
 
@@ -73,6 +73,7 @@ def test_logged_velocities_drop_rest_and_errors(tmp_path, gipdyn_bin):
     log = tmp_path / "log.csv"
     write_log(log, {"t": t, "q1": q, "qd1": qd, "qdd1": np.zeros_like(t), "tau1": q})
     out = tmp_path / "data.csv"
+    # --in, the option's older name, still works.
     r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--drop-rest")
     assert r.returncode == 0, r.stderr
     d = read(out)
@@ -85,18 +86,18 @@ def test_logged_velocities_drop_rest_and_errors(tmp_path, gipdyn_bin):
     assert report["steps"][-1]["dropped_rows"] == 500 and report["steps"][-1]["stretches_dropped"] == 1
     assert "ignored" in report["steps"][-2]["qdd"]
 
-    bad = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(tmp_path / "x.csv"), "--cutoff", "600")
+    bad = run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(tmp_path / "x.csv"), "--cutoff", "600")
     assert bad.returncode == 1 and "Nyquist" in bad.stderr
     assert not (tmp_path / "x.csv").exists() and not (tmp_path / "x.csv.json").exists()
     write_log(tmp_path / "notime.csv", {"clock": t, "q1": q, "tau1": q})
-    bad = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "notime.csv"), "--out", str(tmp_path / "y.csv"))
+    bad = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "notime.csv"), "--out", str(tmp_path / "y.csv"))
     assert bad.returncode == 1 and "--time-column" in bad.stderr
-    ok = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "notime.csv"), "--out", str(tmp_path / "y.csv"),
+    ok = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "notime.csv"), "--out", str(tmp_path / "y.csv"),
              "--time-column", "clock", "--quiet")
     assert ok.returncode == 0 and ok.stdout == ""
     # Without a time column, --log-period: rows equally spaced from t = 0.
     write_log(tmp_path / "rows.csv", {"q1": q, "tau1": q})
-    ok = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "rows.csv"), "--out", str(tmp_path / "z.csv"),
+    ok = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "rows.csv"), "--out", str(tmp_path / "z.csv"),
              "--log-period", "0.001", "--quiet")
     assert ok.returncode == 0, ok.stderr
     z = read(tmp_path / "z.csv")
@@ -116,7 +117,7 @@ def test_causal_mode_matches_scipy_forward_filter_and_reports_its_delay(tmp_path
     log = tmp_path / "log.csv"
     write_log(log, {"t": t, "q1": q[:, 0], "tau1": tau})
     out = tmp_path / "causal.csv"
-    r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(out), "--cutoff", "10", "--causal")
+    r = run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(out), "--cutoff", "10", "--causal")
     assert r.returncode == 0, r.stderr
     sos = signal.butter(2, 10.0, fs=1.0 / dt, output="sos")
     zi = signal.sosfilt_zi(sos) * q[0, 0]
@@ -139,7 +140,7 @@ def test_causal_mode_matches_scipy_forward_filter_and_reports_its_delay(tmp_path
     q2 = q[:, 0].copy()
     q2[1500:] += 1.0
     write_log(tmp_path / "log2.csv", {"t": t, "q1": q2, "tau1": tau})
-    r = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "log2.csv"), "--out", str(tmp_path / "c2.csv"),
+    r = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "log2.csv"), "--out", str(tmp_path / "c2.csv"),
             "--cutoff", "10", "--causal")
     d2 = read(tmp_path / "c2.csv")
     for c in ("q1", "qd1", "qdd1"):
@@ -154,11 +155,11 @@ def test_segments_are_processed_apart(tmp_path, gipdyn_bin):
     write_log(log, {"t": t, "q1": q, "tau1": q})
     whole, split = tmp_path / "whole.csv", tmp_path / "split.csv"
     for path, extra in ((whole, []), (split, ["--segment-starts", "301"])):
-        r = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(path), "--cutoff", "5", *extra)
+        r = run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(path), "--cutoff", "5", *extra)
         assert r.returncode == 0, r.stderr
     first = tmp_path / "first.csv"
     write_log(tmp_path / "first_log.csv", {"t": t[:300], "q1": q[:300], "tau1": q[:300]})
-    run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "first_log.csv"), "--out", str(first), "--cutoff", "5")
+    run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "first_log.csv"), "--out", str(first), "--cutoff", "5")
     a, w, f = read(split), read(whole), read(first)
     assert a.size == 600
     # The first segment is exactly what its rows alone give; the whole log's filter smears the jump into them.
@@ -169,7 +170,7 @@ def test_segments_are_processed_apart(tmp_path, gipdyn_bin):
                                   {"input_rows": [301, 600], "output_rows": 300}]
     for bad_rows, message in (("700", "past the log's 600 data rows"), ("1", "increasing data rows > 1"),
                               ("599", "fewer than 3 samples")):
-        bad = run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(tmp_path / "bad.csv"),
+        bad = run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(tmp_path / "bad.csv"),
                   "--segment-starts", bad_rows)
         assert bad.returncode != 0 and message in bad.stderr, bad.stderr
         assert "--segment-starts" in bad.stderr or "segment" in bad.stderr
@@ -180,11 +181,11 @@ def test_a_gap_in_the_log_is_refused_unless_a_segment_starts_there(tmp_path, gip
     t = np.concatenate([0.01 * np.arange(300), 10.0 + 0.01 * np.arange(300)])  # 7 s pause before row 301
     q = np.sin(t)
     write_log(tmp_path / "gap.csv", {"t": t, "q1": q, "tau1": q})
-    bad = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "bad.csv"))
+    bad = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "bad.csv"))
     assert bad.returncode != 0 and "gap of 7.01" in bad.stderr and "before data row 301" in bad.stderr
     assert "--segment-starts 301" in bad.stderr and len(bad.stderr.strip().splitlines()) == 1
     assert not (tmp_path / "bad.csv").exists()
-    ok = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "ok.csv"),
+    ok = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "gap.csv"), "--out", str(tmp_path / "ok.csv"),
              "--segment-starts", "301")
     assert ok.returncode == 0, ok.stderr
     assert read(tmp_path / "ok.csv").size == 600
@@ -194,7 +195,7 @@ def test_a_log_with_joints_counted_from_0_is_refused(tmp_path, gipdyn_bin):
     # Reading q1.. of a log whose joints are q0, q1 would take its second joint for the first.
     t = 0.01 * np.arange(100)
     write_log(tmp_path / "zero.csv", {"t": t, "q0": np.sin(t), "q1": np.cos(t), "tau0": t, "tau1": t})
-    r = run(gipdyn_bin, "preprocess", "--in", str(tmp_path / "zero.csv"), "--out", str(tmp_path / "out.csv"))
+    r = run(gipdyn_bin, "preprocess", "--data", str(tmp_path / "zero.csv"), "--out", str(tmp_path / "out.csv"))
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "has a column 'q0': its joints are counted from 0, gipdyn's from 1" in r.stderr
     assert not (tmp_path / "out.csv").exists()

@@ -48,8 +48,8 @@ def test_preprocess_refuses_to_overwrite_its_log(tmp_path, gipdyn_bin):
     log.write_text("t,q1,tau1\n" + "".join(f"{k * 0.01},{k * 0.001},{k}\n" for k in range(50)))
     (tmp_path / "link.csv").symlink_to(log)
     before = snapshot(tmp_path)
-    fails_with(run(gipdyn_bin, "preprocess", "--in", str(log), "--out", str(tmp_path / "link.csv")),
-               "same file", "--in")
+    fails_with(run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(tmp_path / "link.csv")),
+               "same file", "--data")
     assert snapshot(tmp_path) == before
 
 
