@@ -30,7 +30,8 @@ int main(int argc, char** argv) {
   }
   try {
     const std::unique_ptr<gipdyn::Estimator> model = gipdyn::load_estimator(argv[1]);
-    const gipdyn::Dataset data = gipdyn::read_dataset(argv[2], model->joints(), false);
+    const gipdyn::Dataset data =
+        gipdyn::read_dataset(argv[2], model->joints(), false, std::string("the model '") + argv[1] + "'");
     const Eigen::Index rows = std::min<Eigen::Index>(data.rows(), argc > 3 ? std::atol(argv[3]) : 3000);
     if (rows < 1) throw gipdyn::Error("ROWS must be at least 1");
     const std::unique_ptr<gipdyn::QueryWorkspace> workspace = model->make_query_workspace();

@@ -16,6 +16,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/plots.hpp"
@@ -45,14 +46,9 @@ Dataset rows_of(const Dataset& all, const std::string& range, const char* flag) 
 }
 
 nlohmann::json to_json(const NeighbourConsistency& c) {
-  auto numbers = [](const Eigen::VectorXd& v) {
-    nlohmann::json out = nlohmann::json::array();
-    for (Eigen::Index i = 0; i < v.size(); ++i) out.push_back(std::isfinite(v(i)) ? nlohmann::json(v(i)) : nlohmann::json());
-    return out;
-  };
   return {{"status", to_string(c.status)}, {"message", rename_fields(c.message, cli_field_names())}, {"queries", c.queries},
-          {"pairs", c.pairs},              {"neighbour_nmse", numbers(c.neighbour_nmse)},
-          {"correlation", numbers(c.correlation)}};
+          {"pairs", c.pairs},              {"neighbour_nmse", numbers_or_null(c.neighbour_nmse)},
+          {"correlation", numbers_or_null(c.correlation)}};
 }
 
 // One comparison: its table heading, its key in the JSON report, its result.

@@ -15,7 +15,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
-#include "gipdyn/io/model_container.hpp"
+#include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/text_format.hpp"

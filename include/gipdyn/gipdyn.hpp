@@ -30,6 +30,7 @@
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"

@@ -6,7 +6,6 @@
 #include <cstring>
 #include <fstream>
 #include <iterator>
-#include <limits>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/atomic_file.hpp"
@@ -97,18 +96,6 @@ const Eigen::MatrixXd& ModelContainer::array(const std::string& name, const std:
   for (const auto& [n, a] : arrays)
     if (n == name) return a;
   throw Error(what + " is corrupted (no array '" + name + "'); re-save the model");
-}
-
-nlohmann::json number_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
-
-nlohmann::json numbers_or_null(const Eigen::VectorXd& v) {
-  nlohmann::json out = nlohmann::json::array();
-  for (double x : v) out.push_back(number_or_null(x));
-  return out;
-}
-
-double number_or_nan(const nlohmann::json& v) {
-  return v.is_null() ? std::numeric_limits<double>::quiet_NaN() : v.get<double>();
 }
 
 std::string pack_container(const ModelContainer& c) {

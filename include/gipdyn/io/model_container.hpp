@@ -29,14 +29,8 @@ struct ModelContainer {
   const Eigen::MatrixXd& array(const std::string& name, const std::string& what) const;
 };
 
-// A header's number that may not exist (a failed fit's NLL, the nMSE of a constant torque) is
-// NaN in memory and null in JSON, which has no NaN; these write and read it so.
-nlohmann::json number_or_null(double v);
-nlohmann::json numbers_or_null(const Eigen::VectorXd& v);  // a JSON array
-double number_or_nan(const nlohmann::json& v);
-
 // Throws gipdyn::Error, naming the array or header field, where a number is NaN or Inf: JSON cannot
-// hold one, and no model of ours needs one (a fit report's missing numbers are nulls).
+// hold one, and no model of ours needs one (a missing number is a null: io/json_numbers.hpp).
 std::string pack_container(const ModelContainer& container);
 // Throws gipdyn::Error naming `what` for bad magic, a newer version, truncation or a checksum mismatch.
 ModelContainer unpack_container(const std::string& bytes, const std::string& what);
