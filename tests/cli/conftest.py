@@ -1,6 +1,7 @@
 import json
 import os
 import shutil
+import struct
 
 import numpy as np
 import pytest
@@ -22,9 +23,13 @@ def two_link_torques(q, qd, qdd):
 
 
 def model_header(path):
-    """The JSON header of a model file, which follows the container's binary preamble."""
+    """The JSON header of a model file: magic (8 bytes), format version and reserved (u32 each), the header's length
+    (u64, little-endian), then the header (docs/model-format.md). Searching for the first "{" instead failed whenever
+    the length held the byte 0x7b: the header holds fit times, so its length varies from run to run."""
     raw = path.read_bytes()
-    return json.JSONDecoder().raw_decode(raw[raw.index(b"{"):].decode("latin-1"))[0]
+    assert raw[:8] == b"GIPDYNMF", path
+    (length,) = struct.unpack("<Q", raw[16:24])
+    return json.loads(raw[24:24 + length].decode("utf-8"))
 
 
 def write_dataset(path, rows, seed, noise=0.01, shuffle_columns=False):
