@@ -7,6 +7,7 @@
 #include <nlohmann/json.hpp>
 
 #include "commands.hpp"
+#include "data_option.hpp"
 #include "field_names.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
@@ -190,13 +191,12 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
 
 Command add_evaluate(CLI::App& app) {
   struct Args {
-    std::string model, data, json, plots, physics;
+    std::string model, data, mat_variable, json, plots, physics;
     int plot_window = 1000;
   };
   auto a = std::make_shared<Args>();
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
-  app.add_option("--data", a->data, "Test CSV with q, qd, qdd and tau columns (tau*_true used when present)")
-      ->required()->check(CLI::ExistingFile);
+  add_data_option(app, a->data, a->mat_variable, "Test log: CSV with q, qd, qdd and tau columns (tau*_true used when present)");
   app.add_option("--json", a->json, "Also write the report as JSON (keys nmse, mse, gmse)");
   app.add_option("--plots", a->plots,
                  "Diagnostics folder: predicted vs measured torque over time, residual histograms and, for GP "
@@ -211,7 +211,7 @@ Command add_evaluate(CLI::App& app) {
     std::unique_ptr<PhysicsComparison> physics;
     if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
-    const Dataset data = read_dataset(a->data, model->joints(), true, "the model '" + a->model + "'");
+    const Dataset data = read_data_option(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
     const Eigen::MatrixXd prediction = model->predict(data.X);

@@ -25,7 +25,7 @@ const FieldNames& cli_field_names() {
       {"TeacherOptions::student_hyperparameter_rows", "--student-hyperparameter-rows"},
       {kMatFileAdvice,
        "convert it to a CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or read it with a command that "
-       "takes --mat-variable NAME (experiment real, inspect)"},
+       "takes --mat-variable NAME (train, predict, evaluate, update, inspect, experiment real)"},
       {"NeighbourConsistencyOptions::radius", "--radius"},
       {"NeighbourConsistencyOptions::min_separation_rows", "--min-separation-rows"},
       {"NeighbourConsistencyOptions::max_queries", "--max-queries"},

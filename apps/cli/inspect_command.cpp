@@ -10,6 +10,7 @@
 
 #include "cli_parsing.hpp"
 #include "commands.hpp"
+#include "data_option.hpp"
 #include "field_names.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/data_consistency.hpp"
@@ -17,7 +18,6 @@
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/json_numbers.hpp"
-#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/plots.hpp"
 
@@ -29,10 +29,6 @@ struct InspectArgs {
   NeighbourConsistencyOptions options;
   bool quiet = false;
 };
-
-Dataset read_log(const std::string& path, const std::string& mat_variable, const JointTypes& joints) {
-  return mat_variable.empty() ? read_dataset(path, joints, true) : read_mat_dataset(path, mat_variable, joints, true);
-}
 
 Dataset rows_of(const Dataset& all, const std::string& range, const char* flag) {
   if (range.empty()) return all;
@@ -96,11 +92,11 @@ int run_inspect(const InspectArgs& a) {
   a.options.validate();
 
   const JointTypes joints = JointTypes::parse(a.joints);
-  const Dataset log = read_log(a.data, a.mat_variable, joints);
+  const Dataset log = read_data_option(a.data, a.mat_variable, joints, true);
   const Dataset train = rows_of(log, a.train_rows, "--train-rows");
   std::optional<Dataset> test;
   if (!a.test_rows.empty()) test = rows_of(log, a.test_rows, "--test-rows");
-  if (!a.test.empty()) test = read_log(a.test, a.mat_variable, joints);
+  if (!a.test.empty()) test = read_data_option(a.test, a.mat_variable, joints, true);
 
   if (test) {
     if (const Eigen::Index shared = count_shared_rows(train.X, test->X); shared > 0)
@@ -184,9 +180,7 @@ int run_inspect(const InspectArgs& a) {
 
 Command add_inspect(CLI::App& app) {
   auto a = std::make_shared<InspectArgs>();
-  app.add_option("--data", a->data, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or a .mat file with --mat-variable")
-      ->required()->check(CLI::ExistingFile);
-  app.add_option("--mat-variable", a->mat_variable, "Read this variable of a .mat file (columns q, qd, qdd, tau by position)");
+  add_data_option(app, a->data, a->mat_variable, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR")
       ->required();
   app.add_option("--train-rows", a->train_rows, "Training rows FIRST-LAST of --data (1-based data rows; default: all)");

@@ -5,6 +5,7 @@
 #include <mutex>
 
 #include "commands.hpp"
+#include "data_option.hpp"
 #include "distributed_run.hpp"
 #include "output_guard.hpp"
 #include "estimator_args.hpp"
@@ -24,7 +25,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, joints, kernel = "gip", out, preset, teacher;
+  std::string data, mat_variable, joints, kernel = "gip", out, preset, teacher;
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -36,8 +37,7 @@ struct TrainArgs {
 
 Command add_train(CLI::App& app) {
   auto a = std::make_shared<TrainArgs>();
-  app.add_option("--data", a->data, "Training CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun")
-      ->required()->check(CLI::ExistingFile);
+  add_data_option(app, a->data, a->mat_variable, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR")
       ->required();
   app.add_option("--kernel", a->kernel,
@@ -112,7 +112,7 @@ Command add_train(CLI::App& app) {
                       o.name + "'");
         o.gp.nll_backend = mpi->backend();
       }
-      data = read_dataset(a->data, joints, true);
+      data = read_data_option(a->data, a->mat_variable, joints, true);
       const std::vector<std::string> names = input_column_names(joints.size());
       for (Eigen::Index c : constant_columns(data.X))
         data_warnings.push_back("column " + names[static_cast<size_t>(c)] + " of " + a->data +

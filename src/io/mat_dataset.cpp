@@ -34,6 +34,13 @@ Dataset read_mat_dataset(const std::string& path, const std::string& variable, c
     throw Error(what + ": variable '" + variable + "' has " + std::to_string(cols) + " columns but joints " +
                 joints.str() + " need " + std::to_string(needed) + " (q, qd, qdd" + (require_tau ? ", tau" : "") +
                 " per joint, in that order)");
+  // Columns are positional, so a matrix of another arm would be read shifted: q of one joint as qd of
+  // another. Extra columns are allowed, but not exactly those of another number of joints.
+  const bool own_width = cols == 4 * n || (!require_tau && cols == 3 * n);
+  if (!own_width && cols % 4 == 0)
+    throw Error(what + ": variable '" + variable + "' has " + std::to_string(cols) + " columns, those of " +
+                std::to_string(cols / 4) + " joints (q, qd, qdd, tau), but joints " + joints.str() + " are " +
+                std::to_string(n) + "; give the joint types of the arm that logged it");
   if (rows < 1) throw Error(what + ": variable '" + variable + "' has no rows");
   Eigen::MatrixXd A(rows, cols);
   if (var->class_type == MAT_C_DOUBLE)

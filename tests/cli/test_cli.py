@@ -166,6 +166,39 @@ def test_train_warns_about_positions_that_look_like_degrees(tmp_path, gipdyn_bin
     assert "convert q, qd and qdd to radians" in warned[0]
 
 
+def test_train_predict_and_evaluate_read_a_mat_file(tmp_path, gipdyn_bin):
+    # A MATLAB matrix's columns are q, qd, qdd, tau by position; the same numbers as a CSV give the same model.
+    scipy_io = pytest.importorskip("scipy.io")
+    data = write_dataset(tmp_path / "log.csv", 80, 1)
+    test = write_dataset(tmp_path / "test.csv", 40, 2)
+    scipy_io.savemat(tmp_path / "log.mat", {"train": data[:, :8], "test": test[:, :8], "states": test[:, :6]})
+    mat = str(tmp_path / "log.mat")
+    for name, source in [("csv", ["--data", str(tmp_path / "log.csv")]),
+                         ("mat", ["--data", mat, "--mat-variable", "train"])]:
+        r = run(gipdyn_bin, "train", *source, "--joints", "RR", "--out", str(tmp_path / f"{name}.gipdyn"),
+                "--max-iter", "40", "--quiet")
+        assert r.returncode == 0, r.stderr
+    model = str(tmp_path / "mat.gipdyn")
+    r = run(gipdyn_bin, "predict", "--model", model, "--data", mat, "--mat-variable", "states", "--out",
+            str(tmp_path / "p.csv"), "--no-std")
+    assert r.returncode == 0, r.stderr
+    r = run(gipdyn_bin, "predict", "--model", str(tmp_path / "csv.gipdyn"), "--data", str(tmp_path / "test.csv"),
+            "--out", str(tmp_path / "q.csv"), "--no-std")
+    assert r.returncode == 0, r.stderr
+    p, q = (np.genfromtxt(tmp_path / f, delimiter=",", names=True) for f in ("p.csv", "q.csv"))
+    assert np.allclose(p["tau1_hat"], q["tau1_hat"], rtol=1e-6, atol=1e-9)
+    r = run(gipdyn_bin, "evaluate", "--model", model, "--data", mat, "--mat-variable", "test")
+    assert r.returncode == 0 and "40 test rows, target measured tau" in r.stdout, r.stderr
+    # A matrix of another arm is not read shifted: 8 columns are q, qd, qdd, tau of 2 joints, not of 1.
+    r = run(gipdyn_bin, "train", "--data", mat, "--mat-variable", "train", "--joints", "R", "--out",
+            str(tmp_path / "one.gipdyn"))
+    assert r.returncode != 0 and "has 8 columns, those of 2 joints (q, qd, qdd, tau), but joints R are 1" in r.stderr
+    r = run(gipdyn_bin, "train", "--data", mat, "--mat-variable", "nope", "--joints", "RR", "--out",
+            str(tmp_path / "nope.gipdyn"))
+    assert r.returncode != 0 and "has no variable 'nope'; it holds: " in r.stderr
+    assert not (tmp_path / "one.gipdyn").exists() and not (tmp_path / "nope.gipdyn").exists()
+
+
 def test_train_taught_by_lip_keeps_a_constant_joint(tmp_path, gipdyn_bin):
     # A joint that never moves its torque (a locked joint, a dead sensor) has no nMSE on the log: it is recorded as
     # null, and the model is written (the model file refused the NaN before).
