@@ -24,7 +24,7 @@ std::string out_of_memory_advice(const std::string& command) {
   if (command == "predict" || command == "evaluate" || command == "physics")
     return "split --data into smaller files and run them one after another";
   if (command == "inspect") return "look up fewer rows (--max-queries) or split --data";
-  if (command == "preprocess") return "split --in into smaller logs, or resample it with a longer period (--dt)";
+  if (command == "preprocess") return "split --data into smaller logs, or resample it with a longer period (--dt)";
   return "give it smaller inputs";
 }
 
