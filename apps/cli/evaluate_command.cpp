@@ -16,6 +16,7 @@
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/robot/dynamics.hpp"
@@ -211,7 +212,7 @@ Command add_evaluate(CLI::App& app) {
     std::unique_ptr<PhysicsComparison> physics;
     if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
-    const Dataset data = read_data_option(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
+    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
     const Eigen::MatrixXd prediction = model->predict(data.X);
@@ -232,8 +233,8 @@ Command add_evaluate(CLI::App& app) {
     for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
     std::string constant;
-    for (int j = 0; j < model->joints().size(); ++j)
-      if (!std::isfinite(acc.nmse(j))) constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
+    for (Eigen::Index j : constant_columns(target, 0.0))
+      constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
     if (!constant.empty())
       std::fprintf(stderr,
                    "gipdyn: warning: joint(s) %s: the target torque is constant in %s, so nMSE (MSE over its "

@@ -18,6 +18,7 @@
 #include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/json_numbers.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/plots.hpp"
 
@@ -92,11 +93,11 @@ int run_inspect(const InspectArgs& a) {
   a.options.validate();
 
   const JointTypes joints = JointTypes::parse(a.joints);
-  const Dataset log = read_data_option(a.data, a.mat_variable, joints, true);
+  const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true);
   const Dataset train = rows_of(log, a.train_rows, "--train-rows");
   std::optional<Dataset> test;
   if (!a.test_rows.empty()) test = rows_of(log, a.test_rows, "--test-rows");
-  if (!a.test.empty()) test = read_data_option(a.test, a.mat_variable, joints, true);
+  if (!a.test.empty()) test = read_robot_log(a.test, a.mat_variable, joints, true);
 
   if (test) {
     if (const Eigen::Index shared = count_shared_rows(train.X, test->X); shared > 0)

@@ -9,6 +9,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 
 namespace gipdyn::cli {
@@ -27,7 +28,7 @@ Command add_predict(CLI::App& app) {
   return [a]() -> int {
     refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
-    const Dataset data = read_data_option(a->data, a->mat_variable, estimator->joints(), false, "the model '" + a->model + "'");
+    const Dataset data = read_robot_log(a->data, a->mat_variable, estimator->joints(), false, "the model '" + a->model + "'");
     const int n = estimator->joints().size();
     Eigen::MatrixXd mean, sd;
     std::vector<std::string> header = torque_column_names(n, "_hat");

@@ -16,6 +16,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
@@ -112,7 +113,7 @@ Command add_train(CLI::App& app) {
                       o.name + "'");
         o.gp.nll_backend = mpi->backend();
       }
-      data = read_data_option(a->data, a->mat_variable, joints, true);
+      data = read_robot_log(a->data, a->mat_variable, joints, true);
       const std::vector<std::string> names = input_column_names(joints.size());
       for (Eigen::Index c : constant_columns(data.X))
         data_warnings.push_back("column " + names[static_cast<size_t>(c)] + " of " + a->data +

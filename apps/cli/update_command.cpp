@@ -13,6 +13,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/training_data.hpp"
@@ -54,7 +55,7 @@ Command add_update(CLI::App& app) {
     if (!model)
       throw Error("--model holds a " + estimator->name() +
                   " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
-    const Dataset data = read_data_option(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
+    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
     if (a->replace && model->is_sparse())
       throw Error("--replace needs an exact GP model: a sparse model's inducing rows come from its own data "
                   "(train the sparse model on the new log instead)");

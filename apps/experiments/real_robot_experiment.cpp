@@ -14,6 +14,7 @@
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"
+#include "gipdyn/training_data.hpp"
 #include "reports/result_table.hpp"
 #include "reports/text_format.hpp"
 
@@ -93,8 +94,7 @@ void apply_protocol(const std::string& protocol, RealRobotConfig& c) {
 RealSplit load_real_split(const RealRobotConfig& c) {
   RealSplit s;
   s.joints = JointTypes::parse(c.joints);
-  const Dataset all = c.mat_variable.empty() ? read_dataset(c.data, s.joints, true)
-                                             : read_mat_dataset(c.data, c.mat_variable, s.joints, true);
+  const Dataset all = read_robot_log(c.data, c.mat_variable, s.joints, true);
   std::vector<Eigen::Index> train_idx;
   if (c.alternate_blocks > 0) {
     const Eigen::Index B = c.alternate_blocks;
@@ -119,9 +119,8 @@ RealSplit load_real_split(const RealRobotConfig& c) {
     s.warnings.push_back(std::to_string(shared) + " of the " + std::to_string(s.test.rows()) +
                          " test rows also appear among the training rows: their error is not a test error");
   std::string constant;
-  for (Eigen::Index j = 0; j < s.test.tau.cols(); ++j)
-    if (s.test.tau.col(j).maxCoeff() == s.test.tau.col(j).minCoeff())
-      constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
+  for (Eigen::Index j : constant_columns(s.test.tau, 0.0))
+    constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
   if (!constant.empty())
     s.warnings.push_back("joint(s) " + constant + ": the torque is constant over the test rows (a dead sensor, a column "
                          "of zeros?), so their nMSE, and the mean over joints, is undefined (inf): judge the other "

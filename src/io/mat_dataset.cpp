@@ -55,4 +55,10 @@ Dataset read_mat_dataset(const std::string& path, const std::string& variable, c
   return d;
 }
 
+Dataset read_robot_log(const std::string& path, const std::string& mat_variable, const JointTypes& joints,
+                       bool require_tau, const std::string& joints_owner) {
+  if (mat_variable.empty()) return read_dataset(path, joints, require_tau, joints_owner);
+  return read_mat_dataset(path, mat_variable, joints, require_tau);
+}
+
 }  // namespace gipdyn

@@ -13,4 +13,9 @@ namespace gipdyn {
 Dataset read_mat_dataset(const std::string& path, const std::string& variable, const JointTypes& joints,
                          bool require_tau);
 
+// A robot log either way: the CSV at path (read_dataset; joints_owner as there) when mat_variable is
+// empty, else that variable of the .mat file at path.
+Dataset read_robot_log(const std::string& path, const std::string& mat_variable, const JointTypes& joints,
+                       bool require_tau, const std::string& joints_owner = "");
+
 }  // namespace gipdyn
