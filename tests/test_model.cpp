@@ -756,6 +756,38 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
             std::string::npos);
 }
 
+// The same numbers saved by a spreadsheet (byte-order mark, CRLF, tabs or
+// semicolons) or by numpy.savetxt (a "# " header, spaces) read alike.
+TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
+  const fs::path dir = temp_dir();
+  auto write = [&](const std::string& name, const std::string& text) {
+    std::ofstream(dir / name, std::ios::binary) << text;
+    return (dir / name).string();
+  };
+  const JointTypes rr = JointTypes::parse("RR");
+  const Dataset plain = read_dataset(
+      write("plain.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n-1.5,2e-3,3,4,5,6,7,8.25\n"), rr, true);
+  const std::vector<std::pair<std::string, std::string>> variants = {
+      {"bom.csv", "\xEF\xBB\xBFq1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\r\n1,2,3,4,5,6,7,8\r\n-1.5,2e-3,3,4,5,6,7,8.25\r\n"},
+      {"tabs.tsv", "q1\tq2\tqd1\tqd2\tqdd1\tqdd2\ttau1\ttau2\n1\t2\t3\t4\t5\t6\t7\t8\n-1.5\t2e-3\t3\t4\t5\t6\t7\t8.25\n"},
+      {"semi.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1;2;3;4;5;6;7;8\n-1.5;2e-3;3;4;5;6;7;8.25\n"},
+      {"savetxt.txt",
+       "# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1.0e+00  2 3 4 5 6 7 8\n# a comment\n -1.5 2e-3 3 4 5 6 7 8.25 \n"}};
+  for (const auto& [name, text] : variants) {
+    const Dataset d = read_dataset(write(name, text), rr, true);
+    EXPECT_EQ(d.X, plain.X) << name;
+    EXPECT_EQ(d.tau, plain.tau) << name;
+  }
+  EXPECT_NE(error_of([&] { read_dataset(write("bare.csv", "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,8\n"), rr, true); })
+                .find("'" + (dir / "bare.csv").string() + "' has no header row: its first line holds numbers ('1', ...); "
+                      "add a first line naming the columns"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("comma.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1,5;2;3;4;5;6;7;8\n"), rr, true);
+            }).find("column 'q1': '1,5' is not a number (a decimal comma? gipdyn reads '.' as the decimal mark"),
+            std::string::npos);
+}
+
 TEST(Metrics, NmseUsesPopulationVariance) {
   Eigen::MatrixXd t(4, 1), p(4, 1);
   t << 1, 2, 3, 4;

@@ -22,16 +22,53 @@ std::string trim(const std::string& s) {
   return s.substr(b, e - b + 1);
 }
 
-std::vector<std::string> split(const std::string& line) {
+// A log's columns are separated by commas, or, in files written by other
+// tools, by tabs (spreadsheets), semicolons (spreadsheets in locales whose
+// decimal mark is a comma) or runs of spaces (numpy.savetxt, MATLAB's
+// save -ascii). The header decides, so that one file is read one way.
+constexpr char kWhitespace = ' ';
+
+char delimiter_of(const std::string& header_line) {
+  for (char d : {',', '\t', ';'})
+    if (header_line.find(d) != std::string::npos) return d;
+  return kWhitespace;
+}
+
+std::vector<std::string> split(const std::string& line, char delimiter) {
   std::vector<std::string> cells;
+  if (delimiter == kWhitespace) {
+    size_t start = line.find_first_not_of(" \t\r");
+    while (start != std::string::npos) {
+      const size_t end = line.find_first_of(" \t\r", start);
+      cells.push_back(line.substr(start, end == std::string::npos ? std::string::npos : end - start));
+      start = end == std::string::npos ? end : line.find_first_not_of(" \t\r", end);
+    }
+    return cells;
+  }
   size_t start = 0;
   while (true) {
-    const size_t comma = line.find(',', start);
-    cells.push_back(line.substr(start, comma == std::string::npos ? std::string::npos : comma - start));
-    if (comma == std::string::npos) break;
-    start = comma + 1;
+    const size_t next = line.find(delimiter, start);
+    cells.push_back(line.substr(start, next == std::string::npos ? std::string::npos : next - start));
+    if (next == std::string::npos) break;
+    start = next + 1;
   }
   return cells;
+}
+
+// numpy.savetxt writes its header as a comment ("# q1 q2 ..."), Octave and
+// ROS's rostopic as "%..."; numpy.loadtxt skips lines starting with '#'.
+bool is_comment(const std::string& line) {
+  const auto first = line.find_first_not_of(" \t");
+  return first != std::string::npos && line[first] == '#';
+}
+
+bool parses_as_number(const std::string& cell) {
+  double v = 0.0;
+  const char* b = cell.data();
+  const char* e = b + cell.size();
+  if (b != e && (*b == '+' || *b == '-')) ++b;
+  const auto res = std::from_chars(b, e, v);
+  return b != e && res.ec == std::errc() && res.ptr == e;
 }
 
 std::ifstream open(const std::string& path) {
@@ -44,14 +81,26 @@ CsvHeader parse_header(std::ifstream& in, const std::string& path) {
   std::string line;
   if (!std::getline(in, line) || trim(line).empty())
     throw Error("'" + path + "' is empty; expected a header row such as q1,...,qd1,...,qdd1,...,tau1,...");
+  // Spreadsheets saving "CSV UTF-8" start the file with a byte-order mark,
+  // which would otherwise become part of the first column's name.
+  if (line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+  const auto first = line.find_first_not_of(" \t");
+  if (first != std::string::npos && (line[first] == '#' || line[first] == '%')) line.erase(0, first + 1);
   CsvHeader h;
-  for (auto& c : split(line)) {
+  h.delimiter = delimiter_of(line);
+  const auto cells = split(line, h.delimiter);
+  if (!cells.empty() && std::all_of(cells.begin(), cells.end(), [](const std::string& c) {
+        return parses_as_number(trim(c));
+      }))
+    throw Error("'" + path + "' has no header row: its first line holds numbers ('" + trim(cells.front()) +
+                "', ...); add a first line naming the columns, e.g. q1,...,qn,qd1,...,qdd1,...,tau1,...,taun");
+  for (auto& c : cells) {
     const std::string name = trim(c);
     // A repeated name would make "the column q1" ambiguous: which copy was meant?
-    const auto first = std::find(h.names.begin(), h.names.end(), name);
-    if (!name.empty() && first != h.names.end())
+    const auto same = std::find(h.names.begin(), h.names.end(), name);
+    if (!name.empty() && same != h.names.end())
       throw Error("'" + path + "' names column '" + name + "' twice (columns " +
-                  std::to_string(first - h.names.begin() + 1) + " and " + std::to_string(h.names.size() + 1) +
+                  std::to_string(same - h.names.begin() + 1) + " and " + std::to_string(h.names.size() + 1) +
                   " of the header); rename or remove one");
     h.names.push_back(name);
   }
@@ -129,12 +178,12 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
   Eigen::Index rows = 0;
   while (std::getline(in, line)) {
     ++line_no;
-    if (trim(line).empty()) continue;
-    const auto cells = split(line);
+    if (trim(line).empty() || is_comment(line)) continue;
+    const auto cells = split(line, header.delimiter);
     if (cells.size() != header.names.size())
       throw Error("'" + path + "' line " + std::to_string(line_no) + " has " + std::to_string(cells.size()) +
                   " cells but the header has " + std::to_string(header.names.size()) +
-                  (cells.size() < header.names.size() ? " (truncated file?)" : " (a stray comma or a merged row?)"));
+                  (cells.size() < header.names.size() ? " (truncated file?)" : " (a stray separator or a merged row?)"));
     for (size_t k = 0; k < wanted.size(); ++k) {
       const std::string cell = trim(cells[wanted[k]]);
       double v = 0.0;
@@ -147,7 +196,10 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
                     "' is outside the range of a double (about 1e308)");
       if (cell.empty() || res.ec != std::errc() || res.ptr != e)
         throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] + "': '" + cell +
-                    "' is not a number");
+                    "' is not a number" +
+                    (header.delimiter != ',' && cell.find(',') != std::string::npos
+                         ? " (a decimal comma? gipdyn reads '.' as the decimal mark: save the log with '.')"
+                         : ""));
       if (!std::isfinite(v))
         throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] +
                     "' is NaN or Inf; remove or repair that row");

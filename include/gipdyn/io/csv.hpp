@@ -1,7 +1,10 @@
 #pragma once
 // Numeric CSV with a header row. Only the requested columns are parsed, so
 // extra (even non-numeric) columns are ignored. Errors name the file, the line
-// and the column.
+// and the column. The header's separator is the file's: a comma, else a tab,
+// else a semicolon, else runs of spaces. A byte-order mark and a header
+// written as a comment ("# q1 q2 ...", numpy.savetxt; "%...") are accepted;
+// later lines starting with '#' are skipped. The decimal mark is '.'.
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 #include <string>
@@ -11,6 +14,7 @@ namespace gipdyn {
 
 struct CsvHeader {
   std::vector<std::string> names;
+  char delimiter = ',';  // ' ' stands for runs of spaces or tabs
   bool has(const std::string& name) const;
 };
 
