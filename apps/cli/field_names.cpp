@@ -3,6 +3,7 @@
 #include <cstdio>
 
 #include "gipdyn/io/dataset.hpp"
+#include "gipdyn/model/training.hpp"
 
 namespace gipdyn::cli {
 
@@ -26,6 +27,7 @@ const FieldNames& cli_field_names() {
       {kMatFileAdvice,
        "convert it to a CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, or read it with a command that "
        "takes --mat-variable NAME (train, predict, evaluate, update, inspect, experiment real)"},
+      {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: train --subsample N, experiment real --max-train N)"},
       {"NeighbourConsistencyOptions::radius", "--radius"},
       {"NeighbourConsistencyOptions::min_separation_rows", "--min-separation-rows"},
       {"NeighbourConsistencyOptions::max_queries", "--max-queries"},

@@ -17,6 +17,9 @@
 
 namespace gipdyn {
 
+const char* const kFewerRowsAdvice = "train on fewer rows (a constant-step subsample)";
+
+
 std::string to_string(HyperparameterObjective o) {
   return o == HyperparameterObjective::Exact ? "exact" : "bound";
 }
@@ -330,7 +333,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   } else {
     require_memory(
         kept + per_joint, "training on " + std::to_string(X.rows()) + " rows",
-        "train on fewer rows (a constant-step subsample)" +
+        std::string(kFewerRowsAdvice) +
             std::string(options.keep_factor && !sparse ? " or without kept factors (TrainOptions::keep_factor)" : "") +
             std::string(sparse ? " or with fewer inducing points"
                                : ", or a sparse GP (TrainOptions::inducing_points), or distributed over processes "

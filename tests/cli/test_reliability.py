@@ -137,7 +137,7 @@ def test_memory_estimate_respects_the_address_space_limit(tmp_path, gipdyn_bin):
     r = subprocess.run([gipdyn_bin, "train", "--data", str(tmp_path / "big.csv"), "--joints", "RR", "--quiet",
                         "--out", str(tmp_path / "m.gipdyn")], capture_output=True, text=True, preexec_fn=cap,
                        timeout=120)
-    fails_with(r, "training on 17000 rows needs about", "available", "fewer rows")
+    fails_with(r, "training on 17000 rows needs about", "available", "fewer rows (a constant-step subsample: train --subsample N")
     assert not (tmp_path / "m.gipdyn").exists()
 
 

@@ -19,6 +19,10 @@
 
 namespace gipdyn {
 
+// The advice train_model gives when the rows do not fit in memory; front ends
+// rename it to their own way of choosing fewer rows.
+extern const char* const kFewerRowsAdvice;
+
 // What the hyperparameters of a sparse GP learned on a subsample
 // (TrainOptions::hyperparameter_rows) minimise.
 enum class HyperparameterObjective {
