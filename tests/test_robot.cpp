@@ -6,6 +6,7 @@
 #include <filesystem>
 #include <fstream>
 #include <kdl/chainfksolvervel_recursive.hpp>
+#include <kdl/chainidsolver_recursive_newton_euler.hpp>
 #include <kdl/treeidsolver_recursive_newton_euler.hpp>
 #include <kdl_parser/kdl_parser.hpp>
 #include <map>
@@ -108,6 +109,54 @@ TEST(Urdf, LinksOffTheChainRideOnItAsKdlsTreeDynamicsSay) {
       << branching;
   EXPECT_NE(error_of([&] { load_robot(file + ":gripper"); }).find("has no link 'gripper'"), std::string::npos);
   EXPECT_NE(error_of([&] { load_robot(file + ":"); }).find("name a link after the ':'"), std::string::npos);
+}
+
+// Vendors' URDFs hold links without <inertial> (frames between joints) and
+// point masses (a mass, no inertia): both load, and their dynamics are KDL's.
+TEST(Urdf, MasslessLinksAndPointMassesAreKdlsDynamics) {
+  const auto urdf = [](const std::string& l1, const std::string& l2, const std::string& j2_extra) {
+    return "<robot name='frames'><link name='base'/>"
+           "<joint name='j1' type='revolute'><parent link='base'/><child link='l1'/><axis xyz='0 0 1'/>"
+           "<limit lower='-2' upper='2' velocity='2' effort='10'/></joint><link name='l1'>" + l1 + "</link>"
+           "<joint name='j2' type='revolute'><parent link='l1'/><child link='l2'/><axis xyz='0 1 0'/>"
+           "<origin xyz='0.3 0 0.1'/><limit lower='-2' upper='2' velocity='2' effort='10'/>" + j2_extra +
+           "</joint><link name='l2'>" + l2 + "</link></robot>";
+  };
+  const std::string point_mass = "<inertial><origin xyz='0.25 0 0'/><mass value='1.5'/>"
+                                 "<inertia ixx='0' iyy='0' izz='0' ixy='0' ixz='0' iyz='0'/></inertial>";
+  const std::filesystem::path dir = std::filesystem::temp_directory_path();
+  const std::string file = (dir / "gipdyn_frames.urdf").string();
+  std::ofstream(file) << urdf("", point_mass, "");
+  const RobotModel arm = load_robot_urdf(file);
+  ASSERT_EQ(arm.joint_types().str(), "RR");
+  KDL::Tree tree;
+  ASSERT_TRUE(kdl_parser::treeFromFile(file, tree));
+  KDL::Chain chain;
+  ASSERT_TRUE(tree.getChain("base", "l2", chain));
+  KDL::ChainIdSolver_RNE solver(chain, KDL::Vector(0, 0, -9.81));
+  std::mt19937_64 rng(7);
+  for (int trial = 0; trial < 10; ++trial) {
+    Eigen::VectorXd q, qd, qdd;
+    random_state(arm, rng, q, qd, qdd);
+    KDL::JntArray kq(2), kqd(2), kqdd(2), torque(2);
+    for (int i = 0; i < 2; ++i) kq(i) = q(i), kqd(i) = qd(i), kqdd(i) = qdd(i);
+    KDL::Wrenches no_wrench(chain.getNrOfSegments(), KDL::Wrench::Zero());
+    ASSERT_EQ(solver.CartToJnt(kq, kqd, kqdd, no_wrench, torque), 0);
+    const Eigen::VectorXd ours = inverse_dynamics(arm, q, qd, qdd);
+    ASSERT_TRUE(ours.allFinite());
+    for (int i = 0; i < 2; ++i) EXPECT_NEAR(ours(i), torque(i), 1e-9 * (1.0 + std::abs(ours(i)))) << "joint " << i + 1;
+  }
+  // A joint with nothing after it to move, and a joint KDL would move independently of the one it mimics.
+  std::ofstream(file) << urdf(point_mass, "", "");
+  const std::string moves_nothing = error_of([&] { load_robot_urdf(file); });
+  EXPECT_NE(moves_nothing.find("joint 2 ('j2') moves no mass: its link and every link after it are massless"),
+            std::string::npos)
+      << moves_nothing;
+  std::ofstream(file) << urdf("", point_mass, "<mimic joint='j1'/>");
+  const std::string mimics = error_of([&] { load_robot_urdf(file); });
+  EXPECT_NE(mimics.find("joint 'j2' mimics joint 'j1', and gipdyn moves every joint of the chain independently"),
+            std::string::npos)
+      << mimics;
 }
 
 TEST(Regressor, TimesParametersEqualsKdlInverseDynamics) {
@@ -320,7 +369,7 @@ TEST(RobotInput, BadDescriptionsGiveClearErrors) {
               load_robot_json(write("gipdyn_bad4.json",
                                     R"({"joints": [{"type": "R", "dh": {"a": 0.1, "alpha": 0, "d": 0, "theta": 0},
                                          "mass": 1, "com": [0,0,0], "inertia": [[0.1,0,0],[0,0.1,0],[0,0,-0.1]]}]})"));
-            }).find("not positive definite"),
+            }).find("not positive semidefinite"),
             std::string::npos);
   // Corke's tabulated Puma 560 link 3 (Iyy 0.086 > Ixx + Izz): named with its moments, not accepted.
   const std::string triangle = error_of([&] {

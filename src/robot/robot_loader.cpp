@@ -189,6 +189,12 @@ RobotModel robot_from_urdf(const std::string& xml, const std::string& path, cons
     if (j->type == urdf::Joint::FLOATING || j->type == urdf::Joint::PLANAR || j->type == urdf::Joint::UNKNOWN)
       throw Error("URDF '" + path + "': joint '" + j->name +
                   "' is floating/planar; gipdyn supports revolute, continuous, prismatic and fixed joints");
+  // KDL ignores <mimic>: the joint would be simulated and learned as an independent one.
+  for (const auto& j : path_joints)
+    if (j->mimic && j->type != urdf::Joint::FIXED)
+      throw Error("URDF '" + path + "': joint '" + j->name + "' mimics joint '" + j->mimic->joint_name +
+                  "', and gipdyn moves every joint of the chain independently; remove its <mimic> element to "
+                  "treat it as a joint of its own, or end the chain before it (ROBOT:LINK)");
   KDL::Tree tree;
   if (!kdl_parser::treeFromUrdfModel(*model, tree)) throw Error("URDF '" + path + "': KDL could not build the tree");
   KDL::Chain on_chain;

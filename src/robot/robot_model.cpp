@@ -84,15 +84,21 @@ void RobotModel::validate() const {
     const JointSpec& j = joints_[static_cast<size_t>(i)];
     const std::string where = "robot '" + name_ + "', joint " + std::to_string(i + 1) + " ('" + j.name + "')";
     const LinkInertial& l = j.link;
-    if (!(l.mass > 0.0) || !std::isfinite(l.mass))
-      throw Error(where + ": mass " + std::to_string(l.mass) + " kg must be positive");
-    if (!l.com.allFinite() || !l.inertia.allFinite()) throw Error(where + ": centre of mass or inertia is not finite");
+    if (!std::isfinite(l.mass) || !l.com.allFinite() || !l.inertia.allFinite())
+      throw Error(where + ": mass, centre of mass or inertia is not finite");
+    // URDF links without <inertial> (frames between two joints) are massless;
+    // a link given a mass but no inertia is a point mass. Both are physical.
+    const bool massless = l.mass == 0.0 && l.inertia.isZero(0.0);
+    if (!massless && !(l.mass > 0.0))
+      throw Error(where + ": mass " + std::to_string(l.mass) +
+                  " kg must be positive (or the link massless: mass 0 and a zero inertia tensor)");
     if ((l.inertia - l.inertia.transpose()).cwiseAbs().maxCoeff() > 1e-9 * (1.0 + l.inertia.cwiseAbs().maxCoeff()))
       throw Error(where + ": inertia tensor is not symmetric");
     const Eigen::Vector3d ev = Eigen::SelfAdjointEigenSolver<Eigen::Matrix3d>(l.inertia).eigenvalues();
-    if (!(ev.minCoeff() > 0.0))
-      throw Error(where + ": inertia tensor is not positive definite (eigenvalues " + std::to_string(ev(0)) + ", " +
-                  std::to_string(ev(1)) + ", " + std::to_string(ev(2)) + "); check the units (kg m^2) and signs");
+    if (ev.minCoeff() < -1e-12 * (1.0 + ev.cwiseAbs().maxCoeff()))
+      throw Error(where + ": inertia tensor is not positive semidefinite (eigenvalues " + std::to_string(ev(0)) +
+                  ", " + std::to_string(ev(1)) + ", " + std::to_string(ev(2)) +
+                  "); check the units (kg m^2) and signs");
     if (ev(0) + ev(1) < ev(2) * (1 - 1e-9))
       throw Error(where + ": principal moments " + std::to_string(ev(0)) + ", " + std::to_string(ev(1)) + ", " +
                   std::to_string(ev(2)) + " kg m^2 violate the triangle inequality (the largest must not exceed the "
@@ -103,6 +109,15 @@ void RobotModel::validate() const {
     if (j.dh && !(std::isfinite(j.dh->a) && std::isfinite(j.dh->alpha) && std::isfinite(j.dh->d) &&
                   std::isfinite(j.dh->theta)))
       throw Error(where + ": DH parameters must be finite");
+  }
+  // A joint that moves nothing has no torque whatever it does: nothing to
+  // learn, and a singular inertia matrix to simulate.
+  for (int i = num_joints() - 1; i >= 0; --i) {
+    const LinkInertial& l = joints_[static_cast<size_t>(i)].link;
+    if (l.mass > 0.0 || !l.inertia.isZero(0.0)) break;
+    throw Error("robot '" + name_ + "', joint " + std::to_string(i + 1) + " ('" + joints_[static_cast<size_t>(i)].name +
+                "') moves no mass: its link and every link after it are massless; give them their masses "
+                "(URDF: <inertial>), or end the chain before that joint");
   }
   if (!gravity_.allFinite()) throw Error("robot '" + name_ + "': gravity must be finite");
 }
