@@ -87,10 +87,14 @@ def _as_matrix(name, a, cols=None):
         arr = np.asarray(a, dtype=np.float64)
     except (TypeError, ValueError) as e:
         raise ValueError(f"{name} must be numeric: {e}") from None
-    if arr.ndim == 1 and cols is not None and arr.size == cols:
+    # One joint: a 1-D array is one value per row (scikit-learn's y), else one row.
+    if arr.ndim == 1 and cols == 1:
+        arr = arr.reshape(-1, 1)
+    elif arr.ndim == 1 and cols is not None and arr.size == cols:
         arr = arr.reshape(1, cols)
     if arr.ndim != 2:
-        raise ValueError(f"{name} must be a 2-D array, got shape {arr.shape}")
+        shape = f" (rows x {cols} columns)" if cols is not None else ""
+        raise ValueError(f"{name} must be a 2-D array{shape}, got shape {arr.shape}")
     if cols is not None and arr.shape[1] != cols:
         raise ValueError(f"{name} must have {cols} columns, got {arr.shape[1]}")
     if arr.shape[0] == 0:

@@ -185,12 +185,24 @@ def test_sklearn_cross_validation_and_grid_search(scara):
     (np.full((10, 12), np.nan), np.zeros((10, 4)), "NaN"),
     (np.array([["a"] * 12] * 10), np.zeros((10, 4)), "numeric"),
     (np.zeros((3, 12)), np.zeros((3, 4)), "at least"),
+    (np.zeros((10, 12)), np.zeros(10), "Y must be a 2-D array (rows x 4 columns), got shape (10,)"),
 ])
 def test_bad_input_raises_value_error(X, Y, message):
     with pytest.raises(ValueError) as err:
         gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=2).fit(X, Y)
     if message:
         assert message in str(err.value)
+
+
+def test_one_joint_takes_a_1d_target_like_scikit_learn():
+    # A pendulum's torque as a 1-D y: one value per row, the same model as with a column.
+    rng = np.random.default_rng(3)
+    X = np.column_stack([rng.uniform(-2, 2, 60), rng.uniform(-1, 1, 60), rng.uniform(-1, 1, 60)])
+    tau = 0.2 * X[:, 2] + 1.5 * np.cos(X[:, 0]) + 0.001 * rng.standard_normal(60)
+    as_vector = gipdyn.InverseDynamicsGP(joints="R").fit(X, tau)
+    as_column = gipdyn.InverseDynamicsGP(joints="R").fit(X, tau[:, None])
+    np.testing.assert_array_equal(as_vector.predict(X[:5]), as_column.predict(X[:5]))
+    assert gipdyn.nmse(tau[:, None], as_vector.predict(X)).max() < 1e-3
 
 
 def test_version_is_the_projects():
