@@ -195,6 +195,12 @@ TEST(PreprocessLog, NamesEachProblem) {
   Eigen::MatrixXd back = d;
   back(10, 0) = back(9, 0);
   EXPECT_NE(message({"t", "q1", "tau1"}, back).find("time does not increase at data row 11"), std::string::npos);
+  // A time column in milliseconds, as many loggers write it, read as seconds.
+  Eigen::MatrixXd ms = d;
+  ms.col(0) *= 1000.0;
+  EXPECT_NE(message({"t", "q1", "tau1"}, ms)
+                .find("its time column 't' advances by 10 per row (median), read as seconds; if it counts milli-"),
+            std::string::npos);
   PreprocessOptions high;
   high.cutoff_hz = 60.0;
   EXPECT_NE(message({"t", "q1", "tau1"}, d, high).find("Nyquist"), std::string::npos);

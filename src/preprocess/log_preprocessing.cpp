@@ -1,5 +1,6 @@
 #include "gipdyn/preprocess/log_preprocessing.hpp"
 
+#include <cstdio>
 #include <algorithm>
 #include <cmath>
 
@@ -184,6 +185,15 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
     steps.push_back(t(i) - t(i - 1));
   }
   const double median_step = median(steps);
+  // A robot log sampled less than once a second holds no accelerations; such a
+  // step is nearly always a time column in milli-, micro- or nanoseconds.
+  if (!time_column.empty() && median_step > 1.0) {
+    char step[32];
+    std::snprintf(step, sizeof step, "%.6g", median_step);
+    throw Error("'" + path + "': its time column '" + time_column + "' advances by " + step +
+                " per row (median), read as seconds; if it counts milli-, micro- or nanoseconds, divide it by 1e3, "
+                "1e6 or 1e9 (or give PreprocessOptions::log_period instead)");
+  }
   // 0. Segments: [first, end) data rows, 0-based.
   std::vector<std::pair<Eigen::Index, Eigen::Index>> segments;
   Eigen::Index first = 0;
