@@ -30,10 +30,8 @@ args = parser.parse_args()
 
 if not os.path.exists(args.data):
     raise SystemExit(f"cannot find {args.data}; pass --data PATH/urPicknPlace.csv")
-table = np.genfromtxt(args.data, delimiter=",", names=True)
-cols = lambda prefix: np.column_stack([table[f"{prefix}{i}"] for i in range(1, 7)])  # noqa: E731
-X = np.hstack([cols("q"), cols("qd"), cols("qdd")])
-Y = cols("tau")
+log = gipdyn.read_log(args.data, "RRRRRR")  # the columns q1..q6, qd1.., qdd1.., tau1.. as the CLI reads them
+X, Y = log["X"], log["tau"]
 train = slice(0, 6340)  # data rows 1-6340 (the reference protocol in data/README.md)
 test = slice(6340, len(Y))
 step = max(1, 6340 // args.train_rows)

@@ -19,7 +19,7 @@ from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOption
                     SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
 
 __all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
-           "SimulationOptions", "simulate", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
+           "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator
@@ -561,6 +561,17 @@ class LagrangianGP(InverseDynamicsGP):
 
     def __getstate__(self):
         raise TypeError("a LagrangianGP cannot be pickled; use save(path) and LagrangianGP.load(path)")
+
+
+def read_log(path, joints, mat_variable=None, torques=True):
+    """Read a robot log as the command line does: a CSV with columns q1..qn,
+    qd1..qdn, qdd1..qddn and tau1..taun (any order and separator; README.md,
+    "Data files"), or, with mat_variable, that matrix of a MATLAB .mat file
+    (columns by position). joints is the joint-type string ("RRPR"). Returns a
+    dict of NumPy arrays q, qd, qdd, X (= [q, qd, qdd]), tau (None when
+    torques=False) and tau_true (None unless the file has tau1_true..).
+    Errors (a missing column, NaN, a wrong joint count) raise GipdynError."""
+    return _core.read_log(str(path), str(joints), mat_variable or "", bool(torques))
 
 
 def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False):

@@ -20,6 +20,7 @@
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/estimators/teacher.hpp"
+#include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/fit_report.hpp"
@@ -73,6 +74,8 @@ const FieldNames& python_field_names() {
       {"NeighbourConsistencyOptions::radius", "radius"},
       {"NeighbourConsistencyOptions::min_separation_rows", "min_separation_rows"},
       {"NeighbourConsistencyOptions::max_queries", "max_queries"},
+      {kMatFileAdvice, "read it with gipdyn.read_log(path, joints, mat_variable=NAME)"},
+      {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: subsample=N)"},
   };
   return names;
 }
@@ -613,6 +616,27 @@ PYBIND11_MODULE(_core, m) {
         return consistency_to_dict(neighbour_consistency(X, tau, X_test, tau_test, o));
       },
       py::arg("X"), py::arg("tau"), py::arg("X_test"), py::arg("tau_test"), py::arg("options"));
+
+  m.def(
+      "read_log",
+      [](const std::string& path, const std::string& joints, const std::string& mat_variable, bool require_tau) {
+        const JointTypes types = JointTypes::parse(joints);
+        Dataset d;
+        {
+          py::gil_scoped_release release;
+          d = read_robot_log(path, mat_variable, types, require_tau);
+        }
+        const int n = types.size();
+        py::dict out;
+        out["q"] = Eigen::MatrixXd(d.X.leftCols(n));
+        out["qd"] = Eigen::MatrixXd(d.X.middleCols(n, n));
+        out["qdd"] = Eigen::MatrixXd(d.X.rightCols(n));
+        out["X"] = d.X;
+        out["tau"] = d.tau.size() ? py::cast(d.tau) : py::none();
+        out["tau_true"] = d.tau_true.size() ? py::cast(d.tau_true) : py::none();
+        return out;
+      },
+      py::arg("path"), py::arg("joints"), py::arg("mat_variable") = "", py::arg("require_tau") = true);
 
   py::class_<SimulationOptions>(m, "SimulationOptions")
       .def(py::init<>())

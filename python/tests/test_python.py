@@ -205,6 +205,33 @@ def test_one_joint_takes_a_1d_target_like_scikit_learn():
     assert gipdyn.nmse(tau[:, None], as_vector.predict(X)).max() < 1e-3
 
 
+def test_read_log_reads_what_the_command_line_reads(tmp_path):
+    # A CSV in simulate's layout, the same numbers as numpy.savetxt's default and as a .mat variable read alike.
+    data = gipdyn.simulate("scara", samples=40, seed=3)
+    csv = tmp_path / "log.csv"
+    columns = [f"{k}{j}" for k in ("q", "qd", "qdd", "tau") for j in range(1, 5)]
+    np.savetxt(csv, np.hstack([data["X"], data["tau"], data["tau_true"]]), delimiter=",", comments="", fmt="%.17g",
+               header=",".join(columns + [f"tau{j}_true" for j in range(1, 5)]))
+    log = gipdyn.read_log(csv, "RRPR")
+    np.testing.assert_array_equal(log["X"], data["X"])
+    np.testing.assert_array_equal(log["tau"], data["tau"])
+    np.testing.assert_array_equal(log["tau_true"], data["tau_true"])
+    np.testing.assert_array_equal(log["qd"], data["qd"])
+    np.savetxt(tmp_path / "saved.txt", np.hstack([data["X"], data["tau"]]), header=" ".join(columns))
+    saved = gipdyn.read_log(tmp_path / "saved.txt", "RRPR")
+    np.testing.assert_array_equal(saved["X"], data["X"])
+    assert saved["tau_true"] is None
+    assert gipdyn.read_log(tmp_path / "saved.txt", "RRPR", torques=False)["tau"] is None
+    scipy_io = pytest.importorskip("scipy.io")
+    scipy_io.savemat(tmp_path / "log.mat", {"log": np.hstack([data["X"], data["tau"]])})
+    mat = gipdyn.read_log(tmp_path / "log.mat", "RRPR", mat_variable="log")
+    np.testing.assert_array_equal(mat["tau"], data["tau"])
+    with pytest.raises(gipdyn.GipdynError, match="has joint columns q1..q4 but the joint types RRPRRR name 6 joints"):
+        gipdyn.read_log(csv, "RRPRRR")
+    with pytest.raises(gipdyn.GipdynError, match=r"read it with gipdyn.read_log\(path, joints, mat_variable=NAME\)"):
+        gipdyn.read_log(tmp_path / "log.mat", "RRPR")
+
+
 def test_version_is_the_projects():
     # CMake's project version is the one source; pyproject.toml (the wheel's) must say the same.
     cmake = open(os.path.join(ROOT, "CMakeLists.txt")).read()
