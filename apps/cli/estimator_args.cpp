@@ -7,9 +7,7 @@
 namespace gipdyn::cli {
 
 std::string estimator_list() {
-  std::string s;
-  for (const auto& n : estimator_names()) s += (s.empty() ? "" : ", ") + n;
-  return s;
+  return joined(estimator_names());
 }
 
 void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {

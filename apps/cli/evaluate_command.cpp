@@ -232,9 +232,7 @@ Command add_evaluate(CLI::App& app) {
     std::printf(" joint  MSE           nMSE\n");
     for (int j = 0; j < model->joints().size(); ++j) std::printf(" %5d  %-12.6g  %-12.6g\n", j + 1, acc.mse(j), acc.nmse(j));
     std::printf(" GMSE   %-12.6g  mean nMSE %.6g\n", acc.gmse, acc.nmse.mean());
-    std::string constant;
-    for (Eigen::Index j : constant_columns(target, 0.0))
-      constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
+    const std::string constant = joint_numbers(constant_columns(target, 0.0));
     if (!constant.empty())
       std::fprintf(stderr,
                    "gipdyn: warning: joint(s) %s: the target torque is constant in %s, so nMSE (MSE over its "

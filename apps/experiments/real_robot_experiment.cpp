@@ -118,9 +118,7 @@ RealSplit load_real_split(const RealRobotConfig& c) {
   if (const Eigen::Index shared = count_shared_rows(s.train.X, s.test.X); shared > 0)
     s.warnings.push_back(std::to_string(shared) + " of the " + std::to_string(s.test.rows()) +
                          " test rows also appear among the training rows: their error is not a test error");
-  std::string constant;
-  for (Eigen::Index j : constant_columns(s.test.tau, 0.0))
-    constant += (constant.empty() ? "" : ", ") + std::to_string(j + 1);
+  const std::string constant = joint_numbers(constant_columns(s.test.tau, 0.0));
   if (!constant.empty())
     s.warnings.push_back("joint(s) " + constant + ": the torque is constant over the test rows (a dead sensor, a column "
                          "of zeros?), so their nMSE, and the mean over joints, is undefined (inf): judge the other "

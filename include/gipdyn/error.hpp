@@ -5,6 +5,7 @@
 // (`TrainOptions::min_noise_fraction must be > 0`), never a front end's
 // spelling: the command line and the Python module translate those names into
 // their own (`--min-noise`, `min_noise=`) with rename_fields.
+#include <cstddef>
 #include <stdexcept>
 #include <string>
 #include <utility>
@@ -18,6 +19,11 @@ class Error : public std::runtime_error {
  public:
   explicit Error(const std::string& message) : std::runtime_error(message) {}
 };
+
+// "a, b, c": the items of a message's list.
+std::string joined(const std::vector<std::string>& items, const std::string& separator = ", ");
+// "1, 3": zero-based joint indices as the one-based joint numbers messages use.
+std::string joint_numbers(const std::vector<std::ptrdiff_t>& zero_based);
 
 // Throws "unknown WHAT 'name'; choose one of: a, b, c" unless name is in names.
 void require_one_of(const std::string& name, const std::vector<std::string>& names, const std::string& what);

@@ -4,11 +4,21 @@
 
 namespace gipdyn {
 
+std::string joined(const std::vector<std::string>& items, const std::string& separator) {
+  std::string out;
+  for (size_t k = 0; k < items.size(); ++k) out += (k ? separator : "") + items[k];
+  return out;
+}
+
+std::string joint_numbers(const std::vector<std::ptrdiff_t>& zero_based) {
+  std::vector<std::string> numbers;
+  for (std::ptrdiff_t j : zero_based) numbers.push_back(std::to_string(j + 1));
+  return joined(numbers);
+}
+
 void require_one_of(const std::string& name, const std::vector<std::string>& names, const std::string& what) {
   if (std::find(names.begin(), names.end(), name) != names.end()) return;
-  std::string valid;
-  for (const auto& n : names) valid += (valid.empty() ? "" : ", ") + n;
-  throw Error("unknown " + what + " '" + name + "'; choose one of: " + valid);
+  throw Error("unknown " + what + " '" + name + "'; choose one of: " + joined(names));
 }
 
 std::string rename_fields(const std::string& message, const FieldNames& names) {

@@ -38,8 +38,7 @@ bool estimator_gives_physics(const std::string& name) {
 
 void require_physics(const Estimator& estimator) {
   if (estimator_gives_physics(estimator.name())) return;
-  std::string valid;
-  for (const auto& n : physics_estimators()) valid += (valid.empty() ? "" : ", ") + n;
+  const std::string valid = joined(physics_estimators());
   throw Error("a '" + estimator.name() +
               "' model cannot give gravity, inertia or Coriolis terms: its torque is not affine in the "
               "accelerations; train one of: " + valid);

@@ -134,9 +134,8 @@ std::string missing_column_message(const std::string& path, const std::string& w
   for (const auto& name : header.names)
     if (canonical_column(name) == canonical_column(wanted))
       return message + " (its column '" + name + "' looks like it: rename it)";
-  std::string listed;
   const size_t shown = std::min<size_t>(header.names.size(), 10);
-  for (size_t k = 0; k < shown; ++k) listed += (k ? ", " : "") + header.names[k];
+  std::string listed = joined({header.names.begin(), header.names.begin() + static_cast<std::ptrdiff_t>(shown)});
   if (shown < header.names.size()) listed += ", ... (" + std::to_string(header.names.size()) + " in all)";
   return message + " (its columns: " + listed + "); add or rename it, or check the joint types";
 }

@@ -16,12 +16,13 @@ Dataset read_mat_dataset(const std::string& path, const std::string& variable, c
   if (!mat) throw Error("cannot open " + what + " as a MATLAB .mat file (missing, unreadable or not a .mat file)");
   std::unique_ptr<matvar_t, decltype(&Mat_VarFree)> var(Mat_VarRead(mat.get(), variable.c_str()), &Mat_VarFree);
   if (!var) {
-    std::string names;
+    std::vector<std::string> held;
     Mat_Rewind(mat.get());
     while (matvar_t* info = Mat_VarReadNextInfo(mat.get())) {
-      names += (names.empty() ? "" : ", ") + std::string(info->name ? info->name : "?");
+      held.push_back(info->name ? info->name : "?");
       Mat_VarFree(info);
     }
+    const std::string names = joined(held);
     throw Error(what + " has no variable '" + variable + "'; it holds: " + (names.empty() ? "nothing" : names) +
                 " (name the variable to read)");
   }

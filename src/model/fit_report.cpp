@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "gipdyn/error.hpp"
+
 namespace gipdyn {
 
 std::string to_string(FitStatus status) {
@@ -55,11 +57,12 @@ std::string FitReport::brief_report() const {
 
 std::vector<std::string> convergence_warnings(const std::vector<JointReport>& joints) {
   std::vector<std::string> out;
-  std::string capped, stalled;
+  std::vector<std::ptrdiff_t> capped_joints, stalled_joints;
   for (const auto& j : joints) {
-    if (j.status == OptimizerResult::Status::MaxIterations) capped += (capped.empty() ? "" : ", ") + std::to_string(j.joint + 1);
-    if (j.status == OptimizerResult::Status::Stalled) stalled += (stalled.empty() ? "" : ", ") + std::to_string(j.joint + 1);
+    if (j.status == OptimizerResult::Status::MaxIterations) capped_joints.push_back(j.joint);
+    if (j.status == OptimizerResult::Status::Stalled) stalled_joints.push_back(j.joint);
   }
+  const std::string capped = joint_numbers(capped_joints), stalled = joint_numbers(stalled_joints);
   if (!capped.empty())
     out.push_back("joint(s) " + capped +
                   " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");

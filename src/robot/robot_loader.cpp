@@ -32,11 +32,6 @@ Eigen::Vector3d vec3(const nlohmann::json& j, const char* key, const std::string
   return v;
 }
 
-std::string joined(const std::vector<std::string>& names) {
-  std::string out;
-  for (const auto& n : names) out += (out.empty() ? "" : ", ") + n;
-  return out;
-}
 
 // A misspelt optional field ("gravty", "limit") would otherwise be ignored and
 // its default used without a word.
