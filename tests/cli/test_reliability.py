@@ -152,7 +152,16 @@ def test_constant_columns_and_test_rows_from_training_are_warned_about(folder, g
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "c.csv"), "--joints", "RR", "--max-iter", "3",
             "--out", str(tmp_path / "c.gipdyn"))
     assert r.returncode == 0, r.stderr
-    assert "warning: column qd2 of" in r.stderr and "is constant" in r.stderr
+    assert "warning: column(s) qd2 of" in r.stderr and "are constant" in r.stderr
+    # A joint that never moves: one line naming the joint, not one per column.
+    for r in rows:
+        r[header.index("q1")], r[header.index("qd1")], r[header.index("qdd1")] = "0.3", "0", "0"
+    (tmp_path / "l.csv").write_text("\n".join([lines[0]] + [",".join(r) for r in rows]) + "\n")
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "l.csv"), "--joints", "RR", "--max-iter", "3",
+            "--out", str(tmp_path / "l.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert "warning: joint(s) 1 never move in" in r.stderr and "a locked joint?" in r.stderr
+    assert "warning: column(s) qd2 of" in r.stderr and "q1" not in r.stderr.split("column(s)")[1]
     r = run(gipdyn_bin, "evaluate", "--model", str(folder / "m.gipdyn"), "--data", str(folder / "d.csv"))
     assert r.returncode == 0, r.stderr
     assert "warning: 40 of the 40 rows" in r.stderr and "not a test error" in r.stderr
