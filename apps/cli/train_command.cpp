@@ -114,32 +114,7 @@ Command add_train(CLI::App& app) {
         o.gp.nll_backend = mpi->backend();
       }
       data = read_robot_log(a->data, a->mat_variable, joints, true);
-      const std::vector<std::string> names = input_column_names(joints.size());
-      // A joint that never moves (locked, or out of the motion) is one warning, not three.
-      const std::vector<Eigen::Index> constant = constant_columns(data.X);
-      const auto is_constant = [&](Eigen::Index c) { return std::count(constant.begin(), constant.end(), c) > 0; };
-      std::vector<std::ptrdiff_t> still_joints;
-      std::vector<std::string> constant_names;
-      const int n = joints.size();
-      for (int j = 0; j < n; ++j)
-        if (is_constant(j) && is_constant(n + j) && is_constant(2 * n + j)) still_joints.push_back(j);
-      for (Eigen::Index c : constant)
-        if (std::count(still_joints.begin(), still_joints.end(), c % n) == 0)
-          constant_names.push_back(names[static_cast<size_t>(c)]);
-      if (!still_joints.empty())
-        data_warnings.push_back("joint(s) " + joint_numbers(still_joints) + " never move in " + a->data +
-                                " (q, qd and qdd constant: a locked joint?): the model cannot learn how the torque "
-                                "depends on them");
-      if (!constant_names.empty())
-        data_warnings.push_back("column(s) " + joined(constant_names) + " of " + a->data +
-                                " are constant: the model cannot learn how the torque depends on them");
-      for (int j : revolute_joints_spanning_turns(data.X, joints)) {
-        char span[32];
-        std::snprintf(span, sizeof span, "%.4g", data.X.col(j).maxCoeff() - data.X.col(j).minCoeff());
-        data_warnings.push_back("column " + names[static_cast<size_t>(j)] + " of " + a->data + " spans " + span +
-                                " rad, more than two turns of a revolute joint: if the log is in degrees, convert "
-                                "q, qd and qdd to radians (the kernels see cos q and sin q)");
-      }
+      for (const auto& w : training_input_warnings(data.X, joints, a->data)) data_warnings.push_back(w);
       total = data.rows();
       if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
     } catch (const std::exception& e) {

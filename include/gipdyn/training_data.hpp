@@ -1,6 +1,7 @@
 #pragma once
 // What every estimator asks of its training data, and how rows are thinned.
 #include <Eigen/Dense>
+#include <string>
 #include <vector>
 
 #include "gipdyn/joint_types.hpp"
@@ -35,6 +36,14 @@ std::vector<Eigen::Index> constant_columns(const Eigen::MatrixXd& X, double tole
 // degrees spans 30-300 "rad", and the kernels, which see cos q and sin q, find
 // no structure in them. A joint that turns without end is the other cause.
 std::vector<int> revolute_joints_spanning_turns(const Eigen::MatrixXd& X, const JointTypes& joints);
+
+// One line per problem of the training inputs X (N x 3n) that a user should
+// hear about before trusting the model: joints that never move (q, qd and qdd
+// constant: one line naming them), other constant columns, revolute positions
+// spanning more than two turns. `source` names the inputs in the messages
+// ("'log.csv'", "X"). Empty when there is nothing to say.
+std::vector<std::string> training_input_warnings(const Eigen::MatrixXd& X, const JointTypes& joints,
+                                                 const std::string& source);
 
 // The box the training inputs span: per column of X (q, qd, qdd) its smallest
 // and largest value. Polynomial kernels grow without bound outside it;

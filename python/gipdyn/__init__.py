@@ -287,11 +287,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
         X, Y = np.asfortranarray(X), np.asfortranarray(Y)
         if np.isfinite(X).all():
-            for j in _core.revolute_joints_spanning_turns(X, str(self.joints)):
-                span = X[:, j].max() - X[:, j].min()
-                warnings.warn(f"X's column {j} (q{j + 1}) spans {span:.4g} rad, more than two turns of a revolute "
-                              "joint: if the data are in degrees, convert q, qd and qdd to radians (the kernels see "
-                              "cos q and sin q)", DataWarning, stacklevel=3)
+            for message in _core.training_input_warnings(X, str(self.joints), "X"):
+                warnings.warn(message, DataWarning, stacklevel=3)
         return X, Y
 
     def fit(self, X, Y):

@@ -578,12 +578,13 @@ PYBIND11_MODULE(_core, m) {
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "
         "(kernel, robot, scaling and mean from the model; optimiser settings from options)");
   m.def(
-      "revolute_joints_spanning_turns",
-      [](ConstRef X, const std::string& joints) {
-        return revolute_joints_spanning_turns(X, JointTypes::parse(joints));
+      "training_input_warnings",
+      [](ConstRef X, const std::string& joints, const std::string& source) {
+        return training_input_warnings(X, JointTypes::parse(joints), source);
       },
-      py::arg("X"), py::arg("joints"),
-      "0-based revolute joints whose positions in X span more than two turns (4 pi rad): usually a log in degrees");
+      py::arg("X"), py::arg("joints"), py::arg("source"),
+      "One line per problem of the training inputs: joints that never move, constant columns, revolute positions "
+      "spanning more than two turns (usually a log in degrees)");
   m.def("kernel_names", &kernel_names);
 
   py::class_<NeighbourConsistencyOptions>(m, "NeighbourConsistencyOptions")

@@ -696,4 +696,10 @@ def test_positions_that_look_like_degrees_are_warned_about():
         warnings.simplefilter("always")
         gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
     data = [str(w.message) for w in caught if issubclass(w.category, gipdyn.DataWarning)]
-    assert len(data) == 1 and "column 0 (q1)" in data[0] and "convert q, qd and qdd to radians" in data[0], data
+    assert len(data) == 1 and "column q1 of X spans" in data[0] and "convert q, qd and qdd to radians" in data[0], data
+    X[:, 1], X[:, 5], X[:, 9] = 0.4, 0.0, 0.0  # joint 2 locked
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
+    data = [str(w.message) for w in caught if issubclass(w.category, gipdyn.DataWarning)]
+    assert len(data) == 2 and data[0].startswith("joint(s) 2 never move in X"), data

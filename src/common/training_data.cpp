@@ -82,6 +82,39 @@ std::vector<int> revolute_joints_spanning_turns(const Eigen::MatrixXd& X, const 
   return out;
 }
 
+std::vector<std::string> training_input_warnings(const Eigen::MatrixXd& X, const JointTypes& joints,
+                                                 const std::string& source) {
+  std::vector<std::string> out;
+  const int n = joints.size();
+  if (X.rows() == 0 || X.cols() != 3 * n) return out;
+  std::vector<std::string> names;  // q1..qn, qd1..qdn, qdd1..qddn: the columns of X
+  for (const char* quantity : {"q", "qd", "qdd"})
+    for (int j = 1; j <= n; ++j) names.push_back(quantity + std::to_string(j));
+  const std::vector<Eigen::Index> constant = constant_columns(X);
+  const auto is_constant = [&](Eigen::Index c) { return std::count(constant.begin(), constant.end(), c) > 0; };
+  // A joint that never moves (locked, or out of the motion) is one line, not three.
+  std::vector<std::ptrdiff_t> still;
+  for (int j = 0; j < n; ++j)
+    if (is_constant(j) && is_constant(n + j) && is_constant(2 * n + j)) still.push_back(j);
+  std::vector<std::string> constant_names;
+  for (Eigen::Index c : constant)
+    if (std::count(still.begin(), still.end(), c % n) == 0) constant_names.push_back(names[static_cast<size_t>(c)]);
+  if (!still.empty())
+    out.push_back("joint(s) " + joint_numbers(still) + " never move in " + source +
+                  " (q, qd and qdd constant: a locked joint?): the model cannot learn how the torque depends on them");
+  if (!constant_names.empty())
+    out.push_back("column(s) " + joined(constant_names) + " of " + source +
+                  " are constant: the model cannot learn how the torque depends on them");
+  for (int j : revolute_joints_spanning_turns(X, joints)) {
+    char span[32];
+    std::snprintf(span, sizeof span, "%.4g", X.col(j).maxCoeff() - X.col(j).minCoeff());
+    out.push_back("column " + names[static_cast<size_t>(j)] + " of " + source + " spans " + span +
+                  " rad, more than two turns of a revolute joint: if the data are in degrees, convert q, qd and qdd "
+                  "to radians (the kernels see cos q and sin q)");
+  }
+  return out;
+}
+
 Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::MatrixXd& test) {
   if (train.cols() != test.cols()) return 0;
   // Row-major copies make each row one contiguous run of bytes to compare.
