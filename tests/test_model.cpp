@@ -772,7 +772,10 @@ TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
       {"tabs.tsv", "q1\tq2\tqd1\tqd2\tqdd1\tqdd2\ttau1\ttau2\n1\t2\t3\t4\t5\t6\t7\t8\n-1.5\t2e-3\t3\t4\t5\t6\t7\t8.25\n"},
       {"semi.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1;2;3;4;5;6;7;8\n-1.5;2e-3;3;4;5;6;7;8.25\n"},
       {"savetxt.txt",
-       "# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1.0e+00  2 3 4 5 6 7 8\n# a comment\n -1.5 2e-3 3 4 5 6 7 8.25 \n"}};
+       "# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1.0e+00  2 3 4 5 6 7 8\n# a comment\n -1.5 2e-3 3 4 5 6 7 8.25 \n"},
+      {"preamble.csv",
+       "# logged by a controller\n% robot: two links\n\nq1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n"
+       "-1.5,2e-3,3,4,5,6,7,8.25\n"}};
   for (const auto& [name, text] : variants) {
     const Dataset d = read_dataset(write(name, text), rr, true);
     EXPECT_EQ(d.X, plain.X) << name;
@@ -781,6 +784,12 @@ TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
   EXPECT_NE(error_of([&] { read_dataset(write("bare.csv", "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,8\n"), rr, true); })
                 .find("'" + (dir / "bare.csv").string() + "' has no header row: its first line holds numbers ('1', ...); "
                       "add a first line naming the columns"),
+            std::string::npos);
+  // Line numbers count the preamble: the bad cell is on line 4 of the file.
+  EXPECT_NE(error_of([&] {
+              read_dataset(write("late.txt", "# note\n# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1 2 3 4 5 6 7 8\n1 2 x 4 5 6 7 8\n"),
+                           rr, true);
+            }).find("line 4, column 'qd1': 'x' is not a number"),
             std::string::npos);
   EXPECT_NE(error_of([&] {
               read_dataset(write("comma.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1,5;2;3;4;5;6;7;8\n"), rr, true);

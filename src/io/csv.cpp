@@ -77,21 +77,50 @@ std::ifstream open(const std::string& path) {
   return in;
 }
 
-CsvHeader parse_header(std::ifstream& in, const std::string& path) {
-  std::string line;
-  if (!std::getline(in, line) || trim(line).empty())
+// Where the header was found: the lines it took, and the first data line when
+// reading it was the only way to know that the comment before it was the header.
+struct HeaderPosition {
+  long lines_read = 0;
+  std::string pending_data_line;
+};
+
+// The header is the first line that is not a comment ('#' or '%'), unless
+// that line holds only numbers: then it is the comment just before it
+// (numpy.savetxt writes "# q1 q2 ..."), and the comments before are a preamble.
+CsvHeader parse_header(std::ifstream& in, const std::string& path, HeaderPosition* position = nullptr) {
+  std::string line, last_comment;
+  bool found = false, after_comment = false;
+  long lines_read = 0;
+  while (std::getline(in, line)) {
+    ++lines_read;
+    // Spreadsheets saving "CSV UTF-8" start the file with a byte-order mark,
+    // which would otherwise become part of the first column's name.
+    if (lines_read == 1 && line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
+    if (trim(line).empty()) continue;
+    const auto first = line.find_first_not_of(" \t");
+    if (line[first] == '#' || line[first] == '%') {
+      last_comment = line.substr(first + 1);
+      after_comment = true;
+      continue;
+    }
+    found = true;
+    break;
+  }
+  if (!found && !after_comment)
     throw Error("'" + path + "' is empty; expected a header row such as q1,...,qd1,...,qdd1,...,tau1,...");
-  // Spreadsheets saving "CSV UTF-8" start the file with a byte-order mark,
-  // which would otherwise become part of the first column's name.
-  if (line.rfind("\xEF\xBB\xBF", 0) == 0) line.erase(0, 3);
-  const auto first = line.find_first_not_of(" \t");
-  if (first != std::string::npos && (line[first] == '#' || line[first] == '%')) line.erase(0, first + 1);
+  const auto all_numbers = [](const std::vector<std::string>& cells) {
+    return !cells.empty() &&
+           std::all_of(cells.begin(), cells.end(), [](const std::string& c) { return parses_as_number(trim(c)); });
+  };
+  if (!found || (after_comment && all_numbers(split(line, delimiter_of(last_comment))))) {
+    if (position && found) position->pending_data_line = line;
+    line = last_comment;
+  }
+  if (position) position->lines_read = lines_read - (position->pending_data_line.empty() ? 0 : 1);
   CsvHeader h;
   h.delimiter = delimiter_of(line);
   const auto cells = split(line, h.delimiter);
-  if (!cells.empty() && std::all_of(cells.begin(), cells.end(), [](const std::string& c) {
-        return parses_as_number(trim(c));
-      }))
+  if (all_numbers(cells))
     throw Error("'" + path + "' has no header row: its first line holds numbers ('" + trim(cells.front()) +
                 "', ...); add a first line naming the columns, e.g. q1,...,qn,qd1,...,qdd1,...,tau1,...,taun");
   for (auto& c : cells) {
@@ -161,7 +190,8 @@ CsvHeader read_csv_header(const std::string& path) {
 
 Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns) {
   auto in = open(path);
-  const CsvHeader header = parse_header(in, path);
+  HeaderPosition position;
+  const CsvHeader header = parse_header(in, path, &position);
   std::unordered_map<std::string, size_t> index;
   for (size_t k = 0; k < header.names.size(); ++k) index.emplace(header.names[k], k);
   std::vector<size_t> wanted;
@@ -172,12 +202,11 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
   }
 
   std::vector<double> values;
-  std::string line;
-  long line_no = 1;
+  long line_no = position.lines_read;
   Eigen::Index rows = 0;
-  while (std::getline(in, line)) {
+  const auto read_row = [&](const std::string& line) {
     ++line_no;
-    if (trim(line).empty() || is_comment(line)) continue;
+    if (trim(line).empty() || is_comment(line)) return;
     const auto cells = split(line, header.delimiter);
     if (cells.size() != header.names.size())
       throw Error("'" + path + "' line " + std::to_string(line_no) + " has " + std::to_string(cells.size()) +
@@ -205,7 +234,10 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
       values.push_back(v);
     }
     ++rows;
-  }
+  };
+  if (!position.pending_data_line.empty()) read_row(position.pending_data_line);
+  std::string line;
+  while (std::getline(in, line)) read_row(line);
   Eigen::MatrixXd out(rows, static_cast<Eigen::Index>(columns.size()));
   for (Eigen::Index r = 0; r < rows; ++r)
     for (Eigen::Index c = 0; c < out.cols(); ++c) out(r, c) = values[static_cast<size_t>(r * out.cols() + c)];

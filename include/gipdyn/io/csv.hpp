@@ -2,9 +2,10 @@
 // Numeric CSV with a header row. Only the requested columns are parsed, so
 // extra (even non-numeric) columns are ignored. Errors name the file, the line
 // and the column. The header's separator is the file's: a comma, else a tab,
-// else a semicolon, else runs of spaces. A byte-order mark and a header
-// written as a comment ("# q1 q2 ...", numpy.savetxt; "%...") are accepted;
-// later lines starting with '#' are skipped. The decimal mark is '.'.
+// else a semicolon, else runs of spaces. A byte-order mark, a preamble of
+// comment lines ('#' or '%') and a header written as the last of them
+// ("# q1 q2 ...", numpy.savetxt) are accepted; later lines starting with '#'
+// are skipped. The decimal mark is '.'.
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 #include <string>
