@@ -330,6 +330,21 @@ TEST(InputBox, SaturatesEverythingButRevolutePositionsIntoTheWidenedBox) {
   EXPECT_EQ(box.rows_outside(Y, joints, 0.1), 0);
   EXPECT_THROW(box.saturate(Y, joints, -0.1), Error);
   EXPECT_THROW(box.saturate(Y, JointTypes::parse("R"), 0.1), Error);
+
+  // The warning counts the rows out of the box widened by half of each range and names the farthest column:
+  // q2 = 0.5 is 0.1 beyond 0.3 + 0.5 x 0.2, half its range; qdd2 = -9 is 1 beyond -4 - 0.5 x 8, an eighth of its.
+  const std::string warning = extrapolation_warning(box, X, joints, "'t.csv'", 0.5);
+  EXPECT_EQ(warning.rfind("2 of 3 rows of 't.csv' lie outside the box of the model's training inputs (velocities, "
+                          "accelerations and prismatic positions, widened by 50 % of each range), q2 farthest (0.5 "
+                          "training ranges beyond it): predictions there are extrapolation",
+                          0),
+            0u)
+      << warning;
+  EXPECT_EQ(extrapolation_warning(box, X, joints, "'t.csv'", 1.0), "");  // q2 then reaches 0.5 exactly
+  X(1, 1) = 0.2;
+  EXPECT_NE(extrapolation_warning(box, X, joints, "X", 0.5).find("1 of 3 rows of X lie outside"), std::string::npos);
+  EXPECT_NE(extrapolation_warning(box, X, joints, "X", 0.5).find("qdd2 farthest (0.12 training ranges"),
+            std::string::npos);
 }
 
 TEST(Training, ShiftedConstantStepSubsamplesInterleave) {

@@ -1,5 +1,9 @@
 #include "data_option.hpp"
 
+#include "field_names.hpp"
+#include "gipdyn/model/inverse_dynamics_model.hpp"
+#include "gipdyn/training_data.hpp"
+
 namespace gipdyn::cli {
 
 void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, const std::string& csv_help) {
@@ -9,6 +13,15 @@ void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable
   app.add_option("--mat-variable", mat_variable,
                  "--data is a MATLAB .mat file: read this matrix variable, whose columns are q, qd, qdd (and tau) of "
                  "every joint, in that order");
+}
+
+void warn_about_extrapolation(const Estimator& estimator, const Eigen::MatrixXd& X, const std::string& path) {
+  // A sparse model keeps only its inducing rows, whose box is narrower than the data's.
+  const InverseDynamicsModel* gp = estimator.gp_model();
+  if (gp == nullptr || gp->is_sparse() || gp->training_inputs().rows() == 0) return;
+  const std::string warning =
+      extrapolation_warning(InputBox::of(gp->training_inputs()), X, estimator.joints(), "'" + path + "'");
+  if (!warning.empty()) print_warnings({warning});
 }
 
 }  // namespace gipdyn::cli

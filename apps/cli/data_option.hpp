@@ -3,12 +3,19 @@
 // are found by name, or, with --mat-variable, a matrix of a MATLAB file whose
 // columns are q, qd, qdd (and tau) by position.
 #include <CLI/CLI.hpp>
+#include <Eigen/Dense>
 #include <string>
+
+#include "gipdyn/estimators/estimator.hpp"
 
 namespace gipdyn::cli {
 
 // Adds --data, described by `csv_help` (what the CSV holds), and --mat-variable; read_robot_log
 // (gipdyn/io/mat_dataset.hpp) reads the pair.
 void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, const std::string& csv_help);
+
+// Warns, on stderr, when states of the log at `path` lie well outside the inputs an exact GP model
+// was trained on (extrapolation_warning, gipdyn/training_data.hpp); silent for other models.
+void warn_about_extrapolation(const Estimator& estimator, const Eigen::MatrixXd& X, const std::string& path);
 
 }  // namespace gipdyn::cli

@@ -216,6 +216,7 @@ Command add_evaluate(CLI::App& app) {
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
     const Eigen::MatrixXd prediction = model->predict(data.X);
+    warn_about_extrapolation(*model, data.X, a->data);
     if (const InverseDynamicsModel* gp = model->gp_model()) {
       const Eigen::Index shared = count_shared_rows(gp->training_inputs(), data.X);
       if (shared > 0)

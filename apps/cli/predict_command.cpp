@@ -50,6 +50,8 @@ Command add_predict(CLI::App& app) {
       both << mean, sd;
       write_csv(a->out, header, both);
     }
+    // After the file: a prediction that failed (non-finite) has its own one-line error.
+    warn_about_extrapolation(*estimator, data.X, a->data);
     return 0;
   };
 }

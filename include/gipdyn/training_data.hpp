@@ -61,6 +61,18 @@ struct InputBox {
   Eigen::Index saturate(Eigen::MatrixXd& X, const JointTypes& joints, double margin) const;
 };
 
+// "" when every row of X lies in the box of the training inputs widened by
+// margin x (upper - lower); else one line saying how many rows of `source` lie
+// outside and which column reaches farthest, in training ranges beyond the box.
+// Predictions there are extrapolation: polynomial kernels (GIP) carry what
+// they learned into it, right as far as they learned rigid-body dynamics (a
+// SCARA model at 5x its training velocities: joints 1, 2 and 4 within 1.2x of
+// their test error, joint 3 600x worse) and wrong for what else the log holds
+// (real logs, docs/real-robots.md); local kernels (RBF, the envelope) return
+// to the prior mean.
+std::string extrapolation_warning(const InputBox& box, const Eigen::MatrixXd& X, const JointTypes& joints,
+                                  const std::string& source, double margin = 0.5);
+
 // How many rows of `test` also occur, bit for bit, as rows of `train`.
 Eigen::Index count_shared_rows(const Eigen::MatrixXd& train, const Eigen::MatrixXd& test);
 

@@ -5,6 +5,7 @@
 #include <algorithm>
 #include <cmath>
 #include <cstdio>
+#include <limits>
 #include <string>
 #include <unordered_set>
 #include <utility>
@@ -174,6 +175,37 @@ Eigen::Index InputBox::saturate(Eigen::MatrixXd& X, const JointTypes& joints, do
     X(r, c) = v;
     return moved;
   });
+}
+
+std::string extrapolation_warning(const InputBox& box, const Eigen::MatrixXd& X, const JointTypes& joints,
+                                  const std::string& source, double margin) {
+  Eigen::Index farthest_column = -1;
+  double farthest = 0.0;  // in training ranges beyond the widened box
+  const Eigen::Index outside =
+      for_checked_columns(box, X, joints, margin, [&](Eigen::Index r, Eigen::Index c, double lo, double hi) {
+        const double range = box.upper(c) - box.lower(c);
+        const double beyond = std::max(lo - X(r, c), X(r, c) - hi);
+        if (beyond <= 0.0) return false;
+        const double in_ranges = range > 0.0 ? beyond / range : std::numeric_limits<double>::infinity();
+        if (in_ranges > farthest) farthest = in_ranges, farthest_column = c;
+        return true;
+      });
+  if (outside == 0) return "";
+  const int n = joints.size();
+  const char* quantity[] = {"q", "qd", "qdd"};
+  const std::string column = quantity[farthest_column / n] + std::to_string(farthest_column % n + 1);
+  char reach[64];
+  if (std::isfinite(farthest))
+    std::snprintf(reach, sizeof reach, "%.2g training ranges beyond it", farthest);
+  else
+    std::snprintf(reach, sizeof reach, "constant in training");
+  return std::to_string(outside) + " of " + std::to_string(X.rows()) + " rows of " + source +
+         " lie outside the box of the model's training inputs (velocities, accelerations and prismatic positions, "
+         "widened by " + std::to_string(static_cast<int>(std::lround(100.0 * margin))) + " % of each range), " +
+         column + " farthest (" + reach + "): predictions there are extrapolation (a gip model carries its "
+         "polynomial into them, which holds for rigid-body dynamics but not for friction or other unmodelled "
+         "effects; rbf and gip-envelope return to the mean); to trust them, train on a motion that covers these "
+         "states";
 }
 
 }  // namespace gipdyn

@@ -621,3 +621,25 @@ def test_joints_whose_torque_is_below_the_noise_are_named(tmp_path, gipdyn_bin):
                delimiter=",", header=",".join(names[:8]), comments="")
     r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "m.gipdyn"), "--data", str(tmp_path / "measured.csv"))
     assert r.returncode == 0 and "varies less" not in r.stderr, r.stderr
+
+
+def test_predict_and_evaluate_warn_about_states_far_outside_the_training_inputs(trained, gipdyn_bin, tmp_path):
+    d, _, _ = trained
+    # The test motion of the same distribution: no warning. Velocities four times the training range: one.
+    for command in (["predict", "--out", str(tmp_path / "p.csv")], ["evaluate"]):
+        r = run(gipdyn_bin, command[0], "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"), *command[1:])
+        assert r.returncode == 0, r.stderr
+        assert "outside the box" not in r.stderr
+    write_dataset(tmp_path / "fast.csv", 50, seed=3)
+    lines = (tmp_path / "fast.csv").read_text().splitlines()
+    header = lines[0].split(",")
+    rows = [l.split(",") for l in lines[1:]]
+    for row in rows:
+        row[header.index("qd2")] = repr(4 * float(row[header.index("qd2")]))
+    (tmp_path / "fast.csv").write_text("\n".join([lines[0]] + [",".join(row) for row in rows]) + "\n")
+    for command in (["predict", "--out", str(tmp_path / "p.csv")], ["evaluate"]):
+        r = run(gipdyn_bin, command[0], "--model", str(d / "m.gipdyn"), "--data", str(tmp_path / "fast.csv"),
+                *command[1:])
+        assert r.returncode == 0, r.stderr
+        warned = [l for l in r.stderr.splitlines() if "outside the box of the model's training inputs" in l]
+        assert len(warned) == 1 and "rows of '" in warned[0] and "qd2 farthest" in warned[0], r.stderr
