@@ -1,6 +1,8 @@
 #include "data_option.hpp"
 
 #include "field_names.hpp"
+#include "gipdyn/error.hpp"
+#include "gipdyn/io/csv.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/training_data.hpp"
 
@@ -13,6 +15,21 @@ void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable
   app.add_option("--mat-variable", mat_variable,
                  "--data is a MATLAB .mat file: read this matrix variable, whose columns are q, qd, qdd (and tau) of "
                  "every joint, in that order");
+}
+
+JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable) {
+  if (!joints.empty()) return JointTypes::parse(joints);
+  std::string found;
+  if (mat_variable.empty()) {
+    const CsvHeader header = read_csv_header(path);
+    int n = 0;
+    while (header.has("q" + std::to_string(n + 1))) ++n;
+    if (n > 0)
+      found = "; '" + path + "' has " + std::to_string(n) + " joint(s) (q1..q" + std::to_string(n) +
+              "), e.g. --joints " + std::string(static_cast<size_t>(n), 'R');
+  }
+  throw Error("--joints is required: the joint types, one letter per joint, R (revolute) or P (prismatic), which a "
+              "log cannot tell apart" + found);
 }
 
 void warn_about_extrapolation(const Estimator& estimator, const Eigen::MatrixXd& X, const std::string& path) {

@@ -7,12 +7,17 @@
 #include <string>
 
 #include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/joint_types.hpp"
 
 namespace gipdyn::cli {
 
 // Adds --data, described by `csv_help` (what the CSV holds), and --mat-variable; read_robot_log
 // (gipdyn/io/mat_dataset.hpp) reads the pair.
 void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, const std::string& csv_help);
+
+// The joint types given with --joints. Without it, an error that says how many joints the CSV's
+// columns name and how to write their types: the file cannot tell revolute from prismatic.
+JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable);
 
 // Warns, on stderr, when states of the log at `path` lie well outside the inputs an exact GP model
 // was trained on (extrapolation_warning, gipdyn/training_data.hpp); silent for other models.

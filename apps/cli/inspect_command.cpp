@@ -92,7 +92,7 @@ int run_inspect(const InspectArgs& a) {
   refuse_overwriting_inputs(inputs, outputs);
   a.options.validate();
 
-  const JointTypes joints = JointTypes::parse(a.joints);
+  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable);
   const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true);
   const Dataset train = rows_of(log, a.train_rows, "--train-rows");
   std::optional<Dataset> test;
@@ -182,8 +182,8 @@ int run_inspect(const InspectArgs& a) {
 Command add_inspect(CLI::App& app) {
   auto a = std::make_shared<InspectArgs>();
   add_data_option(app, a->data, a->mat_variable, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
-  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR")
-      ->required();
+  app.add_option("--joints", a->joints,
+                 "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR (required)");
   app.add_option("--train-rows", a->train_rows, "Training rows FIRST-LAST of --data (1-based data rows; default: all)");
   app.add_option("--test-rows", a->test_rows, "Test rows FIRST-LAST of --data, compared with the training rows");
   app.add_option("--test", a->test, "A test log (same layout) compared with the training rows")->check(CLI::ExistingFile);

@@ -643,3 +643,12 @@ def test_predict_and_evaluate_warn_about_states_far_outside_the_training_inputs(
         assert r.returncode == 0, r.stderr
         warned = [l for l in r.stderr.splitlines() if "outside the box of the model's training inputs" in l]
         assert len(warned) == 1 and "rows of '" in warned[0] and "qd2 farthest" in warned[0], r.stderr
+
+
+def test_train_and_inspect_without_joints_say_how_many_the_log_has(trained, gipdyn_bin, tmp_path):
+    d, _, _ = trained
+    for command in (["train", "--out", str(tmp_path / "m.gipdyn")], ["inspect"]):
+        r = run(gipdyn_bin, command[0], "--data", str(d / "train.csv"), *command[1:])
+        assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert "--joints is required" in r.stderr and "has 2 joint(s) (q1..q2), e.g. --joints RR" in r.stderr
+    assert not (tmp_path / "m.gipdyn").exists()
