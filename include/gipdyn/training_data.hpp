@@ -11,9 +11,13 @@ namespace gipdyn {
 constexpr int kMinTrainingRows = 5;
 // Largest magnitude of a training value: sums of N squares must stay finite.
 constexpr double kMaxTrainingMagnitude = 1e150;
+// Largest magnitude of a training input: no joint position (rad, m), velocity or
+// acceleration reaches it, and one corrupted sample beyond it made the polynomial
+// kernels' matrices overflow ("not positive definite even at the start").
+constexpr double kMaxInputMagnitude = 1e6;
 
 // Checks shapes (X: N x 3n, Y: N x n), finiteness, magnitudes up to
-// kMaxTrainingMagnitude and N >= kMinTrainingRows; throws gipdyn::Error with
+// kMaxTrainingMagnitude (torques) and kMaxInputMagnitude (inputs) and N >= kMinTrainingRows; throws gipdyn::Error with
 // the first problem found.
 void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints);
 

@@ -38,6 +38,16 @@ void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, 
                   "to N m and rad)");
     }
   }
+  Eigen::Index row = 0, col = 0;
+  if (X.cwiseAbs().maxCoeff(&row, &col) > kMaxInputMagnitude) {
+    const char* quantity[] = {"q", "qd", "qdd"};
+    char value[32];
+    std::snprintf(value, sizeof value, "%.3g", X(row, col));
+    throw Error("training input " + std::string(quantity[col / n]) + std::to_string(col % n + 1) + " holds " + value +
+                " (row " + std::to_string(row + 1) +
+                "): no joint position (rad, m), velocity or acceleration reaches 1e6; a corrupted sample, or a log in "
+                "other units: remove or repair that row");
+  }
 }
 
 std::vector<Eigen::Index> constant_step_indices(Eigen::Index rows, Eigen::Index count) {

@@ -123,6 +123,8 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
          "training torques column 1 holds -1e+300 (row 11): beyond 1e150 their squares overflow; rescale the data"),
         ("an input whose square overflows", HEADER + ROWS + "1,2,3,4,2e160,6,7,8\n", "RR", [],
          "training inputs column 5 holds 2e+160 (row 11)"),
+        ("a corrupted sample", HEADER + ROWS + "1,2,1e100,4,5,6,7,8\n", "RR", [],
+         "training input qd1 holds 1e+100 (row 11): no joint position (rad, m), velocity or acceleration reaches 1e6"),
         ("too few rows", HEADER + "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,9\n", "RR", [], "at least"),
         ("no rows", HEADER, "RR", [], "no data rows"),
         ("joint mismatch", HEADER + ROWS, "RRR", [], "joint string of length 2"),
