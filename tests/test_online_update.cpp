@@ -167,6 +167,11 @@ TEST(OnlineUpdate, BadNewSamplesAreNamed) {
   Eigen::MatrixXd bad = s.X.bottomRows(10);
   bad(3, 2) = std::nan("");
   EXPECT_NE(error_of([&] { m.updated(bad, s.Y.bottomRows(10)); }).find("NaN"), std::string::npos);
+  // A corrupted sample used to surface as "the kernel matrix with the new rows is not finite".
+  bad(3, 2) = 1e100;
+  EXPECT_NE(error_of([&] { m.updated(bad, s.Y.bottomRows(10)); })
+                .find("new sample input qd1 holds 1e+100 (row 4): no joint position (rad, m), velocity or acceleration"),
+            std::string::npos);
   EXPECT_NE(error_of([&] { m.updated(s.X.bottomRows(10), s.Y.bottomRows(10), 2); }).find("window"), std::string::npos);
 }
 

@@ -21,6 +21,11 @@ constexpr double kMaxInputMagnitude = 1e6;
 // the first problem found.
 void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints);
 
+// Throws gipdyn::Error naming the column and row of X (N x 3n) whose magnitude
+// exceeds kMaxInputMagnitude; `what` names X in the message ("training input").
+void require_plausible_inputs(const Eigen::Ref<const Eigen::MatrixXd>& X, const JointTypes& joints,
+                              const std::string& what);
+
 // Rows floor(k rows / count), k = 0..count-1: `count` rows with a constant
 // (possibly fractional) step over the whole range, as the paper subsampled the
 // UR10 data. count <= 0 or count >= rows keeps everything.

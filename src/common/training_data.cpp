@@ -38,12 +38,19 @@ void validate_training_data(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, 
                   "to N m and rad)");
     }
   }
+  require_plausible_inputs(X, joints, "training input");
+}
+
+void require_plausible_inputs(const Eigen::Ref<const Eigen::MatrixXd>& X, const JointTypes& joints,
+                              const std::string& what) {
+  const int n = joints.size();
+  if (X.size() == 0 || X.cols() != 3 * n) return;
   Eigen::Index row = 0, col = 0;
   if (X.cwiseAbs().maxCoeff(&row, &col) > kMaxInputMagnitude) {
     const char* quantity[] = {"q", "qd", "qdd"};
     char value[32];
     std::snprintf(value, sizeof value, "%.3g", X(row, col));
-    throw Error("training input " + std::string(quantity[col / n]) + std::to_string(col % n + 1) + " holds " + value +
+    throw Error(what + " " + std::string(quantity[col / n]) + std::to_string(col % n + 1) + " holds " + value +
                 " (row " + std::to_string(row + 1) +
                 "): no joint position (rad, m), velocity or acceleration reaches 1e6; a corrupted sample, or a log in "
                 "other units: remove or repair that row");

@@ -164,6 +164,7 @@ void check_new_samples(const InverseDynamicsModel& m, const Eigen::Ref<const Eig
     throw Error("new samples: " + std::to_string(Xnew.rows()) + " input rows but " + std::to_string(Ynew.rows()) +
                 " torque rows");
   if (!Xnew.allFinite() || !Ynew.allFinite()) throw Error("new samples contain NaN or Inf");
+  require_plausible_inputs(Xnew, m.joints(), "new sample input");
   if (window < 0) throw Error("window must be >= 0 (0: keep every row)");
   if (window > 0 && window < kMinTrainingRows)
     throw Error("window must be 0 or at least " + std::to_string(kMinTrainingRows) + " rows");
