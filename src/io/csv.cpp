@@ -55,8 +55,8 @@ std::vector<std::string> split(const std::string& line, char delimiter) {
   return cells;
 }
 
-// numpy.savetxt writes its header as a comment ("# q1 q2 ..."), Octave and
-// ROS's rostopic as "%..."; numpy.loadtxt skips lines starting with '#'.
+// A data line starting with '#' is a comment, as numpy.loadtxt reads it. ('%'
+// counts only before the header, where Octave and rostopic put theirs.)
 bool is_comment(const std::string& line) {
   const auto first = line.find_first_not_of(" \t");
   return first != std::string::npos && line[first] == '#';
