@@ -737,6 +737,11 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
                 .find("z.csv' has a column 'q0': its joints are counted from 0, gipdyn's from 1 (q1 is the first "
                       "joint); rename the columns q0..q(n-1) to q1..qn, and qd, qdd and tau likewise"),
             std::string::npos);
+  // rostopic echo -p: "field."-prefixed names, joints counted from 0.
+  EXPECT_NE(error_reading("ros.csv", "field.position0,field.position1,field.velocity0,field.velocity1,qdd1,qdd2,"
+                                     "field.effort0,field.effort1")
+                .find("has a column 'field.position0': its joints are counted from 0"),
+            std::string::npos);
   // A name that only shares its letters is not offered: qd1 is not tau1.
   EXPECT_EQ(error_reading("o.csv", "q1,q2,qd1,qd2,qdd1,qdd2,x1,x2").find("looks like it"), std::string::npos);
   EXPECT_NE(error_of([&] {
@@ -788,6 +793,9 @@ TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
       {"semi.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1;2;3;4;5;6;7;8\n-1.5;2e-3;3;4;5;6;7;8.25\n"},
       {"savetxt.txt",
        "# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1.0e+00  2 3 4 5 6 7 8\n# a comment\n -1.5 2e-3 3 4 5 6 7 8.25 \n"},
+      {"rostopic.csv",  // header as a '%' comment over rows that hold a string
+       "%time,frame,q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1000,base,1,2,3,4,5,6,7,8\n"
+       "1001,base,-1.5,2e-3,3,4,5,6,7,8.25\n"},
       {"preamble.csv",
        "# logged by a controller\n% robot: two links\n\nq1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n"
        "-1.5,2e-3,3,4,5,6,7,8.25\n"}};

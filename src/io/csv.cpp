@@ -85,8 +85,9 @@ struct HeaderPosition {
 };
 
 // The header is the first line that is not a comment ('#' or '%'), unless
-// that line holds only numbers: then it is the comment just before it
-// (numpy.savetxt writes "# q1 q2 ..."), and the comments before are a preamble.
+// that line is data: then it is the comment just before it (numpy.savetxt
+// writes "# q1 q2 ...", rostopic "%time,field..."), and the comments before
+// are a preamble.
 CsvHeader parse_header(std::ifstream& in, const std::string& path, HeaderPosition* position = nullptr) {
   std::string line, last_comment;
   bool found = false, after_comment = false;
@@ -112,7 +113,17 @@ CsvHeader parse_header(std::ifstream& in, const std::string& path, HeaderPositio
     return !cells.empty() &&
            std::all_of(cells.begin(), cells.end(), [](const std::string& c) { return parses_as_number(trim(c)); });
   };
-  if (!found || (after_comment && all_numbers(split(line, delimiter_of(last_comment))))) {
+  // The comment names the columns when the next line is data: only numbers, or
+  // (rostopic's "%time,field.header.frame_id,..." over "1000,base,...") as many
+  // cells as the comment with some of them numbers. A header line has none.
+  const auto is_data_under = [&](const std::string& comment) {
+    const char delimiter = delimiter_of(comment);
+    const auto cells = split(line, delimiter);
+    const bool some_number =
+        std::any_of(cells.begin(), cells.end(), [](const std::string& c) { return parses_as_number(trim(c)); });
+    return all_numbers(cells) || (some_number && cells.size() > 1 && cells.size() == split(comment, delimiter).size());
+  };
+  if (!found || (after_comment && is_data_under(last_comment))) {
     if (position && found) position->pending_data_line = line;
     line = last_comment;
   }
@@ -144,6 +155,9 @@ std::string canonical_column(const std::string& name) {
   std::string out;
   for (char ch : name)
     if (ch != '_' && ch != '-' && ch != ' ' && ch != '.') out += static_cast<char>(std::tolower(static_cast<unsigned char>(ch)));
+  // ROS's `rostopic echo -p` prefixes a message's fields with "field." (field.position0).
+  if (out.rfind("field", 0) == 0 && out.size() > 5 && std::isalpha(static_cast<unsigned char>(out[5])))
+    out.erase(0, 5);
   const size_t letters = static_cast<size_t>(
       std::find_if(out.begin(), out.end(), [](char ch) { return !std::isalpha(static_cast<unsigned char>(ch)); }) -
       out.begin());
