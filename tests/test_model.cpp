@@ -47,6 +47,13 @@ fs::path temp_dir() {
   return d;
 }
 
+// Writes text, byte for byte, to NAME in temp_dir(); returns its path.
+std::string write_text_file(const std::string& name, const std::string& text) {
+  const fs::path path = temp_dir() / name;
+  std::ofstream(path, std::ios::binary) << text;
+  return path.string();
+}
+
 InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned seed, int max_iter = 40,
                                  MeanKind mean = MeanKind::Zero) {
   const JointTypes joints = JointTypes::parse("RR");
@@ -696,10 +703,7 @@ TEST(AtomicFiles, TemporariesOfDeadProcessesAreRemoved) {
 
 TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
   const fs::path dir = temp_dir();
-  auto write = [&](const std::string& name, const std::string& text) {
-    std::ofstream(dir / name) << text;
-    return (dir / name).string();
-  };
+  const auto write = write_text_file;
   const JointTypes rr = JointTypes::parse("RR");
   const std::string ok = write("ok.csv",
                               "time,tau2,q1,q2,qd1,qd2,qdd1,qdd2,tau1,note\n"
@@ -779,12 +783,11 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
 // The same numbers saved by a spreadsheet (byte-order mark, CRLF, tabs or
 // semicolons) or by numpy.savetxt (a "# " header, spaces) read alike.
 TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
-  const fs::path dir = temp_dir();
-  auto write = [&](const std::string& name, const std::string& text) {
-    std::ofstream(dir / name, std::ios::binary) << text;
-    return (dir / name).string();
-  };
+  const auto write = write_text_file;
   const JointTypes rr = JointTypes::parse("RR");
+  const auto error_reading = [&](const std::string& name, const std::string& text) {
+    return error_of([&] { read_dataset(write(name, text), rr, true); });
+  };
   const Dataset plain = read_dataset(
       write("plain.csv", "q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8\n-1.5,2e-3,3,4,5,6,7,8.25\n"), rr, true);
   const std::vector<std::pair<std::string, std::string>> variants = {
@@ -804,19 +807,16 @@ TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
     EXPECT_EQ(d.X, plain.X) << name;
     EXPECT_EQ(d.tau, plain.tau) << name;
   }
-  EXPECT_NE(error_of([&] { read_dataset(write("bare.csv", "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,8\n"), rr, true); })
-                .find("'" + (dir / "bare.csv").string() + "' has no header row: its first line holds numbers ('1', ...); "
+  EXPECT_NE(error_reading("bare.csv", "1,2,3,4,5,6,7,8\n1,2,3,4,5,6,7,8\n")
+                .find("'" + (temp_dir() / "bare.csv").string() + "' has no header row: its first line holds numbers ('1', ...); "
                       "add a first line naming the columns"),
             std::string::npos);
   // Line numbers count the preamble: the bad cell is on line 4 of the file.
-  EXPECT_NE(error_of([&] {
-              read_dataset(write("late.txt", "# note\n# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1 2 3 4 5 6 7 8\n1 2 x 4 5 6 7 8\n"),
-                           rr, true);
-            }).find("line 4, column 'qd1': 'x' is not a number"),
+  EXPECT_NE(error_reading("late.txt", "# note\n# q1 q2 qd1 qd2 qdd1 qdd2 tau1 tau2\n1 2 3 4 5 6 7 8\n1 2 x 4 5 6 7 8\n")
+                .find("line 4, column 'qd1': 'x' is not a number"),
             std::string::npos);
-  EXPECT_NE(error_of([&] {
-              read_dataset(write("comma.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1,5;2;3;4;5;6;7;8\n"), rr, true);
-            }).find("column 'q1': '1,5' is not a number (a decimal comma? gipdyn reads '.' as the decimal mark"),
+  EXPECT_NE(error_reading("comma.csv", "q1;q2;qd1;qd2;qdd1;qdd2;tau1;tau2\n1,5;2;3;4;5;6;7;8\n")
+                .find("column 'q1': '1,5' is not a number (a decimal comma? gipdyn reads '.' as the decimal mark"),
             std::string::npos);
 }
 

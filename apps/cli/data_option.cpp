@@ -2,7 +2,7 @@
 
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/dataset.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/training_data.hpp"
 
@@ -21,9 +21,7 @@ JointTypes joint_types_option(const std::string& joints, const std::string& path
   if (!joints.empty()) return JointTypes::parse(joints);
   std::string found;
   if (mat_variable.empty()) {
-    const CsvHeader header = read_csv_header(path);
-    int n = 0;
-    while (header.has("q" + std::to_string(n + 1))) ++n;
+    const int n = joint_column_count(read_csv_header(path));
     if (n > 0)
       found = "; '" + path + "' has " + std::to_string(n) + " joint(s) (q1..q" + std::to_string(n) +
               "), e.g. --joints " + std::string(static_cast<size_t>(n), 'R');

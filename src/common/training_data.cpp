@@ -1,6 +1,7 @@
 #include "gipdyn/training_data.hpp"
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/io/dataset.hpp"
 
 #include <algorithm>
 #include <cmath>
@@ -47,10 +48,9 @@ void require_plausible_inputs(const Eigen::Ref<const Eigen::MatrixXd>& X, const 
   if (X.size() == 0 || X.cols() != 3 * n) return;
   Eigen::Index row = 0, col = 0;
   if (X.cwiseAbs().maxCoeff(&row, &col) > kMaxInputMagnitude) {
-    const char* quantity[] = {"q", "qd", "qdd"};
     char value[32];
     std::snprintf(value, sizeof value, "%.3g", X(row, col));
-    throw Error(what + " " + std::string(quantity[col / n]) + std::to_string(col % n + 1) + " holds " + value +
+    throw Error(what + " " + input_column_names(n)[static_cast<size_t>(col)] + " holds " + value +
                 " (row " + std::to_string(row + 1) +
                 "): no joint position (rad, m), velocity or acceleration reaches 1e6; a corrupted sample, or a log in "
                 "other units: remove or repair that row");
@@ -105,9 +105,7 @@ std::vector<std::string> training_input_warnings(const Eigen::MatrixXd& X, const
   std::vector<std::string> out;
   const int n = joints.size();
   if (X.rows() == 0 || X.cols() != 3 * n) return out;
-  std::vector<std::string> names;  // q1..qn, qd1..qdn, qdd1..qddn: the columns of X
-  for (const char* quantity : {"q", "qd", "qdd"})
-    for (int j = 1; j <= n; ++j) names.push_back(quantity + std::to_string(j));
+  const std::vector<std::string> names = input_column_names(n);
   const std::vector<Eigen::Index> constant = constant_columns(X);
   const auto is_constant = [&](Eigen::Index c) { return std::count(constant.begin(), constant.end(), c) > 0; };
   // A joint that never moves (locked, or out of the motion) is one line, not three.
@@ -208,9 +206,7 @@ std::string extrapolation_warning(const InputBox& box, const Eigen::MatrixXd& X,
         return true;
       });
   if (outside == 0) return "";
-  const int n = joints.size();
-  const char* quantity[] = {"q", "qd", "qdd"};
-  const std::string column = quantity[farthest_column / n] + std::to_string(farthest_column % n + 1);
+  const std::string column = input_column_names(joints.size())[static_cast<size_t>(farthest_column)];
   char reach[64];
   if (std::isfinite(farthest))
     std::snprintf(reach, sizeof reach, "%.2g training ranges beyond it", farthest);

@@ -62,13 +62,18 @@ bool is_comment(const std::string& line) {
   return first != std::string::npos && line[first] == '#';
 }
 
-bool parses_as_number(const std::string& cell) {
-  double v = 0.0;
+// A cell's number: an optional '+' (which from_chars does not take), then from_chars.
+std::from_chars_result parse_number(const std::string& cell, double& v) {
   const char* b = cell.data();
   const char* e = b + cell.size();
-  if (b != e && (*b == '+' || *b == '-')) ++b;
-  const auto res = std::from_chars(b, e, v);
-  return b != e && res.ec == std::errc() && res.ptr == e;
+  if (b != e && *b == '+') ++b;
+  return std::from_chars(b, e, v);
+}
+
+bool parses_as_number(const std::string& cell) {
+  double v = 0.0;
+  const auto res = parse_number(cell, v);
+  return !cell.empty() && res.ec == std::errc() && res.ptr == cell.data() + cell.size();
 }
 
 std::ifstream open(const std::string& path) {
@@ -229,10 +234,8 @@ Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std:
     for (size_t k = 0; k < wanted.size(); ++k) {
       const std::string cell = trim(cells[wanted[k]]);
       double v = 0.0;
-      const char* b = cell.data();
-      const char* e = b + cell.size();
-      if (!cell.empty() && *b == '+') ++b;
-      const auto res = std::from_chars(b, e, v);
+      const auto res = parse_number(cell, v);
+      const char* e = cell.data() + cell.size();
       if (!cell.empty() && res.ec == std::errc::result_out_of_range && res.ptr == e)
         throw Error("'" + path + "' line " + std::to_string(line_no) + ", column '" + columns[k] + "': '" + cell +
                     "' is outside the range of a double (about 1e308)");

@@ -31,12 +31,17 @@ Dataset Dataset::subset(const std::vector<Eigen::Index>& idx) const {
   return d;
 }
 
+int joint_column_count(const CsvHeader& header) {
+  int n = 0;
+  while (header.has("q" + std::to_string(n + 1))) ++n;
+  return n;
+}
+
 void require_joint_columns(const CsvHeader& header, const std::string& path, const JointTypes& joints,
                            const std::string& joints_owner) {
   require_joints_counted_from_one(header, path);
   const int n = joints.size();
-  int file_joints = 0;
-  while (header.has("q" + std::to_string(file_joints + 1))) ++file_joints;
+  const int file_joints = joint_column_count(header);
   if (file_joints == n || file_joints == 0) return;  // no q1 at all: the missing-column error says more
   const std::string found = "'" + path + "' has joint columns q1..q" + std::to_string(file_joints);
   if (joints_owner.empty())

@@ -19,7 +19,6 @@ namespace gipdyn {
 
 const char* const kFewerRowsAdvice = "train on fewer rows (a constant-step subsample)";
 
-
 std::string to_string(HyperparameterObjective o) {
   return o == HyperparameterObjective::Exact ? "exact" : "bound";
 }

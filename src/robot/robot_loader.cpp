@@ -32,7 +32,6 @@ Eigen::Vector3d vec3(const nlohmann::json& j, const char* key, const std::string
   return v;
 }
 
-
 // A misspelt optional field ("gravty", "limit") would otherwise be ignored and
 // its default used without a word.
 void reject_unknown_fields(const nlohmann::json& j, const std::vector<std::string>& known, const std::string& where) {

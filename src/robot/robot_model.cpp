@@ -111,14 +111,13 @@ void RobotModel::validate() const {
       throw Error(where + ": DH parameters must be finite");
   }
   // A joint that moves nothing has no torque whatever it does: nothing to
-  // learn, and a singular inertia matrix to simulate.
-  for (int i = num_joints() - 1; i >= 0; --i) {
-    const LinkInertial& l = joints_[static_cast<size_t>(i)].link;
-    if (l.mass > 0.0 || !l.inertia.isZero(0.0)) break;
-    throw Error("robot '" + name_ + "', joint " + std::to_string(i + 1) + " ('" + joints_[static_cast<size_t>(i)].name +
+  // learn, and a singular inertia matrix to simulate. Every joint moves the
+  // last link, so only the last joint can move nothing.
+  const JointSpec& last = joints_.back();
+  if (last.link.mass == 0.0 && last.link.inertia.isZero(0.0))
+    throw Error("robot '" + name_ + "', joint " + std::to_string(num_joints()) + " ('" + last.name +
                 "') moves no mass: its link and every link after it are massless; give them their masses "
                 "(URDF: <inertial>), or end the chain before that joint");
-  }
   if (!gravity_.allFinite()) throw Error("robot '" + name_ + "': gravity must be finite");
 }
 

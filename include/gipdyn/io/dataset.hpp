@@ -27,6 +27,9 @@ std::vector<std::string> torque_column_names(int num_joints, const std::string& 
 // The advice read_dataset gives for a MATLAB file; front ends rename it to their own.
 extern const char* const kMatFileAdvice;
 
+// How many joints the header's position columns name: n where q1..qn are there and q(n+1) is not.
+int joint_column_count(const CsvHeader& header);
+
 // Throws gipdyn::Error when the file's joint columns q1, q2, ... (counted from 1) are not those
 // of joints. joints_owner names where fixed joint types come from (e.g. "the model 'm.gipdyn'"),
 // so that the error asks for the right file instead of other joint types; empty: the caller
