@@ -132,6 +132,21 @@ TEST(ClosedLoop, BadInputIsNamed) {
   EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
                 .find("lower the gains (TrackingOptions::bandwidth)"),
             std::string::npos);
+  // Friction asked of a robot that has none would silently track a frictionless robot.
+  std::vector<JointSpec> joints = robot.joints();
+  for (auto& j : joints) j.friction = JointFriction();
+  const RobotModel frictionless = RobotModel::from_dh("frictionless", joints, robot.gravity());
+  o = TrackingOptions();
+  o.friction = true;
+  EXPECT_NE(test::error_of([&] { track_reference(frictionless, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("TrackingOptions::friction asks for friction, but robot 'frictionless' has none"),
+            std::string::npos);
+  EXPECT_NO_THROW(track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o));
+  SimulationOptions so;
+  so.samples = 10;
+  so.friction = true;
+  EXPECT_NE(test::error_of([&] { simulate(frictionless, so); }).find("SimulationOptions::friction asks for friction"),
+            std::string::npos);
 }
 
 }  // namespace

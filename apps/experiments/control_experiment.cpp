@@ -90,6 +90,7 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   to.velocity_noise = c.velocity_noise;
   to.noise_seed = c.seed;
   to.validate(n);  // before any output
+  if (to.friction) robot.require_friction("TrackingOptions::friction");
   fs::create_directories(c.out);
 
   ExperimentOutcome outcome;

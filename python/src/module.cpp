@@ -71,6 +71,7 @@ const FieldNames& python_field_names() {
       {"SimulationOptions::samples", "samples"},
       {"SimulationOptions::noise_std", "noise"},
       {"SimulationOptions::dt", "dt"},
+      {"SimulationOptions::friction", "friction"},
       {"NeighbourConsistencyOptions::radius", "radius"},
       {"NeighbourConsistencyOptions::min_separation_rows", "min_separation_rows"},
       {"NeighbourConsistencyOptions::max_queries", "max_queries"},

@@ -157,6 +157,13 @@ Eigen::VectorXd RobotModel::friction_parameters() const {
   return f;
 }
 
+void RobotModel::require_friction(const std::string& field) const {
+  if (!friction_parameters().isZero(0.0)) return;
+  throw Error(field + " asks for friction, but robot '" + name_ +
+              "' has none (every joint's viscous and Coulomb coefficients are 0): give them in its description "
+              "(docs/robot-format.md) or leave friction off");
+}
+
 RobotModel RobotModel::with_gravity(const Eigen::Vector3d& g) const {
   RobotModel r = *this;
   r.gravity_ = g;

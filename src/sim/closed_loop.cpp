@@ -98,6 +98,7 @@ TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& r
                                const Eigen::MatrixXd& feedforward, const TrackingOptions& options) {
   const int n = robot.num_joints();
   options.validate(n);
+  if (options.friction) robot.require_friction("TrackingOptions::friction");
   check_reference(n, reference);
   if (feedforward.rows() != reference.rows() || feedforward.cols() != n)
     throw Error("the feed-forward torques need one row of " + std::to_string(n) + " per reference row");
@@ -127,6 +128,7 @@ TrackingResult track_computed_torque(const RobotModel& robot, const Eigen::Matri
                                      const InverseDynamicsFunction& model, const TrackingOptions& options) {
   const int n = robot.num_joints();
   options.validate(n);
+  if (options.friction) robot.require_friction("TrackingOptions::friction");
   check_reference(n, reference);
   if (!model) throw Error("track_computed_torque needs a model");
   const double w = options.bandwidth;

@@ -28,6 +28,7 @@ void SimulationOptions::validate() const {
 
 SimulationResult simulate(const RobotModel& nominal, const SimulationOptions& o) {
   o.validate();
+  if (o.friction) nominal.require_friction("SimulationOptions::friction");
   // X, tau and tau_true, and their copies on the way out.
   require_memory(4.0 * 8.0 * o.samples * 5.0 * nominal.num_joints(),
                  "simulating " + std::to_string(o.samples) + " samples", "ask for fewer SimulationOptions::samples");

@@ -387,6 +387,23 @@ def test_simulate_from_files_and_bad_robots(tmp_path, gipdyn_bin):
         assert not out.exists() and not (tmp_path / "bad.csv.json").exists()
 
 
+def test_friction_on_a_robot_without_friction_is_refused(tmp_path, gipdyn_bin):
+    # A description without friction coefficients: --friction would add nothing, silently.
+    robot = json.load(open(os.path.join(os.path.dirname(__file__), "..", "data", "two_link.json")))
+    for joint in robot["joints"]:
+        joint.pop("friction", None)
+    path = write_text(tmp_path / "frictionless.json", json.dumps(robot))
+    out = tmp_path / "f.csv"
+    for args, output in [(["simulate", "--samples", "20", "--out", str(out)], out),
+                         (["experiment", "control", "--seconds", "0.1", "--out", str(tmp_path / "ctl")], tmp_path / "ctl")]:
+        r = run(gipdyn_bin, *args, "--robot", path, "--friction")
+        lines = r.stderr.strip().splitlines()
+        assert r.returncode == 1 and len(lines) == 1, r.stderr
+        assert "--friction asks for friction, but robot" in lines[0] and "has none" in lines[0], r.stderr
+        assert not output.exists()
+    assert run(gipdyn_bin, "simulate", "--samples", "20", "--out", str(out), "--robot", path, "--quiet").returncode == 0
+
+
 def test_evaluate_writes_diagnostic_plots(trained, gipdyn_bin):
     d, test, _ = trained
     out = d / "diag"

@@ -72,6 +72,9 @@ class RobotModel {
   Eigen::VectorXd inertial_parameters() const;
   // (viscous_1..n, coulomb_1..n).
   Eigen::VectorXd friction_parameters() const;
+  // Throws gipdyn::Error naming `field` when no joint has a viscous or Coulomb
+  // coefficient: asking such a robot for friction would silently add none.
+  void require_friction(const std::string& field) const;
 
   RobotModel with_gravity(const Eigen::Vector3d& g) const;
 
