@@ -227,6 +227,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   opt.upper_bounds = Eigen::VectorXd::Constant(P + n, 30.0);
   opt.lower_bounds.tail(n) = (o.min_noise_fraction * joint_variance).array().log();
   opt.upper_bounds.tail(n) = (10.0 * joint_variance).array().log();
+  kernel.restrict_log_params(X, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
   opt.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xh.rows()) * n;
 
   std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);

@@ -50,6 +50,15 @@ void CompositeKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p)
   }
 }
 
+void CompositeKernel::restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
+                                          Eigen::Ref<Eigen::VectorXd> upper) const {
+  for (int c = 0; c < num_children(); ++c) {
+    const int count = children_[static_cast<size_t>(c)]->num_params();
+    children_[static_cast<size_t>(c)]->restrict_log_params(Z, lower.segment(offset(c), count),
+                                                           upper.segment(offset(c), count));
+  }
+}
+
 int CompositeKernel::offset(int child) const {
   int o = 0;
   for (int c = 0; c < child; ++c) o += children_[static_cast<size_t>(c)]->num_params();

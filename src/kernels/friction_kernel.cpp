@@ -1,6 +1,8 @@
 #include "gipdyn/kernels/friction_kernel.hpp"
 
+#include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "gipdyn/error.hpp"
 
@@ -63,6 +65,23 @@ void FrictionKernel::feature_matrix(const Eigen::MatrixXd& Z, Eigen::MatrixXd& F
     if (dF_vc) dF_vc->row(i) = d_vc.transpose();
     if (dF_vr) dF_vr->row(i) = d_vr.transpose();
   }
+}
+
+double stribeck_velocity_floor(const Eigen::Ref<const Eigen::VectorXd>& velocities) {
+  std::vector<double> speeds;
+  speeds.reserve(static_cast<size_t>(velocities.size()));
+  for (Eigen::Index i = 0; i < velocities.size(); ++i)
+    if (velocities(i) != 0.0 && std::isfinite(velocities(i))) speeds.push_back(std::abs(velocities(i)));
+  if (speeds.empty()) return std::exp(-30.0);
+  const size_t k = std::min<size_t>(kStribeckRows, speeds.size()) - 1;
+  std::nth_element(speeds.begin(), speeds.begin() + static_cast<std::ptrdiff_t>(k), speeds.end());
+  return std::max(speeds[k], std::exp(-30.0));
+}
+
+void FrictionKernel::restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
+                                         Eigen::Ref<Eigen::VectorXd> upper) const {
+  lower(kStribeckVelocity) = std::max(lower(kStribeckVelocity), std::log(stribeck_velocity_floor(Z.col(column_))));
+  upper(kStribeckVelocity) = std::max(upper(kStribeckVelocity), lower(kStribeckVelocity));
 }
 
 void FrictionKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {

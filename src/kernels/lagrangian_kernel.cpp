@@ -615,6 +615,16 @@ Eigen::RowVectorXd LagrangianKernel::potential_torque_covariance(const double* x
   return out;
 }
 
+void LagrangianKernel::restrict_log_params(const Eigen::MatrixXd& X, Eigen::Ref<Eigen::VectorXd> lower,
+                                           Eigen::Ref<Eigen::VectorXd> upper) const {
+  if (!has_friction()) return;
+  for (int m = 0; m < n_; ++m) {
+    const int o = friction_offset_ + FrictionKernel::kNumParams * m;
+    FrictionKernel(n_ + m).restrict_log_params(X, lower.segment<FrictionKernel::kNumParams>(o),
+                                               upper.segment<FrictionKernel::kNumParams>(o));
+  }
+}
+
 void LagrangianKernel::initialize(const Eigen::MatrixXd& X, double target_variance) {
   Eigen::VectorXd p = Eigen::VectorXd::Zero(num_params());  // velocity weights 1
   auto set_factor = [&](int offset, int m, double bias_share) {

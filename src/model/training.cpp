@@ -117,6 +117,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   opt.upper_bounds = Eigen::VectorXd::Constant(P + 1, 30.0);
   opt.lower_bounds(P) = std::log(o.min_noise_fraction * target);
   opt.upper_bounds(P) = std::log(10.0 * target);
+  kernel->restrict_log_params(Z, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
   x0 = x0.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
 
   GpWorkspace ws;

@@ -20,6 +20,9 @@ class CompositeKernel : public Kernel {
   Eigen::VectorXd log_params() const override;
   void set_log_params(const Eigen::Ref<const Eigen::VectorXd>& p) override;
 
+  void restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
+                           Eigen::Ref<Eigen::VectorXd> upper) const override;
+
   int num_children() const { return static_cast<int>(children_.size()); }
   const Kernel& child(int i) const { return *children_[static_cast<size_t>(i)]; }
 

@@ -21,6 +21,15 @@ namespace gipdyn {
 Eigen::Vector4d friction_features(double v, double log_vc, double log_vr, Eigen::Vector4d* d_log_vc = nullptr,
                                   Eigen::Vector4d* d_log_vr = nullptr);
 
+// The smallest Stribeck velocity v_r a fit may learn from these velocities:
+// the kStribeckRows-th smallest non-zero |v| (rows at v = 0 see no Stribeck
+// term). A narrower bump would sit between fewer rows than that, and its weight,
+// free to grow, would fit a row or two exactly and predict torques orders of
+// magnitude off at a velocity closer to 0 (a 7R arm, 1000 rows: v_r 9e-5 rad/s,
+// one test row 1e4 N m off). Tiny (e^-30) without such rows.
+double stribeck_velocity_floor(const Eigen::Ref<const Eigen::VectorXd>& velocities);
+constexpr int kStribeckRows = 10;
+
 class FrictionKernel final : public Kernel {
  public:
   // column: the velocity's column in the feature matrix Z.
@@ -52,6 +61,9 @@ class FrictionKernel final : public Kernel {
   // 20 % of the velocity's root mean square, so the smoothed sign is nearly a
   // step at the speeds of the data and the Stribeck bump sits at low speed.
   void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
+  // Keeps log v_r at or above log stribeck_velocity_floor of the rows' velocities.
+  void restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
+                           Eigen::Ref<Eigen::VectorXd> upper) const override;
 
   // The four features (1, v, c(v), r(v)) of one velocity.
   Eigen::Vector4d features(double v) const;

@@ -77,6 +77,13 @@ class Kernel {
   // on the training features Z. The default leaves the parameters as they are.
   virtual void initialize(const Eigen::MatrixXd& /*Z*/, double /*target_variance*/) {}
 
+  // Narrows the box [lower, upper] the optimiser keeps the log-parameters in,
+  // given the rows Z the model will be conditioned on, where a parameter's
+  // extreme would let the model explain single rows and predict nonsense next to
+  // them (FrictionKernel's Stribeck velocity). The default leaves the box.
+  virtual void restrict_log_params(const Eigen::MatrixXd& /*Z*/, Eigen::Ref<Eigen::VectorXd> /*lower*/,
+                                   Eigen::Ref<Eigen::VectorXd> /*upper*/) const {}
+
   // Fast paths. The defaults are correct for every kernel; kernels override
   // them when a fused implementation is faster.
 

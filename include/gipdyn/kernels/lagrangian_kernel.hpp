@@ -87,6 +87,9 @@ class LagrangianKernel {
   // about target_variance / 2 on the states X; friction starts as
   // FrictionKernel::initialize with target_variance / 4 on each joint.
   void initialize(const Eigen::MatrixXd& X, double target_variance);
+  // Each joint's FrictionKernel::restrict_log_params on the states X.
+  void restrict_log_params(const Eigen::MatrixXd& X, Eigen::Ref<Eigen::VectorXd> lower,
+                           Eigen::Ref<Eigen::VectorXd> upper) const;
 
   // The kernel as sums of monomials (kernels/lagrangian_weight_space.hpp). Joint
   // m's pair of kinetic factors is sum_k w_k u_k(q) u_k(q') over the monomials
