@@ -179,6 +179,39 @@ TEST(PreprocessLog, RecoversDerivativesFiltersNoiseAndDropsRest) {
   }
 }
 
+// A continuous joint logged within (-pi, pi] (ROS joint_states, many wrists)
+// jumps by 2 pi when it wraps; differentiated as it is, each wrap is a velocity
+// spike of 2 pi / dt. The log is unwrapped first: the same qd and qdd as the
+// log of the unwrapped angle, q equal up to its multiple of 2 pi, and the
+// report counts the jumps.
+TEST(PreprocessLog, UnwrapsAnglesThatWrapAround) {
+  const int rows = 2001;
+  Eigen::MatrixXd log(rows, 5);  // t, q1, q2, tau1, tau2
+  for (int i = 0; i < rows; ++i) {
+    const double t = 2e-3 * i;
+    log.row(i) << t, 3.0 * t + 0.5 * std::sin(2.0 * t), 0.3 * std::sin(t), std::cos(t), 0.1;  // q1 turns 2 rad/s
+  }
+  Eigen::MatrixXd wrapped = log;
+  for (int i = 0; i < rows; ++i) wrapped(i, 1) = std::remainder(log(i, 1), 2.0 * kPi);
+  const fs::path plain = temp_file("plain.csv"), wrap = temp_file("wrapped.csv");
+  write_csv(plain.string(), {"t", "q1", "q2", "tau1", "tau2"}, log);
+  write_csv(wrap.string(), {"t", "q1", "q2", "tau1", "tau2"}, wrapped);
+  PreprocessOptions o;
+  o.cutoff_hz = 20.0;
+  const PreprocessedLog a = preprocess_log(plain.string(), o), b = preprocess_log(wrap.string(), o);
+  ASSERT_EQ(a.t.size(), b.t.size());
+  EXPECT_LT((a.qd - b.qd).cwiseAbs().maxCoeff(), 1e-9);
+  EXPECT_LT((a.qdd - b.qdd).cwiseAbs().maxCoeff(), 1e-6);
+  const Eigen::ArrayXd turns = (a.q.col(0) - b.q.col(0)).array() / (2.0 * kPi);
+  EXPECT_LT((turns - turns.round()).abs().maxCoeff(), 1e-9);
+  // q1 runs from 0 to about 12.5 rad: past pi at 1 s, then every 2 pi.
+  ASSERT_EQ(b.report["steps"][0]["step"], "unwrap");
+  EXPECT_EQ(b.report["steps"][0]["jumps"]["q1"].get<int>(), 2);
+  EXPECT_FALSE(b.report["steps"][0]["jumps"].contains("q2"));
+  EXPECT_EQ(a.report["steps"][0]["step"], "resample");  // nothing to unwrap
+  EXPECT_EQ(b.report["dt_s"].get<double>(), 2e-3);
+}
+
 TEST(PreprocessLog, NamesEachProblem) {
   const fs::path in = temp_file("bad.csv");
   auto message = [&](const std::vector<std::string>& header, const Eigen::MatrixXd& data, PreprocessOptions o = {}) {

@@ -56,10 +56,17 @@ Command add_preprocess(CLI::App& app) {
     refuse_overwriting_inputs({{"--data", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
     const PreprocessedLog log = preprocess_log(a->in, a->options);
     write_csv_with_sidecar(a->out, log.column_names(), log.table(), log.report);
+    for (const auto& s : log.report["steps"])
+      if (s["step"] == "unwrap")
+        for (const auto& [column, jumps] : s["jumps"].items())
+          std::fprintf(stderr,
+                       "gipdyn: warning: %s jumps by more than pi between two rows %lld time(s): read as an angle "
+                       "wrapping around and unwrapped (if it is not an angle, the log has a glitch there)\n",
+                       column.c_str(), jumps.get<long long>());
     if (!a->quiet) {
       std::printf("%s: %lld rows, %d joints -> %s: %lld rows, dt %g s\n", a->in.c_str(),
                   static_cast<long long>(log.report["input_rows"].get<long long>()), log.joints(), a->out.c_str(),
-                  static_cast<long long>(log.t.size()), log.report["steps"][0]["dt_s"].get<double>());
+                  static_cast<long long>(log.t.size()), log.report["dt_s"].get<double>());
       for (const auto& s : log.report["steps"]) std::printf("  %s\n", s.dump().c_str());
       std::printf("steps recorded in %s.json\n", a->out.c_str());
     }

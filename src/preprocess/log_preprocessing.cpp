@@ -25,7 +25,28 @@ double median(std::vector<double> v) {
 // What the segments did, summed for the report.
 struct SegmentCounts {
   Eigen::Index resampled = 0, dropped = 0, rest_stretches = 0;
+  std::vector<Eigen::Index> unwrapped;  // per joint: jumps of q taken back by 2 pi
 };
+
+// 0. An angle logged within (-pi, pi] (ROS joint_states of a continuous joint,
+// many controllers' wrist) jumps by about 2 pi when it wraps. No joint moves
+// pi rad (or m) between two samples, so such a jump is a wrap: undone from
+// there on, before resampling and differentiation turn it into a velocity
+// spike of 2 pi / dt. The joint's angle then runs on continuously.
+void unwrap_positions(Eigen::Ref<Eigen::MatrixXd> q, SegmentCounts& counts) {
+  const double two_pi = 2.0 * std::acos(-1.0);
+  for (Eigen::Index j = 0; j < q.cols(); ++j) {
+    double shift = 0.0;
+    for (Eigen::Index i = 1; i < q.rows(); ++i) {
+      const double step = q(i, j) + shift - q(i - 1, j);
+      if (std::abs(step) > 0.5 * two_pi) {
+        shift -= two_pi * std::round(step / two_pi);
+        ++counts.unwrapped[static_cast<size_t>(j)];
+      }
+      q(i, j) += shift;
+    }
+  }
+}
 
 // 4. Stretches at rest carry no information about inertia and make friction
 // ambiguous. A turning point also has qd = 0, but only for an instant: only
@@ -66,7 +87,9 @@ PreprocessedLog process_segment(const Eigen::VectorXd& ts, const Eigen::MatrixXd
   if (m < 3) throw Error("PreprocessOptions::dt " + std::to_string(dt) + " s leaves fewer than 3 samples in the span");
   const Eigen::VectorXd grid =
       (ts(0) + dt * Eigen::VectorXd::LinSpaced(m, 0.0, static_cast<double>(m - 1)).array()).cwiseMin(ts(ts.size() - 1));
-  const Eigen::MatrixXd data = resample_linear(ts, values, grid);
+  Eigen::MatrixXd unwrapped = values;
+  unwrap_positions(unwrapped.leftCols(n), counts);
+  const Eigen::MatrixXd data = resample_linear(ts, unwrapped, grid);
   counts.resampled += m;
   PreprocessedLog part;
   part.t = grid;
@@ -241,6 +264,7 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   if (o.cutoff_hz > 0.0) sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);
   std::vector<PreprocessedLog> parts;
   SegmentCounts counts;
+  counts.unwrapped.assign(static_cast<size_t>(n), 0);
   for (const auto& [a, b] : segments) {
     const std::string where = segments.size() > 1 ? " (segment of data rows " + std::to_string(a + 1) + "-" +
                                                         std::to_string(b) + ")"
@@ -260,6 +284,14 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                 " samples: every |qd| is below " + std::to_string(o.rest_velocity) +
                 "; lower PreprocessOptions::rest_velocity");
 
+  nlohmann::json jumps = nlohmann::json::object();
+  for (int j = 0; j < n; ++j)
+    if (counts.unwrapped[static_cast<size_t>(j)] > 0) jumps["q" + std::to_string(j + 1)] = counts.unwrapped[static_cast<size_t>(j)];
+  if (!jumps.empty())
+    steps_done.push_back({{"step", "unwrap"},
+                          {"rule", "a change of more than pi between two rows of a segment is an angle wrapping "
+                                   "around: a multiple of 2 pi is taken back from there on"},
+                          {"jumps", jumps}});
   steps_done.push_back({{"step", "resample"},
                         {"method", "linear interpolation onto t0 + k dt"},
                         {"dt_s", dt},
@@ -310,6 +342,7 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                           {"dropped_rows", counts.dropped}});
   if (segments.size() > 1) report["segments"] = segment_report;
   report["steps"] = steps_done;
+  report["dt_s"] = dt;
   report["output_rows"] = out.t.size();
   out.report = report;
   return out;

@@ -199,3 +199,22 @@ def test_a_log_with_joints_counted_from_0_is_refused(tmp_path, gipdyn_bin):
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "has a column 'q0': its joints are counted from 0, gipdyn's from 1" in r.stderr
     assert not (tmp_path / "out.csv").exists()
+
+
+def test_a_wrapped_angle_is_unwrapped_with_a_warning(tmp_path, gipdyn_bin):
+    # numpy.unwrap is the reference: q1 turns at 2 rad/s and is logged within (-pi, pi].
+    t = np.arange(2000) * 2e-3
+    turning = 2.0 * t + 0.4
+    log = tmp_path / "log.csv"
+    write_log(log, {"t": t, "q1": np.angle(np.exp(1j * turning)), "q2": 0.2 * np.sin(t), "tau1": np.cos(t),
+                    "tau2": np.sin(t)})
+    out = tmp_path / "data.csv"
+    r = run(gipdyn_bin, "preprocess", "--data", str(log), "--out", str(out), "--quiet")
+    assert r.returncode == 0, r.stderr
+    lines = r.stderr.strip().splitlines()
+    assert len(lines) == 1 and "q1 jumps by more than pi between two rows 1 time(s)" in lines[0], r.stderr
+    data = read(out)
+    assert np.allclose(data["q1"], np.unwrap(np.angle(np.exp(1j * turning))), atol=1e-12)
+    assert np.allclose(data["qd1"][1:-1], 2.0, atol=1e-9)
+    report = json.loads((tmp_path / "data.csv.json").read_text())
+    assert report["steps"][0] == {"step": "unwrap", "jumps": {"q1": 1}, "rule": report["steps"][0]["rule"]}
