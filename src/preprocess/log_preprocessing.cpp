@@ -6,6 +6,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/dataset.hpp"
 #include "gipdyn/preprocess/signal.hpp"
 
 namespace gipdyn {
@@ -34,7 +35,7 @@ struct SegmentCounts {
 // there on, before resampling and differentiation turn it into a velocity
 // spike of 2 pi / dt. The joint's angle then runs on continuously.
 void unwrap_positions(Eigen::Ref<Eigen::MatrixXd> q, SegmentCounts& counts) {
-  const double two_pi = 2.0 * std::acos(-1.0);
+  const double two_pi = 2.0 * M_PI;
   for (Eigen::Index j = 0; j < q.cols(); ++j) {
     double shift = 0.0;
     for (Eigen::Index i = 1; i < q.rows(); ++i) {
@@ -166,8 +167,7 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
   o.validate();
   const CsvHeader header = read_csv_header(path);
   require_joints_counted_from_one(header, path);
-  int n = 0;
-  while (header.has("q" + std::to_string(n + 1))) ++n;
+  const int n = joint_column_count(header);
   if (n == 0) throw Error("'" + path + "' has no column q1; name the joint positions q1, q2, ...");
   for (const auto& c : numbered("tau", n))
     if (!header.has(c))
