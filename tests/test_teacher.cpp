@@ -72,6 +72,20 @@ TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledAtTheTeachersResidualLevel) {
   EXPECT_GT((other.X - set.X).cwiseAbs().maxCoeff(), 0.1);
 }
 
+TEST(Teacher, AJointWhoseLoggedTorqueNeverChangesIsLabelledWithThatTorque) {
+  // A locked joint: the teacher knows only its one value, and its predictions
+  // there differ from it by rounding that the student must not learn as signal.
+  const Eigen::MatrixXd X = two_link_trajectory(60, 0.15, 1);
+  Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 2);
+  Y.col(1).setConstant(0.25);
+  TeacherOptions o;
+  o.states = 100;
+  const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
+  EXPECT_TRUE((set.Y.col(1).array() == 0.25).all());
+  EXPECT_GT(set.Y.col(0).maxCoeff() - set.Y.col(0).minCoeff(), 1.0);
+}
+
 TEST(Teacher, GipTaughtByLipOnAShortMotionPredictsANewMotionLikeLip) {
   // One short motion of the 2R arm, a new motion to predict.
   const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
@@ -113,6 +127,27 @@ TEST(Teacher, GipTaughtByLipOnAShortMotionPredictsANewMotionLikeLip) {
     EXPECT_LT(check.student_nmse(j) - check.teacher_nmse(j), 0.01) << "joint " << j + 1;
   }
   EXPECT_EQ(check.warning("lip"), "");
+  EXPECT_TRUE(check.passed());
+  EXPECT_EQ(student.teaching, TeachingOutcome::Taught);
+
+  // TeachingMode::Automatic keeps a taught model that fits the log: the same model.
+  EstimatorOptions automatic = taught;
+  automatic.teacher->mode = TeachingMode::Automatic;
+  const FitResult kept = fit_estimator(automatic, X, Y, kTwoLink);
+  ASSERT_TRUE(kept.report.ok()) << kept.report.message;
+  EXPECT_EQ(kept.teaching, TeachingOutcome::Taught);
+  EXPECT_TRUE(kept.estimator->predict(Xtest).isApprox(student.estimator->predict(Xtest), 1e-12));
+
+  // ... and does not teach a log of more torque values than automatic_max_log_values:
+  // the model is the one learned from the log.
+  automatic.teacher->automatic_max_log_values = 2 * X.rows() - 1;
+  const FitResult long_log = fit_estimator(automatic, X, Y, kTwoLink);
+  ASSERT_TRUE(long_log.report.ok()) << long_log.report.message;
+  EXPECT_EQ(long_log.teaching, TeachingOutcome::LogTooLong);
+  EXPECT_FALSE(long_log.teacher_report);
+  EXPECT_TRUE(long_log.estimator->predict(Xtest).isApprox(on_log.estimator->predict(Xtest), 1e-12));
+  automatic.teacher->automatic_max_log_values = 2 * X.rows();
+  EXPECT_TRUE(automatic.teacher->teaches(X.rows(), 2));
 }
 
 TEST(Teacher, AStudentThatMissesTheLogItsTeacherFitsIsWarnedAbout) {
@@ -135,6 +170,23 @@ TEST(Teacher, AStudentThatMissesTheLogItsTeacherFitsIsWarnedAbout) {
   EXPECT_NE(warning.find("taught by lip"), std::string::npos) << warning;
   EXPECT_NE(warning.find("joint 2 ("), std::string::npos) << warning;
   EXPECT_NE(warning.find("without a teacher"), std::string::npos) << warning;
+  EXPECT_FALSE(check.passed());
+  EXPECT_EQ(student.teaching, TeachingOutcome::Taught);
+
+  // TeachingMode::Automatic does not keep that model: the estimator learns
+  // from the log itself, and the result still says what the teaching did.
+  taught.teacher->mode = TeachingMode::Automatic;
+  const FitResult fallback = fit_estimator(taught, X, Y, kTwoLink);
+  ASSERT_TRUE(fallback.report.ok()) << fallback.report.message;
+  EXPECT_EQ(fallback.teaching, TeachingOutcome::StudentMissedLog);
+  ASSERT_TRUE(fallback.teacher_report && fallback.teaching_check);
+  EXPECT_TRUE(fallback.teacher_report->ok());
+  EXPECT_EQ(fallback.teaching_check->student_nmse, check.student_nmse);
+  const FitResult on_log = fit_estimator(EstimatorOptions{}, X, Y, kTwoLink);
+  ASSERT_TRUE(on_log.report.ok()) << on_log.report.message;
+  EXPECT_TRUE(fallback.estimator->predict(X).isApprox(on_log.estimator->predict(X), 1e-12));
+  EXPECT_LT(compute_accuracy(Y, fallback.estimator->predict(X)).nmse(1), check.teacher_nmse(1) + kTaughtNmseGapWarning);
+  EXPECT_NE(describe(fallback.teaching, "lip").find("learned from the log"), std::string::npos);
 }
 
 TEST(Teacher, TheWarningNamesOnlyTheJointsPastTheGap) {
@@ -145,9 +197,11 @@ TEST(Teacher, TheWarningNamesOnlyTheJointsPastTheGap) {
   EXPECT_EQ(warning.find("joint 1 "), std::string::npos) << warning;
   EXPECT_NE(warning.find("joint 2 (3 against 0.2), 3 (0.5 against 0.01)"), std::string::npos) << warning;
   EXPECT_EQ(warning.find(", 4"), std::string::npos) << warning;
+  EXPECT_FALSE(check.passed());
   check.student_nmse(1) = 0.25;
   check.student_nmse(2) = 0.02;
   EXPECT_EQ(check.warning("lip"), "");
+  EXPECT_TRUE(check.passed());
   EXPECT_NE(test::error_of([&] { check_teaching(Eigen::MatrixXd::Ones(3, 2), Eigen::VectorXd::Ones(2),
                                                 Eigen::MatrixXd::Ones(3, 1)); }),
             "");
@@ -193,6 +247,10 @@ TEST(Teacher, BadOptionsAreNamedBeforeAnyWork) {
   EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("TeacherOptions::student_hyperparameter_rows"),
             std::string::npos);
   o.teacher->student_hyperparameter_rows = 500;
+  o.teacher->automatic_max_log_values = -1;
+  EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("TeacherOptions::automatic_max_log_values"),
+            std::string::npos);
+  o.teacher->automatic_max_log_values = 14000;
   o.teacher->name = "fe";
   EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("nominal robot"), std::string::npos);
   o.teacher->name = "lap";

@@ -26,7 +26,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, mat_variable, joints, kernel = "gip", out, preset, teacher;
+  std::string data, mat_variable, joints, kernel = "gip", out, preset, teacher = "auto";
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -58,7 +58,11 @@ Command add_train(CLI::App& app) {
       "--teacher", a->teacher,
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
       "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
-      "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by LIP\")");
+      "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by "
+      "LIP\"). auto: for --kernel gip without --preset real, --inducing, --warm-start-rows, --mean or --robot, lip on a "
+      "log of at most 14000 values (rows x joints), kept only if the taught model fits the log as LIP does (on a "
+      "real robot's log it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
+      ->capture_default_str();
   app.add_option("--teacher-states", a->teacher_states,
                  "With --teacher: states drawn from the log's box (each of q, qd, qdd between its smallest and "
                  "largest logged value), the student's training rows; --seed draws them")
@@ -95,10 +99,16 @@ Command add_train(CLI::App& app) {
               ? a->estimator.build(a->kernel)
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
       if (a->subsample < 0) throw Error("--subsample must be >= 0");
-      if (!a->teacher.empty()) {
+      const bool automatic = a->teacher == "auto";
+      const bool teaches = automatic ? o.name == "gip" && (a->preset.empty() || a->preset == "default") && !mpi && o.gp.inducing_points == 0 &&
+                                           o.gp.warm_start_rows == 0 && o.gp.mean == MeanKind::Zero &&
+                                           !o.robot_prior.robot
+                                     : a->teacher != "none";
+      if (teaches) {
         if (mpi) throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
         TeacherOptions t;
-        t.name = a->teacher;
+        t.name = automatic ? "lip" : a->teacher;
+        t.mode = automatic ? TeachingMode::Automatic : TeachingMode::Always;
         t.states = a->teacher_states;
         t.hyperparameter_rows = a->teacher_hyperparameter_rows;
         t.student_hyperparameter_rows = a->student_hyperparameter_rows;
@@ -132,7 +142,10 @@ Command add_train(CLI::App& app) {
         std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
       if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
       if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
-      if (o.teacher) {
+      if (o.teacher && !o.teacher->teaches(data.rows(), joints.size())) {
+        std::printf(", no teacher (%ld values: longer than the %ld that --teacher auto teaches)",
+                    static_cast<long>(data.rows() * joints.size()), o.teacher->automatic_max_log_values);
+      } else if (o.teacher) {
         const int student_rows = o.teacher->student_train_options(o.gp).hyperparameter_rows;
         std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box "
                     "(the student's hyperparameters on %s of them)",
@@ -142,6 +155,10 @@ Command add_train(CLI::App& app) {
                         : "all",
                     o.teacher->states,
                     student_rows > 0 && student_rows < o.teacher->states ? std::to_string(student_rows).c_str() : "all");
+        if (o.teacher->mode == TeachingMode::Automatic)
+          std::printf("; kept if it fits the log as %s does, else %s learns from the log (--teacher auto; none: no "
+                      "teacher)",
+                      o.teacher->name.c_str(), o.name.c_str());
       }
       std::printf("\n");
       std::fflush(stdout);
@@ -176,15 +193,17 @@ Command add_train(CLI::App& app) {
     }
     if (!r.report.ok()) throw Error("training failed: " + r.report.message);
     ModelContainer model = r.estimator->to_container();
+    if (o.teacher) model.header["teacher"] = {{"estimator", o.teacher->name}, {"mode", to_string(o.teacher->mode)}};
     if (r.teacher_report)
-      model.header["teacher"] = {{"estimator", o.teacher->name},
+      model.header["teacher"].update({{"estimator", o.teacher->name},
                                  {"states", o.teacher->states},
                                  {"hyperparameter_rows", o.teacher->hyperparameter_rows},
                                  {"student_hyperparameter_rows", o.teacher->student_train_options(o.gp).hyperparameter_rows},
                                  {"seed", o.teacher->seed},
                                  {"label_noise_std", std::vector<double>(r.label_noise_std.data(), r.label_noise_std.data() + r.label_noise_std.size())},
                                  {"status", to_string(r.teacher_report->status)},
-                                 {"seconds", r.teacher_report->seconds}};
+                                 {"seconds", r.teacher_report->seconds}});
+    if (o.teacher) model.header["teacher"]["outcome"] = to_string(r.teaching);
     if (r.teaching_check)  // null for a joint whose logged torque is constant
       model.header["teacher"]["log_nmse"] = {{"teacher", numbers_or_null(r.teaching_check->teacher_nmse)},
                                              {"student", numbers_or_null(r.teaching_check->student_nmse)}};
@@ -194,11 +213,18 @@ Command add_train(CLI::App& app) {
         std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
         std::printf("label noise (the teacher's RMS residual on the log), per joint:");
         for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
-        std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
+        if (r.teaching == TeachingOutcome::Taught)
+          std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
+        else
+          std::printf("\n%s %s; its time includes the teacher's:", o.name.c_str(),
+                      describe(r.teaching, o.teacher->name).c_str());
+      } else if (o.teacher) {
+        std::printf("\n%s %s:", o.name.c_str(), describe(r.teaching, o.teacher->name).c_str());
       }
       std::printf("\n%s", r.report.brief_report().c_str());
       if (r.teaching_check) {
-        std::printf("nMSE on the logged rows, per joint, teacher / student:");
+        std::printf("nMSE on the logged rows, per joint, teacher / %s:",
+                    r.teaching == TeachingOutcome::Taught ? "student" : "the taught model, not kept");
         for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
           std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
         std::printf("\n");
@@ -213,13 +239,13 @@ Command add_train(CLI::App& app) {
       std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
       std::fflush(stdout);
       print_warnings(data_warnings);
-      if (r.teacher_report) {
+      if (r.teacher_report && r.teaching == TeachingOutcome::Taught) {  // a teaching not kept has no say in the model
         std::vector<std::string> lines = r.teacher_report->warnings();
         for (auto& w : lines) w = "teacher " + o.teacher->name + ": " + w;
         print_warnings(lines);
       }
       print_warnings(r.report.warnings());
-      if (r.teaching_check) {
+      if (r.teaching_check && r.teaching == TeachingOutcome::Taught) {
         const std::string w = r.teaching_check->warning(o.teacher->name);
         if (!w.empty()) print_warnings({w});
       }

@@ -149,7 +149,11 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     from LIP's torques, plus noise at LIP's residual level, at teacher_states
     states drawn uniformly from the box X spans; seed draws them. On one short
     motion this gives a GIP model that extrapolates like LIP and answers like
-    GIP: docs/training.md), teacher_states, teacher_hyperparameter_rows (the
+    GIP: docs/training.md; "auto", `gipdyn train`'s default: "lip" on a log of
+    at most 14000 torque values (rows x joints), the taught model kept only if
+    it fits (X, Y) as LIP does, else learned from (X, Y); after fit, teaching_
+    says which: "taught", "student missed the log", "log too long", "teacher
+    failed" or "no teacher"), teacher_states, teacher_hyperparameter_rows (the
     teacher learns its hyperparameters on that many rows, 0: all),
     student_hyperparameter_rows (with a teacher, the student learns its
     hyperparameters on that many of the drawn states, 0: all; a
@@ -219,7 +223,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         if self.teacher is None:
             return None
         o = TeacherOptions()
-        o.name = str(self.teacher)
+        automatic = str(self.teacher) == "auto"
+        o.name = "lip" if automatic else str(self.teacher)
+        o.mode = _core.TeachingMode.automatic if automatic else _core.TeachingMode.always
         o.states = int(self.teacher_states)
         o.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
         o.student_hyperparameter_rows = int(self.student_hyperparameter_rows)
@@ -298,12 +304,15 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
         options = self.train_options()
         teacher = self.teacher_options()
+        self.teaching_ = "no teacher"
+        if teacher is not None and not teacher.teaches(X.shape[0], self.n_joints):
+            teacher, self.teaching_ = None, "log too long"
+        X_log, Y_log, log_options = X, Y, options
         if teacher is not None:
             if self.distributed:
                 raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
+            automatic = teacher.mode == _core.TeachingMode.automatic
             lesson = _core.teach(X, Y, str(self.joints), teacher, options, bool(self.verbose))
-            X_log, Y_log = X, Y
-            X, Y = np.asfortranarray(lesson["X"]), np.asfortranarray(lesson["tau"])
             self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
             if lesson["teacher"] is not None:
                 self.teacher_ = LagrangianGP(joints=self.joints, friction=teacher.name == "lip+friction")
@@ -312,16 +321,25 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                 _warn_unconverged_joints(lesson["teacher"], f"teacher {teacher.name}: ")
             self.teacher_report_ = lesson["teacher_report"]
             self.label_noise_std_ = lesson["label_noise_std"]
-            options = teacher.student_train_options(options)
+            if lesson["X"].shape[0] == 0 and automatic:
+                teacher, self.teaching_ = None, "teacher failed"
+            else:
+                X, Y = np.asfortranarray(lesson["X"]), np.asfortranarray(lesson["tau"])
+                options = teacher.student_train_options(options)
+                self.teaching_ = "taught"
         self.model_ = _core.train(X, Y, str(self.joints), options, bool(self.verbose))
-        self._set_fitted_attributes()
-        _warn_unconverged_joints(self.model_)
-        _warn_noisy_joints(self.model_)
         if teacher is not None:
             self.teaching_check_ = _core.check_teaching(
                 Y_log, self.label_noise_std_, np.asfortranarray(self.model_.predict(X_log)), teacher.name)
-            if self.teaching_check_["warning"]:
+            if automatic and not self.teaching_check_["passed"]:
+                # The library's TeachingMode.automatic: the taught model misses the log, so learn from the log.
+                self.teaching_ = "student missed the log"
+                self.model_ = _core.train(X_log, Y_log, str(self.joints), log_options, bool(self.verbose))
+            elif self.teaching_check_["warning"]:
                 warnings.warn(self.teaching_check_["warning"], TeachingWarning, stacklevel=2)
+        self._set_fitted_attributes()
+        _warn_unconverged_joints(self.model_)
+        _warn_noisy_joints(self.model_)
         return self
 
     def partial_fit(self, X, Y, window=0, refit=False):

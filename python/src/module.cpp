@@ -546,8 +546,15 @@ PYBIND11_MODULE(_core, m) {
       });
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("verbose") = false, py::arg("friction") = false);
+  py::enum_<TeachingMode>(m, "TeachingMode")
+      .value("always", TeachingMode::Always)
+      .value("automatic", TeachingMode::Automatic);
   py::class_<TeacherOptions>(m, "TeacherOptions")
       .def(py::init<>())
+      .def_readwrite("mode", &TeacherOptions::mode)
+      .def_readwrite("automatic_max_log_values", &TeacherOptions::automatic_max_log_values)
+      .def("teaches", &TeacherOptions::teaches, py::arg("rows"), py::arg("joints"),
+           "Whether a log of this many rows of this many joints is taught (mode, automatic_max_log_values)")
       .def_readwrite("name", &TeacherOptions::name)
       .def_readwrite("states", &TeacherOptions::states)
       .def_readwrite("hyperparameter_rows", &TeacherOptions::hyperparameter_rows)
@@ -565,6 +572,7 @@ PYBIND11_MODULE(_core, m) {
         d["teacher_nmse"] = c.teacher_nmse;
         d["student_nmse"] = c.student_nmse;
         d["warning"] = c.warning(teacher);
+        d["passed"] = c.passed();
         return d;
       },
       py::arg("Y"), py::arg("teacher_residual_rms"), py::arg("student_prediction"), py::arg("teacher"),

@@ -132,9 +132,11 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     subprocess.run([CLI, "predict", "--model", str(tmp_path / "cli.gipdyn"), "--data", str(tmp_path / "test.csv"),
                     "--out", str(tmp_path / "cli_pred.csv"), "--no-std"], check=True)
     cli_pred = np.loadtxt(tmp_path / "cli_pred.csv", delimiter=",", skiprows=1)
-    # Same data (read back from the same CSV), same options, same seed: same model.
+    # Same data (read back from the same CSV), same options, same seed: same model (the CLI's default teacher is
+    # Python's teacher="auto").
     csv = np.loadtxt(tmp_path / "train.csv", delimiter=",", skiprows=1)
-    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, seed=3).fit(csv[:, :12], csv[:, 12:])
+    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, seed=3, teacher="auto").fit(csv[:, :12], csv[:, 12:])
+    assert py.teaching_ == "taught"
     X_test = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :12]
     assert np.array_equal(py.predict(X_test), cli_pred)
     # CLI model -> Python.
@@ -676,6 +678,19 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     taught_warnings = [w for w in caught if issubclass(w.category, gipdyn.TeachingWarning)]
     assert len(taught_warnings) == 1 and "taught by lip fits the logged rows far worse" in str(taught_warnings[0].message)
     assert np.max(few.teaching_check_["student_nmse"] - few.teaching_check_["teacher_nmse"]) > 0.1
+    assert taught.teaching_ == "taught" and few.teaching_ == "taught" and not few.teaching_check_["passed"]
+    # teacher="auto" keeps a taught model that fits the log, and learns from the log where it does not (no warning).
+    with warnings.catch_warnings(record=True) as caught:
+        warnings.simplefilter("always")
+        auto = gipdyn.InverseDynamicsGP(**dict(kwargs, teacher="auto")).fit(train["X"], train["tau"])
+        auto_few = gipdyn.InverseDynamicsGP(**dict(kwargs, teacher="auto", teacher_states=10)).fit(train["X"], train["tau"])
+        own = gipdyn.InverseDynamicsGP(**dict(kwargs, teacher=None)).fit(train["X"], train["tau"])
+    assert not [w for w in caught if issubclass(w.category, gipdyn.TeachingWarning)]
+    assert auto.teaching_ == "taught" and auto.model_.num_training_samples == 150
+    np.testing.assert_allclose(auto.predict(X_box), taught.predict(X_box), rtol=1e-10, atol=1e-12)
+    assert auto_few.teaching_ == "student missed the log" and auto_few.model_.num_training_samples == 120
+    np.testing.assert_allclose(auto_few.predict(X_box), own.predict(X_box), rtol=1e-10, atol=1e-12)
+    assert own.teaching_ == "no teacher"
     with pytest.raises(ValueError, match="teacher_states must be at least"):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", teacher_states=2).fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="student_hyperparameter_rows must be >= 0"):

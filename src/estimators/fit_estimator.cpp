@@ -80,27 +80,71 @@ Fit fit_function(EstimatorFamily family) {
 
 }  // namespace
 
+std::string to_string(TeachingOutcome outcome) {
+  switch (outcome) {
+    case TeachingOutcome::NoTeacher: return "no teacher";
+    case TeachingOutcome::Taught: return "taught";
+    case TeachingOutcome::LogTooLong: return "log too long";
+    case TeachingOutcome::TeacherFailed: return "teacher failed";
+    case TeachingOutcome::StudentMissedLog: return "student missed the log";
+  }
+  return "?";
+}
+
+std::string describe(TeachingOutcome outcome, const std::string& teacher_name) {
+  switch (outcome) {
+    case TeachingOutcome::NoTeacher: return "learned from the log";
+    case TeachingOutcome::Taught: return "learned from the torques of " + teacher_name + " at states drawn from the log's box";
+    case TeachingOutcome::LogTooLong:
+      return "learned from the log: it is longer than TeacherOptions::automatic_max_log_values, and a long log "
+             "fills more of its box by itself";
+    case TeachingOutcome::TeacherFailed: return "learned from the log: the teacher " + teacher_name + " failed to fit it";
+    case TeachingOutcome::StudentMissedLog:
+      return "learned from the log: the model taught by " + teacher_name +
+             " fitted the logged rows far worse than its teacher (the log's states fill too little of their box, "
+             "as on a real robot's log)";
+  }
+  return "";
+}
+
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                         const JointTypes& joints, const ProgressCallback& progress) {
   options.validate();
   const auto t0 = std::chrono::steady_clock::now();
+  const Fit fit = fit_function(estimator_family(options.name));
+  EstimatorOptions on_log = options;
+  on_log.teacher.reset();
   FitResult result;
-  if (options.teacher) {
+  if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
+    const bool automatic = options.teacher->mode == TeachingMode::Automatic;
     TeachingSet lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
     if (!lesson.teacher_report.ok()) {
-      result.report.message = lesson.teacher_report.message;
+      if (automatic) {
+        result = fit(on_log, X, Y, joints, progress);
+        result.teaching = TeachingOutcome::TeacherFailed;
+      } else {
+        result.report.message = lesson.teacher_report.message;
+      }
     } else {
-      EstimatorOptions student = options;
+      EstimatorOptions student = on_log;
       student.gp = options.teacher->student_train_options(options.gp);
-      student.teacher.reset();
-      result = fit_function(estimator_family(options.name))(student, lesson.X, lesson.Y, joints, progress);
+      result = fit(student, lesson.X, lesson.Y, joints, progress);
+      result.teaching = TeachingOutcome::Taught;
       result.label_noise_std = std::move(lesson.label_noise_std);
       if (result.report.ok())
         result.teaching_check = check_teaching(Y, result.label_noise_std, result.estimator->predict(X));
+      if (automatic && !(result.teaching_check && result.teaching_check->passed())) {
+        FitResult own = fit(on_log, X, Y, joints, progress);
+        own.label_noise_std = std::move(result.label_noise_std);
+        own.teaching_check = std::move(result.teaching_check);
+        own.teaching = TeachingOutcome::StudentMissedLog;
+        result = std::move(own);
+      }
     }
     result.teacher_report = std::move(lesson.teacher_report);
   } else {
-    result = fit_function(estimator_family(options.name))(options, X, Y, joints, progress);
+    result = fit(on_log, X, Y, joints, progress);
+    if (options.teacher) result.teaching = TeachingOutcome::LogTooLong;
   }
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   if (progress) {

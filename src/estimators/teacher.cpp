@@ -13,6 +13,8 @@
 
 namespace gipdyn {
 
+std::string to_string(TeachingMode mode) { return mode == TeachingMode::Always ? "always" : "automatic"; }
+
 void TeacherOptions::validate() const {
   require_known_estimator(name);
   if (estimator_needs_robot(name))
@@ -27,6 +29,12 @@ void TeacherOptions::validate() const {
   if (student_hyperparameter_rows > 0 && student_hyperparameter_rows < kMinTrainingRows)
     throw Error("TeacherOptions::student_hyperparameter_rows must be 0 or at least " +
                 std::to_string(kMinTrainingRows));
+  if (automatic_max_log_values < 0)
+    throw Error("TeacherOptions::automatic_max_log_values must be >= 0 (rows x joints, e.g. 14000)");
+}
+
+bool TeacherOptions::teaches(Eigen::Index rows, Eigen::Index joints) const {
+  return mode == TeachingMode::Always || static_cast<long>(rows) * static_cast<long>(joints) <= automatic_max_log_values;
 }
 
 TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) const {
@@ -69,6 +77,12 @@ TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& te
     if (constant) check.student_nmse(j) = std::numeric_limits<double>::quiet_NaN();
   }
   return check;
+}
+
+bool TeachingCheck::passed() const {
+  for (Eigen::Index j = 0; j < student_nmse.size(); ++j)
+    if (student_nmse(j) - teacher_nmse(j) > kTaughtNmseGapWarning) return false;
+  return true;
 }
 
 std::string TeachingCheck::warning(const std::string& teacher_name) const {
@@ -118,6 +132,11 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
   set.Y = set.teacher->predict(set.X);
   for (Eigen::Index r = 0; r < set.Y.rows(); ++r)
     for (Eigen::Index j = 0; j < set.Y.cols(); ++j) set.Y(r, j) += set.label_noise_std(j) * normal(rng);
+  // A joint whose logged torque never changes (locked, or a dead sensor) tells
+  // the teacher nothing but that value; its predictions there differ from it
+  // by rounding, which the student would take for a signal of variance 1e-20.
+  for (Eigen::Index j = 0; j < Y.cols(); ++j)
+    if (Y.col(j).maxCoeff() == Y.col(j).minCoeff()) set.Y.col(j).setConstant(Y(0, j));
   return set;
 }
 

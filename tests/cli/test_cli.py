@@ -216,6 +216,46 @@ def test_train_taught_by_lip_keeps_a_constant_joint(tmp_path, gipdyn_bin):
     assert all(isinstance(v, float) and np.isfinite(v) for v in (log_nmse["teacher"][0], log_nmse["student"][0]))
 
 
+def test_train_by_default_keeps_lips_teaching_only_where_the_taught_model_fits_the_log(tmp_path, gipdyn_bin):
+    write_dataset(tmp_path / "log.csv", 80, 1)
+    log = str(tmp_path / "log.csv")
+    common = ["--joints", "RR", "--teacher-hyperparameter-rows", "0", "--max-iter", "60", "--seed", "4"]
+    # The default is --teacher auto: on this short clean log the model taught by LIP fits the log as LIP does.
+    default = tmp_path / "default.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", log, "--joints", "RR", "--max-iter", "60", "--seed", "4", "--out",
+            str(default))
+    assert r.returncode == 0, r.stderr
+    assert "taught by lip" in r.stdout and "(--teacher auto; none: no teacher)" in r.stdout
+    assert "student gip on the teacher's torques" in r.stdout
+    header = model_header(default)
+    assert header["teacher"]["mode"] == "automatic" and header["teacher"]["outcome"] == "taught"
+    assert header["num_training_samples"] == 2000  # TeacherOptions::states, not the log's 80 rows
+    # Where the taught model misses the log (ten drawn states), gip learns from the log itself: no warning.
+    missed = tmp_path / "missed.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", log, *common, "--teacher", "auto", "--teacher-states", "10", "--out",
+            str(missed))
+    assert r.returncode == 0, r.stderr
+    assert "gip learned from the log: the model taught by lip fitted the logged rows far worse" in r.stdout
+    assert "far worse" not in r.stderr
+    header = model_header(missed)
+    assert header["teacher"]["outcome"] == "student missed the log" and header["num_training_samples"] == 80
+    log_nmse = header["teacher"]["log_nmse"]
+    assert max(s - t for t, s in zip(log_nmse["teacher"], log_nmse["student"])) > 0.1
+    # ... the model trained without a teacher, as --teacher none trains it.
+    none = tmp_path / "none.gipdyn"
+    r = run(gipdyn_bin, "train", "--data", log, *common, "--teacher", "none", "--out", str(none), "--quiet")
+    assert r.returncode == 0, r.stderr
+    assert "teacher" not in model_header(none)
+    test = write_dataset(tmp_path / "test.csv", 30, 2)
+    predictions = []
+    for model in (missed, none):
+        r = run(gipdyn_bin, "predict", "--model", str(model), "--data", str(tmp_path / "test.csv"), "--out",
+                str(model) + ".csv")
+        assert r.returncode == 0, r.stderr
+        predictions.append(np.loadtxt(str(model) + ".csv", delimiter=",", skiprows=1))
+    np.testing.assert_allclose(predictions[0], predictions[1], rtol=1e-10, atol=1e-12)
+
+
 def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "log.csv", 80, 1)
     out = tmp_path / "m.gipdyn"
@@ -626,7 +666,7 @@ def test_joints_whose_torque_is_below_the_noise_are_named(tmp_path, gipdyn_bin):
         tau = tau_true + 0.05 * rng.standard_normal(tau_true.shape)
         np.savetxt(tmp_path / f"{name}.csv", np.column_stack([q, qd, qdd, tau, tau_true]), delimiter=",",
                    header=",".join(names), comments="")
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RR", "--out",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RR", "--teacher", "none", "--out",
             str(tmp_path / "m.gipdyn"))
     assert r.returncode == 0, r.stderr
     noisy = [line for line in r.stderr.splitlines() if "calls most of the torque noise" in line]

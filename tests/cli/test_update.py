@@ -18,7 +18,7 @@ def test_update_learns_the_new_rows_and_keeps_the_hyperparameters(tmp_path, gipd
     write_dataset(new, 30, seed=2)
     model, updated, window = tmp_path / "m.gipdyn", tmp_path / "u.gipdyn", tmp_path / "w.gipdyn"
     assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--max-iter", "30", "--quiet",
-               "--out", str(model)).returncode == 0
+               "--teacher", "none", "--out", str(model)).returncode == 0
     r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--out", str(updated))
     assert r.returncode == 0, r.stderr
     assert "90 training rows" in r.stdout
@@ -59,7 +59,7 @@ def test_update_refit_reoptimises_the_hyperparameters(tmp_path, gipdyn_bin):
     write_dataset(new, 40, seed=5)
     model, refit = tmp_path / "m.gipdyn", tmp_path / "r.gipdyn"
     assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--max-iter", "20", "--quiet",
-               "--out", str(model)).returncode == 0
+               "--teacher", "none", "--out", str(model)).returncode == 0
     r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--refit", "--max-iter", "40",
             "--out", str(refit))
     assert r.returncode == 0, r.stderr

@@ -32,6 +32,19 @@ struct EstimatorOptions {
   TrainOptions train_options() const;
 };
 
+// What became of EstimatorOptions::teacher.
+enum class TeachingOutcome {
+  NoTeacher,         // none was asked for
+  Taught,            // the estimator learned from the teacher's torques
+  LogTooLong,        // TeachingMode::Automatic, a log longer than automatic_max_log_values: learned from the log
+  TeacherFailed,     // TeachingMode::Automatic, the teacher's fit failed: learned from the log
+  StudentMissedLog,  // TeachingMode::Automatic, the taught model failed its TeachingCheck: learned from the log
+};
+
+// "taught", "log too long", ...; and one line saying what it means for the model.
+std::string to_string(TeachingOutcome outcome);
+std::string describe(TeachingOutcome outcome, const std::string& teacher_name);
+
 struct FitResult {
   FitReport report;  // status, time, per-joint reports for GP estimators
   std::unique_ptr<Estimator> estimator;  // null unless report.ok()
@@ -42,10 +55,15 @@ struct FitResult {
   // With a teacher and a fitted student: the two's nMSE on the logged rows (its
   // warning() says when the student misses the log its teacher fits).
   std::optional<TeachingCheck> teaching_check;
+  // Taught or not; with an outcome other than Taught and NoTeacher, estimator
+  // learned from the log and teacher_report / teaching_check say what the
+  // teaching that was not kept did.
+  TeachingOutcome teaching = TeachingOutcome::NoTeacher;
 };
 
 // Fits the named estimator (with a teacher: the teacher, then the estimator on
-// its labelled states; a teacher that fails fails the fit). Bad options or data throw gipdyn::Error before any
+// its labelled states; a teacher that fails fails the fit, unless
+// TeachingMode::Automatic, which then learns from the log). Bad options or data throw gipdyn::Error before any
 // work; a numerical failure is reported in FitResult::report. progress may be
 // called from worker threads; it ends with one finished event for the whole fit.
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

@@ -19,6 +19,23 @@
 
 namespace gipdyn {
 
+// When a student learns from its teacher instead of from the log.
+enum class TeachingMode {
+  // Always: the taught model is kept even where it misses the log (its
+  // TeachingCheck warns).
+  Always,
+  // Where it pays: only on a log of at most TeacherOptions::automatic_max_log_values
+  // values of torque (rows x joints), and the taught model is kept only if it
+  // passes its TeachingCheck; otherwise, and where the teacher fails, the
+  // estimator learns from the log itself. On a short simulated motion the
+  // taught model passes and extrapolates like its teacher; on a real robot's
+  // log it misses the log and the estimator's own fit is kept
+  // (docs/training.md, "GIP taught by LIP").
+  Automatic,
+};
+
+std::string to_string(TeachingMode mode);
+
 struct TeacherOptions {
   // An estimator of estimator_registry.hpp that needs no nominal robot.
   std::string name = "lip";
@@ -37,9 +54,18 @@ struct TeacherOptions {
   int student_hyperparameter_rows = 500;
   // Seed of the drawn states and of their label noise.
   std::uint64_t seed = 0;
+  TeachingMode mode = TeachingMode::Always;
+  // With TeachingMode::Automatic: the longest log, in rows x joints, that is
+  // taught. A LIP teacher is conditioned on all N n torques, an (N n) x (N n)
+  // system (14000: 1.5 GiB, a 7-joint log of 2000 rows); a longer log fills
+  // more of its box by itself.
+  long automatic_max_log_values = 14000;
 
   // Throws gipdyn::Error naming the bad field.
   void validate() const;
+  // Whether a log of this many rows of this many joints is taught (mode,
+  // automatic_max_log_values).
+  bool teaches(Eigen::Index rows, Eigen::Index joints) const;
   // The teacher's GP options, derived from the student's: its optimiser,
   // gradient tolerance, restarts, seed, noise start and floor, jitter and
   // threads; the kernel is `name`, hyperparameter_rows this struct's, the rest
@@ -77,6 +103,8 @@ struct TeachingCheck {
   // One line naming every joint whose student_nmse exceeds teacher_nmse by more
   // than kTaughtNmseGapWarning, with both, and what to do instead; "" when none.
   std::string warning(const std::string& teacher_name) const;
+  // No joint's student_nmse exceeds its teacher_nmse by more than kTaughtNmseGapWarning.
+  bool passed() const;
 };
 
 // The check from the logged torques Y (N x n), the teacher's RMS residual on
