@@ -64,7 +64,7 @@ FitResult fit_network(const EstimatorOptions& o, const Eigen::MatrixXd& X, const
     return result;
   }
   result.estimator = std::make_unique<NeuralNetworkEstimator>(std::move(net));
-  result.report.status = FitStatus::Converged;  // a fixed number of epochs: nothing else to meet
+  result.report.status = FitStatus::Completed;  // a fixed number of epochs, with no convergence test
   return result;
 }
 

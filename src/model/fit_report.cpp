@@ -11,6 +11,7 @@ std::string to_string(FitStatus status) {
   switch (status) {
     case FitStatus::Converged: return "converged";
     case FitStatus::NotConverged: return "not converged";
+    case FitStatus::Completed: return "completed";
     case FitStatus::Failed: return "failed";
   }
   return "failed";

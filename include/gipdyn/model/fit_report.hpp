@@ -15,6 +15,7 @@ namespace gipdyn {
 enum class FitStatus {
   Converged,     // every joint's optimiser met its stopping rule
   NotConverged,  // a usable model, but some joint stopped at its iteration cap or stalled
+  Completed,     // a fixed schedule ran to its end (the network's epochs): nothing to converge to or to cut short
   Failed,        // no model: see FitReport::message
 };
 std::string to_string(FitStatus status);
