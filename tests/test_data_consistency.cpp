@@ -108,6 +108,43 @@ TEST(NeighbourConsistency, BlockedSearchMatchesAPlainLoop) {
   EXPECT_NEAR(c.neighbour_nmse(0), squared_error(0) / pairs / variance(all), 1e-9);
 }
 
+TEST(NeighbourConsistency, ARevoluteJointOneTurnAwayIsTheSameState) {
+  // The second recording runs the same motion with joint 1 one turn further
+  // on (a continuous joint, unwrapped): the same states for the dynamics,
+  // which see q through its sine and cosine, and the same torques.
+  const Log log = periodic_log(2000);
+  const Eigen::MatrixXd tau = test::with_noise(log.tau_true, 0.05, 5);
+  Eigen::MatrixXd turned = log.X;
+  turned.col(0).array() += 2.0 * M_PI;
+  const Eigen::MatrixXd tau_turned = test::with_noise(log.tau_true, 0.05, 6);
+  NeighbourConsistencyOptions o;
+  o.radius = 0.05;
+  const NeighbourConsistency as_logged = neighbour_consistency(log.X, tau, turned, tau_turned, o);
+  EXPECT_EQ(as_logged.status, NeighbourConsistency::Status::TooFewPairs);
+  o.joints = "RR";
+  const NeighbourConsistency on_circle = neighbour_consistency(log.X, tau, turned, tau_turned, o);
+  ASSERT_EQ(on_circle.status, NeighbourConsistency::Status::Ok) << on_circle.message;
+  EXPECT_GT(on_circle.pairs, on_circle.queries * 9 / 10);
+  for (int j = 0; j < 2; ++j) {
+    // Independent noise on both sides: twice the noise share, plus what the radius lets differ.
+    const double noise_share = 0.05 * 0.05 / variance(tau_turned.col(j));
+    EXPECT_LT(on_circle.neighbour_nmse(j), 4.0 * noise_share) << "joint " << j + 1;
+  }
+  // As comparing the motion with itself: one turn is no distance (up to the
+  // rounding of cos(q + 2 pi), which can swap two equally near neighbours).
+  const NeighbourConsistency unturned = neighbour_consistency(log.X, tau, log.X, tau_turned, o);
+  EXPECT_EQ(unturned.pairs, on_circle.pairs);
+  for (int j = 0; j < 2; ++j)
+    EXPECT_NEAR(unturned.neighbour_nmse(j), on_circle.neighbour_nmse(j), 0.02 * unturned.neighbour_nmse(j));
+  // Joint types that do not fit the log are named.
+  o.joints = "RRR";
+  EXPECT_NE(test::error_of([&] { neighbour_consistency(log.X, tau, o); }).find("NeighbourConsistencyOptions::joints names 3"),
+            std::string::npos);
+  o.joints = "RX";
+  EXPECT_NE(test::error_of([&] { neighbour_consistency(log.X, tau, o); }).find("NeighbourConsistencyOptions::joints"),
+            std::string::npos);
+}
+
 TEST(NeighbourConsistency, NoRevisitsIsAStatusNotAnException) {
   const Log log = periodic_log(300);  // 3 s: no state is visited twice 100 rows apart
   const NeighbourConsistency c = neighbour_consistency(log.X, log.tau_true);

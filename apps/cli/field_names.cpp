@@ -29,6 +29,7 @@ const FieldNames& cli_field_names() {
        "takes --mat-variable NAME (train, predict, evaluate, update, inspect, experiment real)"},
       {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: train --subsample N, experiment real --max-train N)"},
       {"NeighbourConsistencyOptions::radius", "--radius"},
+      {"NeighbourConsistencyOptions::joints", "--joints"},
       {"NeighbourConsistencyOptions::min_separation_rows", "--min-separation-rows"},
       {"NeighbourConsistencyOptions::max_queries", "--max-queries"},
       {"TrackingOptions::bandwidth", "--bandwidth"},

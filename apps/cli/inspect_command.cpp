@@ -93,6 +93,8 @@ int run_inspect(const InspectArgs& a) {
   a.options.validate();
 
   const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable);
+  NeighbourConsistencyOptions options = a.options;
+  options.joints = joints.str();  // revolute positions compared on the circle
   const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true);
   const Dataset train = rows_of(log, a.train_rows, "--train-rows");
   std::optional<Dataset> test;
@@ -108,11 +110,11 @@ int run_inspect(const InspectArgs& a) {
                    static_cast<long>(shared));
   }
   std::vector<Column> columns;
-  columns.push_back({"within training", "within_training", neighbour_consistency(train.X, train.tau, a.options)});
+  columns.push_back({"within training", "within_training", neighbour_consistency(train.X, train.tau, options)});
   if (test) {
-    columns.push_back({"within test", "within_test", neighbour_consistency(test->X, test->tau, a.options)});
+    columns.push_back({"within test", "within_test", neighbour_consistency(test->X, test->tau, options)});
     columns.push_back({"training -> test", "training_to_test",
-                       neighbour_consistency(train.X, train.tau, test->X, test->tau, a.options)});
+                       neighbour_consistency(train.X, train.tau, test->X, test->tau, options)});
   }
   nlohmann::json report{{"data", a.data},
                         {"joints", joints.str()},
@@ -129,8 +131,8 @@ int run_inspect(const InspectArgs& a) {
   }
 
   if (!a.quiet) {
-    std::printf("Rows that visit the same state (%s within %.3g standard deviations, at least %ld rows apart within "
-                "one log) should have the same torque.\nneighbour nMSE: mean squared torque difference over the "
+    std::printf("Rows that visit the same state (%s within %.3g standard deviations, revolute positions on the "
+                "circle, at least %ld rows apart within one log) should have the same torque.\nneighbour nMSE: mean squared torque difference over the "
                 "variance; 1 = no better than predicting the mean; within one log, half of it is about the noise "
                 "share.\n",
                 a.options.use_accelerations ? "q, qd, qdd" : "q, qd", a.options.radius, a.options.min_separation_rows);

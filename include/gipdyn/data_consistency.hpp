@@ -15,9 +15,13 @@ namespace gipdyn {
 struct NeighbourConsistencyOptions {
   // Two rows are neighbours when the Euclidean distance of their standardised
   // inputs (each column divided by its standard deviation over the reference
-  // rows) is at most this. Positions are compared as logged: a revolute joint
-  // that wraps at +-pi has its two sides far apart.
+  // rows) is at most this.
   double radius = 0.1;
+  // Joint types, one R or P per joint (e.g. "RRPR"). A revolute joint's
+  // positions are compared on the circle, as the kernels see them (through
+  // their sine and cosine): q and q + 2 pi are one state, and a joint logged
+  // within (-pi, pi] has its two sides together. Empty: positions as logged.
+  std::string joints;
   // Within one log: neighbours at least this many rows apart (one second of a
   // 125 Hz log is 125).
   long min_separation_rows = 100;

@@ -608,7 +608,7 @@ def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_k
 
 
 def neighbour_consistency(X, tau, X_test=None, tau_test=None, radius=0.1, min_separation_rows=100,
-                          use_accelerations=False, max_queries=5000):
+                          use_accelerations=False, max_queries=5000, joints=None):
     """Is the torque a function of the logged state? Pairs rows that visit the
     same state (q, qd, and qdd with use_accelerations, each divided by its
     standard deviation over X, at most radius apart) and compares their torques.
@@ -617,8 +617,12 @@ def neighbour_consistency(X, tau, X_test=None, tau_test=None, radius=0.1, min_se
     "too-few-pairs"), message, queries, pairs, neighbour_nmse and correlation
     per joint. Within one log half the neighbour nMSE is about the noise share;
     a test log far above the training log's value follows another function of
-    the state (docs/real-robots.md, `gipdyn inspect`)."""
+    the state (docs/real-robots.md, `gipdyn inspect`). joints (e.g. "RRPR"):
+    revolute positions are compared on the circle, q and q + 2 pi being one
+    state, as the kernels see them; None: positions as logged."""
     o = NeighbourConsistencyOptions()
+    if joints is not None:
+        o.joints = str(joints)
     o.radius = float(radius)
     o.min_separation_rows = int(min_separation_rows)
     o.use_accelerations = bool(use_accelerations)

@@ -73,6 +73,7 @@ const FieldNames& python_field_names() {
       {"SimulationOptions::dt", "dt"},
       {"SimulationOptions::friction", "friction"},
       {"NeighbourConsistencyOptions::radius", "radius"},
+      {"NeighbourConsistencyOptions::joints", "joints"},
       {"NeighbourConsistencyOptions::min_separation_rows", "min_separation_rows"},
       {"NeighbourConsistencyOptions::max_queries", "max_queries"},
       {kMatFileAdvice, "read it with gipdyn.read_log(path, joints, mat_variable=NAME)"},
@@ -599,6 +600,7 @@ PYBIND11_MODULE(_core, m) {
   py::class_<NeighbourConsistencyOptions>(m, "NeighbourConsistencyOptions")
       .def(py::init<>())
       .def_readwrite("radius", &NeighbourConsistencyOptions::radius)
+      .def_readwrite("joints", &NeighbourConsistencyOptions::joints)
       .def_readwrite("min_separation_rows", &NeighbourConsistencyOptions::min_separation_rows)
       .def_readwrite("use_accelerations", &NeighbourConsistencyOptions::use_accelerations)
       .def_readwrite("max_queries", &NeighbourConsistencyOptions::max_queries)

@@ -641,6 +641,14 @@ def test_neighbour_consistency_finds_the_noise_and_a_changed_torque():
         gipdyn.neighbour_consistency(X, tau, radius=0)
     with pytest.raises(ValueError, match="both X_test and tau_test"):
         gipdyn.neighbour_consistency(X, tau, X_test=X)
+    # Joint 1 one turn further on is the same state for revolute joints (joints="RR"), not as logged.
+    turned = X.copy()
+    turned[:, 0] += 2 * np.pi
+    assert gipdyn.neighbour_consistency(X, tau, turned, tau)["status"] == "too-few-pairs"
+    on_circle = gipdyn.neighbour_consistency(X, tau, turned, tau, joints="RR")
+    assert on_circle["status"] == "ok" and on_circle["neighbour_nmse"][0] < 0.1
+    with pytest.raises(ValueError, match="joints names 3 joints but the log has 2"):
+        gipdyn.neighbour_consistency(X, tau, joints="RRR")
 
 
 def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():

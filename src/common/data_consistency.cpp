@@ -1,10 +1,12 @@
 #include "gipdyn/data_consistency.hpp"
 
+#include <algorithm>
 #include <cmath>
 #include <limits>
 #include <vector>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/joint_types.hpp"
 #include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
@@ -15,6 +17,13 @@ void NeighbourConsistencyOptions::validate() const {
   if (min_separation_rows < 0) throw Error("NeighbourConsistencyOptions::min_separation_rows must be >= 0");
   if (max_queries < 1) throw Error("NeighbourConsistencyOptions::max_queries must be >= 1");
   if (min_pairs < 1) throw Error("NeighbourConsistencyOptions::min_pairs must be >= 1");
+  if (!joints.empty()) {
+    try {
+      JointTypes::parse(joints);
+    } catch (const Error& e) {
+      throw Error(std::string("NeighbourConsistencyOptions::joints: ") + e.what());
+    }
+  }
 }
 
 std::string to_string(NeighbourConsistency::Status status) {
@@ -38,19 +47,35 @@ void require_log(const Eigen::MatrixXd& X, const Eigen::MatrixXd& tau, const cha
 }
 
 // The compared inputs (q, qd and optionally qdd), each divided by its standard
-// deviation over the reference rows; columns that do not vary there are left out.
+// deviation over the reference rows; columns that do not vary there are left
+// out. A revolute position on the circle becomes two coordinates, cos q / sd
+// and sin q / sd: their distance, 2 sin(dq / 2) / sd, is dq / sd for the small
+// dq of a neighbour, and zero for dq = 2 pi. Its sd is that of q wrapped around
+// its circular mean, so that turns do not count as spread.
 struct Standardiser {
   std::vector<Eigen::Index> columns;
+  std::vector<bool> on_circle;
   Eigen::RowVectorXd mean, scale;
 
-  Standardiser(const Eigen::MatrixXd& reference, int joints, bool accelerations) {
+  Standardiser(const Eigen::MatrixXd& reference, int joints, bool accelerations, const std::string& joint_types) {
     const Eigen::Index used = (accelerations ? 3 : 2) * joints;
+    const std::vector<bool> revolute = revolute_positions(joint_types, joints);
     std::vector<double> m, s;
     for (Eigen::Index c = 0; c < used; ++c) {
-      const double mu = reference.col(c).mean();
-      const double sd = std::sqrt((reference.col(c).array() - mu).square().mean());
+      const bool circle = c < joints && revolute[static_cast<size_t>(c)];
+      double mu = reference.col(c).mean(), sd = 0.0;
+      if (circle) {
+        const double centre = std::atan2(reference.col(c).array().sin().mean(), reference.col(c).array().cos().mean());
+        const Eigen::ArrayXd d = (reference.col(c).array() - centre).unaryExpr(
+            [](double x) { return std::remainder(x, 2.0 * M_PI); });
+        sd = std::sqrt(std::max(0.0, d.square().mean() - d.mean() * d.mean()));
+        mu = 0.0;
+      } else {
+        sd = std::sqrt((reference.col(c).array() - mu).square().mean());
+      }
       if (!(sd > 1e-12 * (1.0 + std::abs(mu)))) continue;
       columns.push_back(c);
+      on_circle.push_back(circle);
       m.push_back(mu);
       s.push_back(sd);
     }
@@ -58,11 +83,37 @@ struct Standardiser {
     scale = Eigen::Map<Eigen::RowVectorXd>(s.data(), static_cast<Eigen::Index>(s.size()));
   }
 
+  static std::vector<bool> revolute_positions(const std::string& joint_types, int joints) {
+    std::vector<bool> revolute(static_cast<size_t>(joints), false);
+    if (joint_types.empty()) return revolute;
+    const JointTypes types = JointTypes::parse(joint_types);
+    if (types.size() != joints)
+      throw Error("NeighbourConsistencyOptions::joints names " + std::to_string(types.size()) +
+                  " joints but the log has " + std::to_string(joints) + "; give one R or P per joint");
+    for (int j = 0; j < joints; ++j) revolute[static_cast<size_t>(j)] = types.is_revolute(j);
+    return revolute;
+  }
+
+  Eigen::Index width() const {
+    return static_cast<Eigen::Index>(columns.size()) +
+           static_cast<Eigen::Index>(std::count(on_circle.begin(), on_circle.end(), true));
+  }
+
   Eigen::MatrixXd apply(const Eigen::MatrixXd& X, const std::vector<Eigen::Index>& rows) const {
-    Eigen::MatrixXd Z(static_cast<Eigen::Index>(rows.size()), static_cast<Eigen::Index>(columns.size()));
-    for (Eigen::Index r = 0; r < Z.rows(); ++r)
-      for (Eigen::Index c = 0; c < Z.cols(); ++c)
-        Z(r, c) = (X(rows[static_cast<size_t>(r)], columns[static_cast<size_t>(c)]) - mean(c)) / scale(c);
+    Eigen::MatrixXd Z(static_cast<Eigen::Index>(rows.size()), width());
+    for (Eigen::Index r = 0; r < Z.rows(); ++r) {
+      Eigen::Index z = 0;
+      for (size_t c = 0; c < columns.size(); ++c) {
+        const double x = X(rows[static_cast<size_t>(r)], columns[c]);
+        const Eigen::Index k = static_cast<Eigen::Index>(c);
+        if (on_circle[c]) {
+          Z(r, z++) = std::cos(x) / scale(k);
+          Z(r, z++) = std::sin(x) / scale(k);
+        } else {
+          Z(r, z++) = (x - mean(k)) / scale(k);
+        }
+      }
+    }
     return Z;
   }
 };
@@ -107,7 +158,7 @@ NeighbourConsistency compare(const Eigen::MatrixXd& reference_X, const Eigen::Ma
                              const NeighbourConsistencyOptions& o) {
   o.validate();
   const int joints = static_cast<int>(reference_tau.cols());
-  const Standardiser standardise(reference_X, joints, o.use_accelerations);
+  const Standardiser standardise(reference_X, joints, o.use_accelerations, o.joints);
   if (standardise.columns.empty())
     throw Error("neighbour_consistency: no input column varies over the reference rows; the robot never moved");
   const std::vector<Eigen::Index> queries = constant_step_indices(query_X.rows(), o.max_queries);

@@ -51,6 +51,23 @@ def test_inspect_flags_a_test_log_with_another_payload(tmp_path, gipdyn_bin):
     assert (tmp_path / "payload.png").read_bytes()[:8] == b"\x89PNG\r\n\x1a\n"
 
 
+def test_inspect_compares_revolute_positions_on_the_circle(tmp_path, gipdyn_bin):
+    # The test log is the same motion with joint 1 one turn further on (a continuous joint, unwrapped): for the
+    # 2R arm's dynamics the same states, so the test rows find their neighbours and agree with them.
+    periodic_log(tmp_path / "train.csv", 30, seed=1)
+    periodic_log(tmp_path / "test.csv", 20, seed=2)
+    data = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)
+    data[:, 0] += 2 * np.pi
+    np.savetxt(tmp_path / "turned.csv", data, delimiter=",", header="q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2", comments="")
+    r = run(gipdyn_bin, "inspect", "--data", str(tmp_path / "train.csv"), "--joints", "RR",
+            "--test", str(tmp_path / "turned.csv"), "--out", str(tmp_path / "turned.json"))
+    assert r.returncode == 0, r.stderr
+    assert "revolute positions on the circle" in r.stdout
+    report = json.loads((tmp_path / "turned.json").read_text())
+    assert report["training_to_test"]["status"] == "ok", report["training_to_test"]
+    assert max(report["training_to_test"]["neighbour_nmse"]) < 0.05
+
+
 def test_inspect_rows_of_one_log_and_too_few_pairs(tmp_path, gipdyn_bin):
     periodic_log(tmp_path / "log.csv", 30, seed=4)
     r = run(gipdyn_bin, "inspect", "--data", str(tmp_path / "log.csv"), "--joints", "RR",
