@@ -209,7 +209,10 @@ Command add_train(CLI::App& app) {
                                              {"student", numbers_or_null(r.teaching_check->student_nmse)}};
     write_container(model, a->out);
     if (!a->quiet) {
-      if (r.teacher_report) {
+      if (r.teaching == TeachingOutcome::TeacherFailed) {
+        std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),
+                    describe(r.teaching, o.teacher->name).c_str());
+      } else if (r.teacher_report) {
         std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
         std::printf("label noise (the teacher's RMS residual on the log), per joint:");
         for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));

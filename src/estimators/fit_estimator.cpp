@@ -117,7 +117,18 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
   FitResult result;
   if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
     const bool automatic = options.teacher->mode == TeachingMode::Automatic;
-    TeachingSet lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
+    TeachingSet lesson;
+    try {
+      lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
+    } catch (const Error& e) {
+      // Automatic teaching is an option the user did not ask for: a teacher
+      // that cannot start (e.g. LIP's (N n)^2 system beyond the memory left)
+      // must not stop a fit that the estimator alone can make. Bad data or
+      // options throw again from that fit.
+      if (!automatic) throw;
+      lesson.teacher_report.status = FitStatus::Failed;
+      lesson.teacher_report.message = "the teacher " + options.teacher->name + " failed: " + e.what();
+    }
     if (!lesson.teacher_report.ok()) {
       if (automatic) {
         result = fit(on_log, X, Y, joints, progress);

@@ -256,6 +256,29 @@ def test_train_by_default_keeps_lips_teaching_only_where_the_taught_model_fits_t
     np.testing.assert_allclose(predictions[0], predictions[1], rtol=1e-10, atol=1e-12)
 
 
+def test_train_by_default_learns_from_the_log_where_the_teacher_cannot_start(tmp_path, gipdyn_bin):
+    # LIP on 3500 rows of a SCARA is one 14000-square system, 1.5 GiB: more than a 1.5 GB address space leaves.
+    # The teacher nobody asked for must not stop a fit GIP alone can make (it stopped train with an error).
+    log = tmp_path / "log.csv"
+    assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "3500", "--seed", "3", "--out", str(log),
+               "--quiet").returncode == 0
+    out = tmp_path / "m.gipdyn"
+    command = [gipdyn_bin, "train", "--data", str(log), "--joints", "RRPR", "--max-iter", "2", "--threads", "1",
+               "--out", str(out)]
+    r = subprocess.run(["bash", "-c", 'ulimit -v 1500000 && exec "$@"', "bash", *command], capture_output=True,
+                       text=True, timeout=300)
+    assert r.returncode == 0, r.stderr
+    assert "the teacher lip failed: lip on 3500 rows of 4 joints" in r.stdout and "needs about 1.5 GiB" in r.stdout
+    assert "gip learned from the log: the teacher lip failed to fit it" in r.stdout
+    header = model_header(out)
+    assert header["teacher"]["outcome"] == "teacher failed" and header["num_training_samples"] == 3500
+    # Asked for by name, the teacher's failure is the command's.
+    r = subprocess.run(["bash", "-c", 'ulimit -v 1500000 && exec "$@"', "bash", *command[:-2], "--teacher", "lip",
+                        "--out", str(tmp_path / "named.gipdyn")], capture_output=True, text=True, timeout=300)
+    assert r.returncode != 0 and "needs about 1.5 GiB" in r.stderr
+    assert not (tmp_path / "named.gipdyn").exists()
+
+
 def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "log.csv", 80, 1)
     out = tmp_path / "m.gipdyn"
