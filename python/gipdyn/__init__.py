@@ -314,13 +314,13 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             automatic = teacher.mode == _core.TeachingMode.automatic
             try:
                 lesson = _core.teach(X, Y, str(self.joints), teacher, options, bool(self.verbose))
-            except ValueError as e:
+            except ValueError:
                 # As the library's TeachingMode.automatic: a teacher that cannot start (e.g. LIP's memory) does not
                 # stop a fit the estimator alone can make; bad data raise again from that fit.
                 if not automatic:
                     raise
                 lesson = {"X": np.zeros((0, X.shape[1])), "tau": np.zeros((0, Y.shape[1])), "teacher": None,
-                          "teacher_report": [], "label_noise_std": np.zeros(0), "error": str(e)}
+                          "teacher_report": [], "label_noise_std": np.zeros(0)}  # as _core.teach's for a failed teacher
             self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
             if lesson["teacher"] is not None:
                 self.teacher_ = LagrangianGP(joints=self.joints, friction=teacher.name == "lip+friction")

@@ -79,16 +79,25 @@ TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& te
   return check;
 }
 
+namespace {
+
+// False where either nMSE is NaN (a joint whose logged torque is constant).
+bool student_misses_joint(const TeachingCheck& check, Eigen::Index j) {
+  return check.student_nmse(j) - check.teacher_nmse(j) > kTaughtNmseGapWarning;
+}
+
+}  // namespace
+
 bool TeachingCheck::passed() const {
   for (Eigen::Index j = 0; j < student_nmse.size(); ++j)
-    if (student_nmse(j) - teacher_nmse(j) > kTaughtNmseGapWarning) return false;
+    if (student_misses_joint(*this, j)) return false;
   return true;
 }
 
 std::string TeachingCheck::warning(const std::string& teacher_name) const {
   std::string joints;
   for (Eigen::Index j = 0; j < student_nmse.size(); ++j) {
-    if (!(student_nmse(j) - teacher_nmse(j) > kTaughtNmseGapWarning)) continue;
+    if (!student_misses_joint(*this, j)) continue;
     char buf[96];
     std::snprintf(buf, sizeof buf, "%s%ld (%.3g against %.3g)", joints.empty() ? "" : ", ", static_cast<long>(j + 1),
                   student_nmse(j), teacher_nmse(j));
