@@ -9,6 +9,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/metrics.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -229,6 +230,47 @@ TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {
   o.teacher->student_hyperparameter_rows = 0;  // every drawn state
   EXPECT_EQ(student_rows(), 0);
   EXPECT_EQ(TeacherOptions{}.student_train_options(TrainOptions{}).hyperparameter_rows, 500);
+}
+
+TEST(Teacher, AutomaticTeachingIsForTheGipKernelsExactGpAlone) {
+  EstimatorOptions o;
+  EXPECT_TRUE(automatic_teaching_applies(o));
+  const auto refused = [](auto change) {
+    EstimatorOptions changed;
+    change(changed);
+    return !automatic_teaching_applies(changed);
+  };
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.name = "rbf"; }));
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.name = "gip-envelope+friction"; }));
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.gp.inducing_points = 100; }));
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.gp.warm_start_rows = 100; }));
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.gp.mean = MeanKind::Linear; }));
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara")); }));
+
+  // Elsewhere the automatic teacher steps aside: the same model as without one, and the result says why.
+  const Eigen::MatrixXd X = two_link_trajectory(60, 0.1, 11);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  o.name = "rbf";
+  o.gp.optimizer.max_iterations = 20;
+  const FitResult own = fit_estimator(o, X, Y, kTwoLink);
+  o.teacher = TeacherOptions{};
+  o.teacher->mode = TeachingMode::Automatic;
+  const FitResult automatic = fit_estimator(o, X, Y, kTwoLink);
+  ASSERT_TRUE(own.report.ok() && automatic.report.ok()) << automatic.report.message;
+  EXPECT_EQ(own.teaching, TeachingOutcome::NoTeacher);
+  EXPECT_EQ(automatic.teaching, TeachingOutcome::NotApplicable);
+  EXPECT_FALSE(automatic.teacher_report || automatic.teaching_check || automatic.teacher);
+  EXPECT_TRUE(automatic.estimator->predict(X).isApprox(own.estimator->predict(X), 1e-12));
+  EXPECT_NE(describe(automatic.teaching, "lip").find("learned from the log"), std::string::npos);
+  // TeachingMode::Always teaches whatever the estimator: the user asked for it.
+  o.teacher->mode = TeachingMode::Always;
+  o.teacher->states = 100;
+  const FitResult taught = fit_estimator(o, X, Y, kTwoLink);
+  ASSERT_TRUE(taught.report.ok()) << taught.report.message;
+  EXPECT_EQ(taught.teaching, TeachingOutcome::Taught);
+  EXPECT_EQ(taught.estimator->gp_model()->num_training_samples(), 100);
+  ASSERT_TRUE(taught.teacher);  // the fitted teacher comes back with the result
+  EXPECT_EQ(taught.teacher->name(), "lip");
 }
 
 TEST(Teacher, BadOptionsAreNamedBeforeAnyWork) {

@@ -100,9 +100,9 @@ Command add_train(CLI::App& app) {
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
       if (a->subsample < 0) throw Error("--subsample must be >= 0");
       const bool automatic = a->teacher == "auto";
-      const bool teaches = automatic ? o.name == "gip" && (a->preset.empty() || a->preset == "default") && !mpi && o.gp.inducing_points == 0 &&
-                                           o.gp.warm_start_rows == 0 && o.gp.mean == MeanKind::Zero &&
-                                           !o.robot_prior.robot
+      // --distributed sets the backend below; a preset other than default chose its own estimator.
+      const bool teaches = automatic ? (a->preset.empty() || a->preset == "default") && !mpi &&
+                                           automatic_teaching_applies(o)
                                      : a->teacher != "none";
       if (teaches) {
         if (mpi) throw Error("--teacher is not distributed: train without --distributed, or without --teacher");

@@ -151,9 +151,11 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     motion this gives a GIP model that extrapolates like LIP and answers like
     GIP: docs/training.md; "auto", `gipdyn train`'s default: "lip" on a log of
     at most 14000 torque values (rows x joints), the taught model kept only if
-    it fits (X, Y) as LIP does, else learned from (X, Y); after fit, teaching_
-    says which: "taught", "student missed the log", "log too long", "teacher
-    failed" or "no teacher"), teacher_states, teacher_hyperparameter_rows (the
+    it fits (X, Y) as LIP does, else learned from (X, Y), and only for the gip
+    kernel's exact GP without mean, robot, warm start or distributed; after
+    fit, teaching_ says which: "taught", "student missed the log", "log too
+    long", "teacher failed", "student failed", "not applicable" or "no
+    teacher"), teacher_states, teacher_hyperparameter_rows (the
     teacher learns its hyperparameters on that many rows, 0: all),
     student_hyperparameter_rows (with a teacher, the student learns its
     hyperparameters on that many of the drawn states, 0: all; a
@@ -302,49 +304,26 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         rows = self._training_rows(X.shape[0])
         if rows is not None:
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
-        options = self.train_options()
         teacher = self.teacher_options()
-        self.teaching_ = "no teacher"
-        if teacher is not None and not teacher.teaches(X.shape[0], self.n_joints):
-            teacher, self.teaching_ = None, "log too long"
-        X_log, Y_log, log_options = X, Y, options
+        if teacher is not None and self.distributed:
+            raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
+        fit = _core.fit(X, Y, str(self.joints), self.train_options(), teacher, bool(self.verbose))
+        self.model_ = fit["model"]
+        self.teaching_ = fit["teaching"]
         if teacher is not None:
-            if self.distributed:
-                raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
-            automatic = teacher.mode == _core.TeachingMode.automatic
-            try:
-                lesson = _core.teach(X, Y, str(self.joints), teacher, options, bool(self.verbose))
-            except ValueError:
-                # As the library's TeachingMode.automatic: a teacher that cannot start (e.g. LIP's memory) does not
-                # stop a fit the estimator alone can make; bad data raise again from that fit.
-                if not automatic:
-                    raise
-                lesson = {"X": np.zeros((0, X.shape[1])), "tau": np.zeros((0, Y.shape[1])), "teacher": None,
-                          "teacher_report": [], "label_noise_std": np.zeros(0)}  # as _core.teach's for a failed teacher
             self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
-            if lesson["teacher"] is not None:
+            if fit["teacher"] is not None:
                 self.teacher_ = LagrangianGP(joints=self.joints, friction=teacher.name == "lip+friction")
-                self.teacher_.model_ = lesson["teacher"]
+                self.teacher_.model_ = fit["teacher"]
                 self.teacher_._set_fitted_attributes()
-                _warn_unconverged_joints(lesson["teacher"], f"teacher {teacher.name}: ")
-            self.teacher_report_ = lesson["teacher_report"]
-            self.label_noise_std_ = lesson["label_noise_std"]
-            if lesson["X"].shape[0] == 0 and automatic:
-                teacher, self.teaching_ = None, "teacher failed"
-            else:
-                X, Y = np.asfortranarray(lesson["X"]), np.asfortranarray(lesson["tau"])
-                options = teacher.student_train_options(options)
-                self.teaching_ = "taught"
-        self.model_ = _core.train(X, Y, str(self.joints), options, bool(self.verbose))
-        if teacher is not None:
-            self.teaching_check_ = _core.check_teaching(
-                Y_log, self.label_noise_std_, np.asfortranarray(self.model_.predict(X_log)), teacher.name)
-            if automatic and not self.teaching_check_["passed"]:
-                # The library's TeachingMode.automatic: the taught model misses the log, so learn from the log.
-                self.teaching_ = "student missed the log"
-                self.model_ = _core.train(X_log, Y_log, str(self.joints), log_options, bool(self.verbose))
-            elif self.teaching_check_["warning"]:
-                warnings.warn(self.teaching_check_["warning"], TeachingWarning, stacklevel=2)
+            self.teacher_report_ = fit["teacher_report"]
+            self.label_noise_std_ = fit["label_noise_std"]
+            self.teaching_check_ = fit["teaching_check"]  # None unless a taught model was checked
+            if self.teaching_ == "taught":  # a teaching not kept has no say in the model
+                if fit["teacher"] is not None:
+                    _warn_unconverged_joints(fit["teacher"], f"teacher {teacher.name}: ")
+                if self.teaching_check_["warning"]:
+                    warnings.warn(self.teaching_check_["warning"], TeachingWarning, stacklevel=2)
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)

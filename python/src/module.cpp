@@ -15,6 +15,7 @@
 #include "gipdyn/data_consistency.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -97,8 +98,8 @@ struct Model {
   const InverseDynamicsModel* model;
   std::unique_ptr<PredictionWorkspace> workspace;
   std::mutex workspace_mutex;
-  explicit Model(InverseDynamicsModel m)
-      : estimator(std::make_shared<const GpEstimator>(std::move(m))), model(&estimator->model()) {}
+  explicit Model(InverseDynamicsModel m) : Model(std::make_shared<const GpEstimator>(std::move(m))) {}
+  explicit Model(std::shared_ptr<const GpEstimator> e) : estimator(std::move(e)), model(&estimator->model()) {}
 };
 
 // (rows, n, n) NumPy array of the inertia matrices.
@@ -131,13 +132,6 @@ auto fit_without_gil(bool verbose, Fit&& fit) {
   if (!r.report.ok()) throw Error("training failed: " + r.report.message);
   if (verbose) std::fprintf(stderr, "%s", r.report.brief_report().c_str());
   return r;
-}
-
-std::shared_ptr<Model> train(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
-                             bool verbose) {
-  const JointTypes jt = JointTypes::parse(joints);
-  TrainResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return train_model(X, Y, jt, options, cb); });
-  return std::make_shared<Model>(std::move(r.model));
 }
 
 std::shared_ptr<Model> refit(const Model& model, const TrainOptions& options, bool verbose) {
@@ -213,35 +207,47 @@ std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const 
   return m;
 }
 
-// The teacher's labelled states (estimators/teacher.hpp) and the teacher, a
-// LagrangianModel when it is lip or lip+friction (else None).
-py::dict teach_states(ConstRef X, ConstRef Y, const std::string& joints, const TeacherOptions& options,
-                      const TrainOptions& student, bool verbose) {
-  const JointTypes jt = JointTypes::parse(joints);
-  const Eigen::MatrixXd Xm = X, Ym = Y;
-  struct Outcome {
-    FitReport report;
-    TeachingSet set;
-  };
-  Outcome r = fit_without_gil(verbose, [&](const ProgressCallback& cb) {
-    Outcome o;
-    o.set = teach(options, student, Xm, Ym, jt, cb);
-    o.report = o.set.teacher_report;
-    return o;
-  });
+py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teacher) {
   py::dict d;
-  d["X"] = r.set.X;
-  d["tau"] = r.set.Y;
-  d["label_noise_std"] = r.set.label_noise_std;
-  d["teacher_report"] = report_to_list(r.set.teacher_report.joints);
+  d["teacher_nmse"] = c.teacher_nmse;
+  d["student_nmse"] = c.student_nmse;
+  d["warning"] = c.warning(teacher);
+  d["passed"] = c.passed();
+  return d;
+}
+
+// InverseDynamicsGP.fit: the library's fit_estimator for a GP kernel, taught or
+// not: {model, teaching, teacher (a LagrangianModel when the teacher is lip or
+// lip+friction and fitted, else None), teacher_report, label_noise_std,
+// teaching_check (None unless a taught model was checked)}.
+py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
+                const std::optional<TeacherOptions>& teacher, bool verbose) {
+  const JointTypes jt = JointTypes::parse(joints);
+  EstimatorOptions o;
+  o.name = options.kernel;
+  o.gp = options;
+  o.robot_prior = options.robot_prior;
+  o.teacher = teacher;
+  const Eigen::MatrixXd Xm = X, Ym = Y;
+  FitResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return fit_estimator(o, Xm, Ym, jt, cb); });
+  auto* gp = dynamic_cast<GpEstimator*>(r.estimator.get());
+  if (!gp) throw Error("'" + o.name + "' is not a GP kernel; use LagrangianGP for lip");
+  r.estimator.release();
+  py::dict d;
+  d["model"] = std::make_shared<Model>(std::shared_ptr<const GpEstimator>(gp));
+  d["teaching"] = to_string(r.teaching);
+  d["label_noise_std"] = r.label_noise_std;
+  d["teacher_report"] = r.teacher_report ? report_to_list(r.teacher_report->joints) : py::list();
   d["teacher"] = py::none();
-  if (auto* lip = dynamic_cast<LagrangianEstimator*>(r.set.teacher.get())) {
+  if (auto* lip = dynamic_cast<LagrangianEstimator*>(r.teacher.get())) {
     auto m = std::make_shared<LagrangianModel>();
-    r.set.teacher.release();
+    r.teacher.release();
     m->estimator.reset(lip);
-    m->report = r.set.teacher_report.joints;
+    m->report = r.teacher_report->joints;
     d["teacher"] = m;
   }
+  d["teaching_check"] = py::none();
+  if (r.teaching_check) d["teaching_check"] = teaching_check_to_dict(*r.teaching_check, teacher->name);
   return d;
 }
 
@@ -564,26 +570,10 @@ PYBIND11_MODULE(_core, m) {
            "The student's TrainOptions: `student` with its hyperparameter subsample")
       .def_readwrite("seed", &TeacherOptions::seed)
       .def("validate", &TeacherOptions::validate);
-  m.def(
-      "check_teaching",
-      [](ConstRef Y, const Eigen::VectorXd& teacher_residual_rms, ConstRef student_prediction,
-         const std::string& teacher) {
-        const TeachingCheck c = check_teaching(Y, teacher_residual_rms, student_prediction);
-        py::dict d;
-        d["teacher_nmse"] = c.teacher_nmse;
-        d["student_nmse"] = c.student_nmse;
-        d["warning"] = c.warning(teacher);
-        d["passed"] = c.passed();
-        return d;
-      },
-      py::arg("Y"), py::arg("teacher_residual_rms"), py::arg("student_prediction"), py::arg("teacher"),
-      "The teacher's and the student's nMSE on the logged rows, and the library's warning when the student misses "
-      "the log its teacher fits: {teacher_nmse, student_nmse, warning} (gipdyn/estimators/teacher.hpp)");
-  m.def("teach", &teach_states, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
-        py::arg("student"), py::arg("verbose") = false,
-        "Fits the teacher on (X, Y) and labels options.states states drawn from X's box with its torques plus noise "
-        "at its residual level: {X, tau, label_noise_std, teacher_report, teacher} (gipdyn/estimators/teacher.hpp)");
-  m.def("train", &train, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("verbose") = false);
+  m.def("fit", &fit_gp, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
+        py::arg("verbose") = false,
+        "Fits a GP estimator (options.kernel), taught by `teacher` unless None (gipdyn/estimators/fit_estimator.hpp): "
+        "{model, teaching, teacher, teacher_report, label_noise_std, teaching_check}");
   m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "
         "(kernel, robot, scaling and mean from the model; optimiser settings from options)");

@@ -2,6 +2,7 @@
 
 #include <chrono>
 #include <cmath>
+#include <new>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
@@ -80,13 +81,21 @@ Fit fit_function(EstimatorFamily family) {
 
 }  // namespace
 
+bool automatic_teaching_applies(const EstimatorOptions& options) {
+  const TrainOptions& gp = options.gp;
+  return options.name == "gip" && gp.inducing_points == 0 && gp.warm_start_rows == 0 && gp.mean == MeanKind::Zero &&
+         !options.robot_prior.robot && !gp.nll_backend;
+}
+
 std::string to_string(TeachingOutcome outcome) {
   switch (outcome) {
     case TeachingOutcome::NoTeacher: return "no teacher";
     case TeachingOutcome::Taught: return "taught";
     case TeachingOutcome::LogTooLong: return "log too long";
     case TeachingOutcome::TeacherFailed: return "teacher failed";
+    case TeachingOutcome::StudentFailed: return "student failed";
     case TeachingOutcome::StudentMissedLog: return "student missed the log";
+    case TeachingOutcome::NotApplicable: return "not applicable";
   }
   return "?";
 }
@@ -99,10 +108,15 @@ std::string describe(TeachingOutcome outcome, const std::string& teacher_name) {
       return "learned from the log: it is longer than TeacherOptions::automatic_max_log_values, and a long log "
              "fills more of its box by itself";
     case TeachingOutcome::TeacherFailed: return "learned from the log: the teacher " + teacher_name + " failed to fit it";
+    case TeachingOutcome::StudentFailed:
+      return "learned from the log: its fit on the torques of " + teacher_name + " failed";
     case TeachingOutcome::StudentMissedLog:
       return "learned from the log: the model taught by " + teacher_name +
              " fitted the logged rows far worse than its teacher (the log's states fill too little of their box, "
              "as on a real robot's log)";
+    case TeachingOutcome::NotApplicable:
+      return "learned from the log: automatic teaching is for the gip kernel's exact GP without a mean, nominal "
+             "robot, warm start or distributed backend";
   }
   return "";
 }
@@ -115,17 +129,21 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
   EstimatorOptions on_log = options;
   on_log.teacher.reset();
   FitResult result;
-  if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
-    const bool automatic = options.teacher->mode == TeachingMode::Automatic;
+  const bool automatic = options.teacher && options.teacher->mode == TeachingMode::Automatic;
+  if (automatic && !automatic_teaching_applies(options)) {
+    result = fit(on_log, X, Y, joints, progress);
+    result.teaching = TeachingOutcome::NotApplicable;
+  } else if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
     TeachingSet lesson;
     try {
       lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
-    } catch (const Error& e) {
+    } catch (const std::exception& e) {
       // Automatic teaching is an option the user did not ask for: a teacher
-      // that cannot start (e.g. LIP's (N n)^2 system beyond the memory left)
-      // must not stop a fit that the estimator alone can make. Bad data or
-      // options throw again from that fit.
-      if (!automatic) throw;
+      // that cannot start (e.g. LIP's (N n)^2 system beyond the memory left,
+      // refused by its memory check or, where that check underestimates,
+      // std::bad_alloc) must not stop a fit that the estimator alone can make.
+      // Bad data or options throw again from that fit.
+      if (!automatic || !(dynamic_cast<const Error*>(&e) || dynamic_cast<const std::bad_alloc*>(&e))) throw;
       lesson.teacher_report.status = FitStatus::Failed;
       lesson.teacher_report.message = "the teacher " + options.teacher->name + " failed: " + e.what();
     }
@@ -148,11 +166,12 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
         FitResult own = fit(on_log, X, Y, joints, progress);
         own.label_noise_std = std::move(result.label_noise_std);
         own.teaching_check = std::move(result.teaching_check);
-        own.teaching = TeachingOutcome::StudentMissedLog;
+        own.teaching = result.report.ok() ? TeachingOutcome::StudentMissedLog : TeachingOutcome::StudentFailed;
         result = std::move(own);
       }
     }
     result.teacher_report = std::move(lesson.teacher_report);
+    result.teacher = std::move(lesson.teacher);
   } else {
     result = fit(on_log, X, Y, joints, progress);
     if (options.teacher) result.teaching = TeachingOutcome::LogTooLong;

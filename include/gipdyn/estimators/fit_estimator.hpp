@@ -38,8 +38,17 @@ enum class TeachingOutcome {
   Taught,            // the estimator learned from the teacher's torques
   LogTooLong,        // TeachingMode::Automatic, a log longer than automatic_max_log_values: learned from the log
   TeacherFailed,     // TeachingMode::Automatic, the teacher's fit failed: learned from the log
+  StudentFailed,     // TeachingMode::Automatic, the student's fit on the teacher's torques failed: learned from the log
   StudentMissedLog,  // TeachingMode::Automatic, the taught model failed its TeachingCheck: learned from the log
+  NotApplicable,     // TeachingMode::Automatic for options automatic_teaching_applies refuses: learned from the log
 };
+
+// Where TeachingMode::Automatic teaches: the gip kernel's exact GP on one
+// process, with no mean, nominal robot or warm start (docs/training.md, "GIP
+// taught by LIP"). Elsewhere the estimator already carries what the teacher
+// would add (a robot prior, a mean), or learns from a log long enough for the
+// sparse or distributed fit, and the automatic teacher is not measured there.
+bool automatic_teaching_applies(const EstimatorOptions& options);
 
 // "taught", "log too long", ...; and one line saying what it means for the model.
 std::string to_string(TeachingOutcome outcome);
@@ -51,6 +60,7 @@ struct FitResult {
   // With EstimatorOptions::teacher: the teacher's fit and the label noise
   // (per joint) of the states the estimator learned from.
   std::optional<FitReport> teacher_report;
+  std::unique_ptr<Estimator> teacher;  // the fitted teacher; null unless teacher_report->ok()
   Eigen::VectorXd label_noise_std;
   // With a teacher and a fitted student: the two's nMSE on the logged rows (its
   // warning() says when the student misses the log its teacher fits).
@@ -63,7 +73,8 @@ struct FitResult {
 
 // Fits the named estimator (with a teacher: the teacher, then the estimator on
 // its labelled states; a teacher that fails fails the fit, unless
-// TeachingMode::Automatic, which then learns from the log). Bad options or data throw gipdyn::Error before any
+// TeachingMode::Automatic, which then learns from the log, as it does for
+// options automatic_teaching_applies refuses). Bad options or data throw gipdyn::Error before any
 // work; a numerical failure is reported in FitResult::report. progress may be
 // called from worker threads; it ends with one finished event for the whole fit.
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

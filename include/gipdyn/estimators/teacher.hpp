@@ -30,7 +30,8 @@ enum class TeachingMode {
   // estimator learns from the log itself. On a short simulated motion the
   // taught model passes and extrapolates like its teacher; on a real robot's
   // log it misses the log and the estimator's own fit is kept
-  // (docs/training.md, "GIP taught by LIP").
+  // (docs/training.md, "GIP taught by LIP"). fit_estimator teaches in this mode
+  // only where automatic_teaching_applies (fit_estimator.hpp).
   Automatic,
 };
 
