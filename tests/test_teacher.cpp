@@ -203,6 +203,15 @@ TEST(Teacher, TheWarningNamesOnlyTheJointsPastTheGap) {
   check.student_nmse(2) = 0.02;
   EXPECT_EQ(check.warning("lip"), "");
   EXPECT_TRUE(check.passed());
+  // A joint whose torque is mostly noise: past the gap, but the student adds a
+  // seventh of its teacher's residual, not another residual's worth.
+  check.teacher_nmse(1) = 0.955;
+  check.student_nmse(1) = 1.09;
+  EXPECT_EQ(check.warning("lip"), "");
+  EXPECT_TRUE(check.passed());
+  check.student_nmse(1) = 2.0 * 0.955 + 0.01;
+  EXPECT_NE(check.warning("lip").find("joint 2 ("), std::string::npos);
+  EXPECT_FALSE(check.passed());
   EXPECT_NE(test::error_of([&] { check_teaching(Eigen::MatrixXd::Ones(3, 2), Eigen::VectorXd::Ones(2),
                                                 Eigen::MatrixXd::Ones(3, 1)); }),
             "");

@@ -162,7 +162,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     hyperparameter_rows above 0 wins; after fit, teaching_check_ holds the
     teacher's and the student's nMSE on (X, Y), and a TeachingWarning says
     when the student misses that log by more than 0.1 of a joint's torque
-    variance where its teacher does not, as on real robots' logs)
+    variance and by more than twice its teacher's error, as on real robots'
+    logs)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first

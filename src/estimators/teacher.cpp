@@ -83,7 +83,8 @@ namespace {
 
 // False where either nMSE is NaN (a joint whose logged torque is constant).
 bool student_misses_joint(const TeachingCheck& check, Eigen::Index j) {
-  return check.student_nmse(j) - check.teacher_nmse(j) > kTaughtNmseGapWarning;
+  return check.student_nmse(j) - check.teacher_nmse(j) > kTaughtNmseGapWarning &&
+         check.student_nmse(j) > kTaughtResidualRatioWarning * check.teacher_nmse(j);
 }
 
 }  // namespace
