@@ -1,5 +1,7 @@
 #include "data_option.hpp"
 
+#include <optional>
+
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/dataset.hpp"
@@ -18,16 +20,36 @@ void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable
 }
 
 JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable) {
-  if (!joints.empty()) return JointTypes::parse(joints);
+  if (!joints.empty()) {
+    const JointTypes given = JointTypes::parse(joints);
+    if (mat_variable.empty()) {
+      std::optional<JointTypes> recorded;
+      try {
+        recorded = sidecar_joint_types(path);
+      } catch (const Error&) {  // --joints says what the unreadable sidecar would have
+      }
+      if (recorded && recorded->str() != given.str())
+        print_warnings({"--joints " + given.str() + " differs from the joint types " + recorded->str() + " that '" +
+                        path + ".json' records for this log; using --joints"});
+    }
+    return given;
+  }
   std::string found;
   if (mat_variable.empty()) {
     const int n = joint_column_count(read_csv_header(path));
+    if (const std::optional<JointTypes> recorded = sidecar_joint_types(path)) {
+      if (static_cast<int>(recorded->size()) != n)
+        throw Error("'" + path + ".json' records " + std::to_string(recorded->size()) + " joint types (" +
+                    recorded->str() + ") but '" + path + "' has " + std::to_string(n) +
+                    " joint(s): give --joints, or the sidecar that belongs to this log");
+      return *recorded;
+    }
     if (n > 0)
-      found = "; '" + path + "' has " + std::to_string(n) + " joint(s) (q1..q" + std::to_string(n) +
-              "), e.g. --joints " + std::string(static_cast<size_t>(n), 'R');
+      found = "; '" + path + "' has " + std::to_string(n) + " joint(s) (q1..q" + std::to_string(n) + "), e.g. --joints " +
+              std::string(static_cast<size_t>(n), 'R') + " if every joint is revolute";
   }
   throw Error("--joints is required: the joint types, one letter per joint, R (revolute) or P (prismatic), which a "
-              "log cannot tell apart" + found);
+              "log cannot tell apart (a log written by gipdyn simulate records them in its .json sidecar)" + found);
 }
 
 void warn_about_extrapolation(const Estimator& estimator, const Eigen::MatrixXd& X, const std::string& path) {

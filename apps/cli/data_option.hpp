@@ -15,8 +15,10 @@ namespace gipdyn::cli {
 // (gipdyn/io/mat_dataset.hpp) reads the pair.
 void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, const std::string& csv_help);
 
-// The joint types given with --joints. Without it, an error that says how many joints the CSV's
-// columns name and how to write their types: the file cannot tell revolute from prismatic.
+// The joint types given with --joints (warned about where the log's .json sidecar records others),
+// else those the sidecar records (sidecar_joint_types: simulate writes them). Without either, an
+// error that says how many joints the CSV's columns name and how to write their types: the file
+// cannot tell revolute from prismatic.
 JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable);
 
 // Warns, on stderr, when states of the log at `path` lie well outside the inputs an exact GP model

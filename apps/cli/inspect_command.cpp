@@ -185,7 +185,7 @@ Command add_inspect(CLI::App& app) {
   auto a = std::make_shared<InspectArgs>();
   add_data_option(app, a->data, a->mat_variable, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints,
-                 "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR (required)");
+                 "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR (default: those the log's .json sidecar records, as simulate writes them; else required)");
   app.add_option("--train-rows", a->train_rows, "Training rows FIRST-LAST of --data (1-based data rows; default: all)");
   app.add_option("--test-rows", a->test_rows, "Test rows FIRST-LAST of --data, compared with the training rows");
   app.add_option("--test", a->test, "A test log (same layout) compared with the training rows")->check(CLI::ExistingFile);

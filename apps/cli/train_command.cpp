@@ -39,7 +39,7 @@ struct TrainArgs {
 Command add_train(CLI::App& app) {
   auto a = std::make_shared<TrainArgs>();
   add_data_option(app, a->data, a->mat_variable, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
-  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (required)");
+  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else required)");
   app.add_option("--kernel", a->kernel,
                  "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp), lip (one GP "
                  "over all joints with priors on the energies; train it on a few hundred rows, or learn its hyperparameters "

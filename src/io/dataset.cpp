@@ -1,6 +1,7 @@
 #include "gipdyn/io/dataset.hpp"
 
 #include <fstream>
+#include <nlohmann/json.hpp>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
@@ -75,6 +76,21 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
   if (require_tau) d.tau = all.middleCols(3 * n, n);
   if (require_tau && has_true) d.tau_true = all.middleCols(4 * n, n);
   return d;
+}
+
+std::optional<JointTypes> sidecar_joint_types(const std::string& path) {
+  const std::string sidecar = path + ".json";
+  std::ifstream in(sidecar);
+  if (!in) return std::nullopt;
+  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, false);
+  const auto fix = "repair or delete it, or give the joint types yourself";
+  if (meta.is_discarded()) throw Error("the sidecar '" + sidecar + "' of '" + path + "' is not valid JSON; " + fix);
+  if (!meta.is_object() || !meta.contains("joints") || !meta["joints"].is_string()) return std::nullopt;
+  try {
+    return JointTypes::parse(meta["joints"].get<std::string>());
+  } catch (const Error& e) {
+    throw Error("the sidecar '" + sidecar + "' of '" + path + "' records bad joint types: " + e.what() + "; " + fix);
+  }
 }
 
 }  // namespace gipdyn

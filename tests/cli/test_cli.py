@@ -727,10 +727,36 @@ def test_predict_and_evaluate_warn_about_states_far_outside_the_training_inputs(
         assert len(warned) == 1 and "rows of '" in warned[0] and "qd2 farthest" in warned[0], r.stderr
 
 
+def test_train_and_inspect_take_the_joint_types_a_simulated_logs_sidecar_records(gipdyn_bin, tmp_path):
+    log = tmp_path / "scara.csv"
+    r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "80", "--seed", "1", "--out", str(log), "--quiet")
+    assert r.returncode == 0, r.stderr
+    fit = ("--kernel", "rbf", "--max-iter", "5")
+    r = run(gipdyn_bin, "train", "--data", str(log), *fit, "--out", str(tmp_path / "m.gipdyn"))
+    assert r.returncode == 0 and "differs" not in r.stderr, r.stderr
+    assert "joints RRPR" in r.stdout and model_header(tmp_path / "m.gipdyn")["joints"] == "RRPR"
+    r = run(gipdyn_bin, "inspect", "--data", str(log))
+    assert r.returncode == 0, r.stderr
+    # Joint types that contradict the sidecar are used, with a warning (a likely typo, e.g. RRRR for the SCARA).
+    r = run(gipdyn_bin, "train", "--data", str(log), "--joints", "RRRR", *fit, "--out", str(tmp_path / "r.gipdyn"))
+    assert r.returncode == 0 and "--joints RRRR differs from the joint types RRPR" in r.stderr, r.stderr
+    assert model_header(tmp_path / "r.gipdyn")["joints"] == "RRRR"
+    # A sidecar that does not fit the log, or is not JSON: one line naming it, and no model.
+    for sidecar, expected in (('{"joints": "RRR"}', "records 3 joint types (RRR) but"), ("{", "is not valid JSON")):
+        (tmp_path / "scara.csv.json").write_text(sidecar)
+        r = run(gipdyn_bin, "train", "--data", str(log), *fit, "--out", str(tmp_path / "bad.gipdyn"))
+        assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+        assert expected in r.stderr and "scara.csv.json" in r.stderr, r.stderr
+        assert not (tmp_path / "bad.gipdyn").exists()
+        # With --joints the sidecar is only a cross-check (this one's RRR is warned about).
+        r = run(gipdyn_bin, "inspect", "--data", str(log), "--joints", "RRPR")
+        assert r.returncode == 0, r.stderr
+
+
 def test_train_and_inspect_without_joints_say_how_many_the_log_has(trained, gipdyn_bin, tmp_path):
     d, _, _ = trained
     for command in (["train", "--out", str(tmp_path / "m.gipdyn")], ["inspect"]):
         r = run(gipdyn_bin, command[0], "--data", str(d / "train.csv"), *command[1:])
         assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
-        assert "--joints is required" in r.stderr and "has 2 joint(s) (q1..q2), e.g. --joints RR" in r.stderr
+        assert "--joints is required" in r.stderr and "has 2 joint(s) (q1..q2), e.g. --joints RR if" in r.stderr
     assert not (tmp_path / "m.gipdyn").exists()

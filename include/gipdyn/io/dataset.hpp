@@ -4,6 +4,7 @@
 // (noise-free torques from `gipdyn simulate`) are read when present; other
 // columns are ignored.
 #include <Eigen/Dense>
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -36,6 +37,13 @@ int joint_column_count(const CsvHeader& header);
 // chose them.
 void require_joint_columns(const CsvHeader& header, const std::string& path, const JointTypes& joints,
                            const std::string& joints_owner = "");
+
+// The joint types a log's sidecar (PATH.json beside the CSV, written by
+// write_csv_with_sidecar) records as a string under "joints", e.g. "RRPR"
+// (simulate writes it): nullopt without a sidecar or without such a string
+// (preprocess records a joint count there). Throws gipdyn::Error naming the
+// sidecar when it is not valid JSON or its string is not joint types.
+std::optional<JointTypes> sidecar_joint_types(const std::string& path);
 
 // Throws gipdyn::Error for a MATLAB file, a missing column, a joint count that does not match
 // the file (e.g. joints RRPR on a file with q5; joints_owner as above), bad cells or no rows.
