@@ -222,6 +222,7 @@ py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teach
 // teaching_check (None unless a taught model was checked)}.
 py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
                 const std::optional<TeacherOptions>& teacher, bool verbose) {
+  require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
   const JointTypes jt = JointTypes::parse(joints);
   EstimatorOptions o;
   o.name = options.kernel;
@@ -231,7 +232,7 @@ py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOp
   const Eigen::MatrixXd Xm = X, Ym = Y;
   FitResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return fit_estimator(o, Xm, Ym, jt, cb); });
   auto* gp = dynamic_cast<GpEstimator*>(r.estimator.get());
-  if (!gp) throw Error("'" + o.name + "' is not a GP kernel; use LagrangianGP for lip");
+  if (!gp) throw Error("internal: kernel '" + o.name + "' did not give a GP estimator");
   r.estimator.release();
   py::dict d;
   d["model"] = std::make_shared<Model>(std::shared_ptr<const GpEstimator>(gp));
