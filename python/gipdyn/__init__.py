@@ -566,14 +566,21 @@ class LagrangianGP(InverseDynamicsGP):
         raise TypeError("a LagrangianGP cannot be pickled; use save(path) and LagrangianGP.load(path)")
 
 
-def read_log(path, joints, mat_variable=None, torques=True):
+def read_log(path, joints=None, mat_variable=None, torques=True):
     """Read a robot log as the command line does: a CSV with columns q1..qn,
     qd1..qdn, qdd1..qddn and tau1..taun (any order and separator; README.md,
     "Data files"), or, with mat_variable, that matrix of a MATLAB .mat file
-    (columns by position). joints is the joint-type string ("RRPR"). Returns a
-    dict of NumPy arrays q, qd, qdd, X (= [q, qd, qdd]), tau (None when
-    torques=False) and tau_true (None unless the file has tau1_true..).
-    Errors (a missing column, NaN, a wrong joint count) raise GipdynError."""
+    (columns by position). joints is the joint-type string ("RRPR"); None:
+    the types the CSV's PATH.json sidecar records (`gipdyn simulate` writes
+    them). Returns a dict of NumPy arrays q, qd, qdd, X (= [q, qd, qdd]), tau
+    (None when torques=False) and tau_true (None unless the file has
+    tau1_true..), and joints. Errors (a missing column, NaN, a wrong joint
+    count) raise GipdynError."""
+    if joints is None:
+        joints = None if mat_variable else _core.sidecar_joint_types(str(path))
+        if joints is None:
+            raise ValueError(f"joints is required for '{path}': one 'R' (revolute) or 'P' (prismatic) per joint, which "
+                             "a log cannot tell apart (a log written by gipdyn simulate records them in its .json sidecar)")
     return _core.read_log(str(path), str(joints), mat_variable or "", bool(torques))
 
 

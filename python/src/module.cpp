@@ -637,9 +637,19 @@ PYBIND11_MODULE(_core, m) {
         out["X"] = d.X;
         out["tau"] = d.tau.size() ? py::cast(d.tau) : py::none();
         out["tau_true"] = d.tau_true.size() ? py::cast(d.tau_true) : py::none();
+        out["joints"] = types.str();
         return out;
       },
       py::arg("path"), py::arg("joints"), py::arg("mat_variable") = "", py::arg("require_tau") = true);
+  m.def(
+      "sidecar_joint_types",
+      [](const std::string& path) -> std::optional<std::string> {
+        if (const std::optional<JointTypes> t = sidecar_joint_types(path)) return t->str();
+        return std::nullopt;
+      },
+      py::arg("path"),
+      "The joint types the log's PATH.json sidecar records (gipdyn simulate writes them), or None "
+      "(gipdyn/io/dataset.hpp)");
 
   py::class_<SimulationOptions>(m, "SimulationOptions")
       .def(py::init<>())

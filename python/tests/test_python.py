@@ -232,6 +232,15 @@ def test_read_log_reads_what_the_command_line_reads(tmp_path):
         gipdyn.read_log(csv, "RRPRRR")
     with pytest.raises(gipdyn.GipdynError, match=r"read it with gipdyn.read_log\(path, joints, mat_variable=NAME\)"):
         gipdyn.read_log(tmp_path / "log.mat", "RRPR")
+    # Without joints: those the CSV's sidecar records, as gipdyn simulate writes it.
+    with pytest.raises(ValueError, match="joints is required for"):
+        gipdyn.read_log(csv)
+    (tmp_path / "log.csv.json").write_text('{"generator": "gipdyn simulate", "joints": "RRPR"}')
+    assert log["joints"] == "RRPR" and gipdyn.read_log(csv)["joints"] == "RRPR"
+    np.testing.assert_array_equal(gipdyn.read_log(csv)["X"], data["X"])
+    (tmp_path / "log.csv.json").write_text('{"joints": "RRXR"}')
+    with pytest.raises(gipdyn.GipdynError, match="log.csv.json' of .* records bad joint types"):
+        gipdyn.read_log(csv)
 
 
 def test_version_is_the_projects():
