@@ -135,17 +135,22 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
     result.teaching = TeachingOutcome::NotApplicable;
   } else if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
     TeachingSet lesson;
-    try {
-      lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
-    } catch (const std::exception& e) {
-      // Automatic teaching is an option the user did not ask for: a teacher
-      // that cannot start (e.g. LIP's (N n)^2 system beyond the memory left,
-      // refused by its memory check or, where that check underestimates,
-      // std::bad_alloc) must not stop a fit that the estimator alone can make.
-      // Bad data or options throw again from that fit.
-      if (!automatic || !(dynamic_cast<const Error*>(&e) || dynamic_cast<const std::bad_alloc*>(&e))) throw;
+    // Automatic teaching is an option the user did not ask for: a teacher
+    // that cannot start (e.g. LIP's (N n)^2 system beyond the memory left,
+    // refused by its memory check or, where that check underestimates,
+    // std::bad_alloc) must not stop a fit that the estimator alone can make.
+    // Bad data or options throw again from that fit.
+    const auto teacher_could_not_start = [&](const std::exception& e) {
+      if (!automatic) throw;
       lesson.teacher_report.status = FitStatus::Failed;
       lesson.teacher_report.message = "the teacher " + options.teacher->name + " failed: " + e.what();
+    };
+    try {
+      lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
+    } catch (const Error& e) {
+      teacher_could_not_start(e);
+    } catch (const std::bad_alloc& e) {
+      teacher_could_not_start(e);
     }
     if (!lesson.teacher_report.ok()) {
       if (automatic) {
