@@ -306,7 +306,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         if rows is not None:
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
         teacher = self.teacher_options()
-        if teacher is not None and self.distributed:
+        if teacher is not None and self.distributed and teacher.mode == _core.TeachingMode.always:
+            # teacher="auto" steps aside for a distributed fit (automatic_teaching_applies), as train's default does.
             raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
         fit = _core.fit(X, Y, str(self.joints), self.train_options(), teacher, bool(self.verbose))
         self.model_ = fit["model"]

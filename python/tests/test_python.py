@@ -595,18 +595,19 @@ def test_distributed_fit_under_mpirun_gives_the_in_process_model(tmp_path):
     script.write_text(
         "import sys, numpy as np, gipdyn\n"
         "d = gipdyn.simulate('scara', samples=220, seed=31)\n"
-        "est = gipdyn.InverseDynamicsGP(joints='RRPR', max_iter=12, min_noise=1e-3, threads=1, distributed=True)\n"
+        "est = gipdyn.InverseDynamicsGP(joints='RRPR', max_iter=12, min_noise=1e-3, threads=1, distributed=True,\n"
+        "                               teacher='auto')\n"
         "est.fit(d['X'], d['tau'])\n"
         "t = gipdyn.simulate('scara', samples=50, seed=32)\n"
         "if gipdyn.mpi_rank() == 0:\n"
         "    np.save(sys.argv[1], est.predict(t['X']))\n"
-        "    print('processes', gipdyn.mpi_size())\n")
+        "    print('processes', gipdyn.mpi_size(), 'teaching', est.teaching_)\n")
     env = dict(os.environ, OMPI_ALLOW_RUN_AS_ROOT="1", OMPI_ALLOW_RUN_AS_ROOT_CONFIRM="1")
     out = tmp_path / "pred.npy"
     r = subprocess.run([MPIRUN, "-np", "2", "--oversubscribe", sys.executable, str(script), str(out)],
                        capture_output=True, text=True, timeout=300, env=env)
     assert r.returncode == 0, r.stderr
-    assert "processes 2" in r.stdout
+    assert "processes 2 teaching not applicable" in r.stdout  # teacher="auto" steps aside for a distributed fit
     d = gipdyn.simulate("scara", samples=220, seed=31)
     single = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=12, min_noise=1e-3, threads=1).fit(d["X"], d["tau"])
     a = single.predict(gipdyn.simulate("scara", samples=50, seed=32)["X"])
@@ -615,6 +616,9 @@ def test_distributed_fit_under_mpirun_gives_the_in_process_model(tmp_path):
 
 
 def test_distributed_options_that_cannot_work_are_refused_by_name():
+    d = gipdyn.simulate("scara", samples=60, seed=33)
+    with pytest.raises(ValueError, match="teacher is not distributed"):  # before MPI starts
+        gipdyn.InverseDynamicsGP(joints="RRPR", distributed=True, teacher="lip").fit(d["X"], d["tau"])
     # In a child process: MPI, once initialised, would stay in this one.
     code = ("import gipdyn\n"
             "d = gipdyn.simulate('scara', samples=60, seed=33)\n"
