@@ -145,8 +145,16 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
   // A joint whose logged torque never changes (locked, or a dead sensor) tells
   // the teacher nothing but that value; its predictions there differ from it
   // by rounding, which the student would take for a signal of variance 1e-20.
-  for (Eigen::Index j = 0; j < Y.cols(); ++j)
-    if (Y.col(j).maxCoeff() == Y.col(j).minCoeff()) set.Y.col(j).setConstant(Y(0, j));
+  // Likewise, where the teacher calls nearly all of a joint's logged variance
+  // noise (kTeacherNoiseShareForMeanLabels), its torques away from the log are
+  // the extrapolation of what it did not learn: the student gets the logged mean.
+  for (Eigen::Index j = 0; j < Y.cols(); ++j) {
+    const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
+    if (Y.col(j).maxCoeff() == Y.col(j).minCoeff())
+      set.Y.col(j).setConstant(Y(0, j));
+    else if (set.label_noise_std(j) * set.label_noise_std(j) >= kTeacherNoiseShareForMeanLabels * variance)
+      set.Y.col(j).setConstant(Y.col(j).mean());
+  }
   return set;
 }
 

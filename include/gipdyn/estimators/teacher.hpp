@@ -77,11 +77,22 @@ struct TeacherOptions {
   TrainOptions student_train_options(const TrainOptions& student) const;
 };
 
+// Where the teacher's residual on the log is at least this share of a
+// joint's logged torque variance, the teacher has learned (almost) nothing of
+// that joint, and its torques at the drawn states are extrapolation of noise:
+// that joint is labelled with its logged mean instead. On the simulated UR10
+// the wrist's joint 6, whose torque is a tenth of the noise, had LIP at
+// 0.955 of the variance on the log and 1.8 on a new motion, and its student,
+// learning LIP's torques over the box, at 9.1 (docs/training.md).
+inline constexpr double kTeacherNoiseShareForMeanLabels = 0.8;
+
 struct TeachingSet {
   FitReport teacher_report;
   std::unique_ptr<Estimator> teacher;  // null unless teacher_report.ok()
   Eigen::MatrixXd X;                   // TeacherOptions::states x 3n: the drawn states
-  Eigen::MatrixXd Y;                   // states x n: the teacher's torques plus label noise
+  // states x n: the teacher's torques plus label noise; a joint's logged mean
+  // (its constant) where the teacher learned nothing of it (kTeacherNoiseShareForMeanLabels)
+  Eigen::MatrixXd Y;
   // Per joint: the root mean square of the teacher's residual on the logged
   // rows, the standard deviation of the label noise.
   Eigen::VectorXd label_noise_std;
