@@ -91,7 +91,7 @@ TEST(Teacher, AJointWhoseTorqueTheTeacherCallsNoiseIsLabelledWithItsLoggedMean) 
   // Joint 2's logged torque is noise around a constant: the teacher learns
   // nothing of it, and its torques at drawn states would be extrapolation of
   // that nothing. Joint 1 keeps its teacher's torques.
-  const Eigen::MatrixXd X = two_link_trajectory(150, 0.15, 1);
+  const Eigen::MatrixXd X = two_link_trajectory(400, 0.15, 1);
   Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 2);
   Y.col(1) = test::with_noise(Eigen::MatrixXd::Constant(X.rows(), 1, 0.25), 0.01, 3);
   TeacherOptions o;
@@ -99,7 +99,8 @@ TEST(Teacher, AJointWhoseTorqueTheTeacherCallsNoiseIsLabelledWithItsLoggedMean) 
   const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
   ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
   const double variance = (Y.col(1).array() - Y.col(1).mean()).square().mean();
-  EXPECT_GE(set.label_noise_std(1) * set.label_noise_std(1), kTeacherNoiseShareForMeanLabels * variance);
+  EXPECT_GE(set.label_noise_std(1) * set.label_noise_std(1), kTeacherNoiseShareForMeanLabels * variance)
+      << "the teacher calls " << set.label_noise_std(1) * set.label_noise_std(1) / variance << " of it noise";
   EXPECT_TRUE((set.Y.col(1).array() == Y.col(1).mean()).all());
   EXPECT_GT(set.Y.col(0).maxCoeff() - set.Y.col(0).minCoeff(), 1.0);
   // A joint the teacher learned keeps the teacher's torques, scattered by its residual.
