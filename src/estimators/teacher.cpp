@@ -60,6 +60,24 @@ TrainOptions TeacherOptions::student_train_options(const TrainOptions& student) 
   return o;
 }
 
+namespace {
+
+// The teacher's MSE on joint j's logged torques over their variance; NaN where
+// the logged torque is constant.
+double teacher_log_nmse(const Eigen::MatrixXd& Y, const Eigen::VectorXd& teacher_residual_rms, Eigen::Index j) {
+  const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
+  if (!(variance > 0.0)) return std::numeric_limits<double>::quiet_NaN();
+  return teacher_residual_rms(j) * teacher_residual_rms(j) / variance;
+}
+
+// False where either nMSE is NaN (a joint whose logged torque is constant).
+bool student_misses_joint(const TeachingCheck& check, Eigen::Index j) {
+  return check.student_nmse(j) - check.teacher_nmse(j) > kTaughtNmseGapWarning &&
+         check.student_nmse(j) > kTaughtResidualRatioWarning * check.teacher_nmse(j);
+}
+
+}  // namespace
+
 TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& teacher_residual_rms,
                              const Eigen::MatrixXd& student_prediction) {
   if (student_prediction.rows() != Y.rows() || student_prediction.cols() != Y.cols() ||
@@ -70,24 +88,11 @@ TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& te
   check.student_nmse = student.nmse;
   check.teacher_nmse.resize(Y.cols());
   for (Eigen::Index j = 0; j < Y.cols(); ++j) {
-    const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
-    const bool constant = !(variance > 0.0);
-    check.teacher_nmse(j) =
-        constant ? std::numeric_limits<double>::quiet_NaN() : teacher_residual_rms(j) * teacher_residual_rms(j) / variance;
-    if (constant) check.student_nmse(j) = std::numeric_limits<double>::quiet_NaN();
+    check.teacher_nmse(j) = teacher_log_nmse(Y, teacher_residual_rms, j);
+    if (std::isnan(check.teacher_nmse(j))) check.student_nmse(j) = std::numeric_limits<double>::quiet_NaN();
   }
   return check;
 }
-
-namespace {
-
-// False where either nMSE is NaN (a joint whose logged torque is constant).
-bool student_misses_joint(const TeachingCheck& check, Eigen::Index j) {
-  return check.student_nmse(j) - check.teacher_nmse(j) > kTaughtNmseGapWarning &&
-         check.student_nmse(j) > kTaughtResidualRatioWarning * check.teacher_nmse(j);
-}
-
-}  // namespace
 
 bool TeachingCheck::passed() const {
   for (Eigen::Index j = 0; j < student_nmse.size(); ++j)
@@ -149,10 +154,9 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
   // noise (kTeacherNoiseShareForMeanLabels), its torques away from the log are
   // the extrapolation of what it did not learn: the student gets the logged mean.
   for (Eigen::Index j = 0; j < Y.cols(); ++j) {
-    const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
     if (Y.col(j).maxCoeff() == Y.col(j).minCoeff())
       set.Y.col(j).setConstant(Y(0, j));
-    else if (set.label_noise_std(j) * set.label_noise_std(j) >= kTeacherNoiseShareForMeanLabels * variance)
+    else if (teacher_log_nmse(Y, set.label_noise_std, j) >= kTeacherNoiseShareForMeanLabels)
       set.Y.col(j).setConstant(Y.col(j).mean());
   }
   return set;
