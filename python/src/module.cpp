@@ -561,14 +561,10 @@ PYBIND11_MODULE(_core, m) {
       .def(py::init<>())
       .def_readwrite("mode", &TeacherOptions::mode)
       .def_readwrite("automatic_max_log_values", &TeacherOptions::automatic_max_log_values)
-      .def("teaches", &TeacherOptions::teaches, py::arg("rows"), py::arg("joints"),
-           "Whether a log of this many rows of this many joints is taught (mode, automatic_max_log_values)")
       .def_readwrite("name", &TeacherOptions::name)
       .def_readwrite("states", &TeacherOptions::states)
       .def_readwrite("hyperparameter_rows", &TeacherOptions::hyperparameter_rows)
       .def_readwrite("student_hyperparameter_rows", &TeacherOptions::student_hyperparameter_rows)
-      .def("student_train_options", &TeacherOptions::student_train_options, py::arg("student"),
-           "The student's TrainOptions: `student` with its hyperparameter subsample")
       .def_readwrite("seed", &TeacherOptions::seed)
       .def("validate", &TeacherOptions::validate);
   m.def("fit", &fit_gp, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
