@@ -780,15 +780,15 @@ TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
             std::string::npos);
 }
 
-// The same numbers saved by a spreadsheet (byte-order mark, CRLF, tabs or
-// semicolons) or by numpy.savetxt (a "# " header, spaces) read alike.
 TEST(Dataset, ASidecarRecordsTheLogsJointTypes) {
   const auto write = write_text_file;
   const std::string log = write("side.csv", "q1,qd1,qdd1,tau1\n1,2,3,4\n");
   std::filesystem::remove(log + ".json");
   EXPECT_FALSE(sidecar_joint_types(log));
+  EXPECT_FALSE(sidecar_generator(log));
   write("side.csv.json", "{\"joints\": 2, \"generator\": \"gipdyn preprocess\"}");  // a count, not types
   EXPECT_FALSE(sidecar_joint_types(log));
+  EXPECT_EQ(sidecar_generator(log).value_or(""), "gipdyn preprocess");
   write("side.csv.json", "{\"joints\": \"RRPR\"}");
   ASSERT_TRUE(sidecar_joint_types(log));
   EXPECT_EQ(sidecar_joint_types(log)->str(), "RRPR");
@@ -796,9 +796,12 @@ TEST(Dataset, ASidecarRecordsTheLogsJointTypes) {
   EXPECT_NE(error_of([&] { sidecar_joint_types(log); }).find("side.csv.json' of"), std::string::npos);
   write("side.csv.json", "{\"joints\": ");
   EXPECT_NE(error_of([&] { sidecar_joint_types(log); }).find("is not valid JSON"), std::string::npos);
+  EXPECT_FALSE(sidecar_generator(log));  // a hint: a broken sidecar is sidecar_joint_types' to report
   std::filesystem::remove(log + ".json");
 }
 
+// The same numbers saved by a spreadsheet (byte-order mark, CRLF, tabs or
+// semicolons) or by numpy.savetxt (a "# " header, spaces) read alike.
 TEST(Dataset, ReadsLogsSavedByOtherToolsAlike) {
   const auto write = write_text_file;
   const JointTypes rr = JointTypes::parse("RR");

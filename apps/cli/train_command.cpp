@@ -3,6 +3,8 @@
 #include <cstdio>
 #include <memory>
 #include <mutex>
+#include <optional>
+#include <string>
 
 #include "commands.hpp"
 #include "data_option.hpp"
@@ -19,6 +21,7 @@
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/parallel_tasks.hpp"
+#include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/training_data.hpp"
 #include "reports/text_format.hpp"
 
@@ -54,7 +57,7 @@ Command add_train(CLI::App& app) {
                  "Start from a named set of options; options given explicitly override it. default, or real: for "
                  "logs of real robots (kernel gip-envelope+friction, at most 1000 rows; docs/real-robots.md)");
   a->estimator.add_to(app, true);
-  auto* teacher = app.add_option(
+  app.add_option(
       "--teacher", a->teacher,
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
       "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
@@ -64,18 +67,18 @@ Command add_train(CLI::App& app) {
       "real robot's log it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
       ->capture_default_str();
   app.add_option("--teacher-states", a->teacher_states,
-                 "With --teacher: states drawn from the log's box (each of q, qd, qdd between its smallest and "
+                 "Where a teacher teaches (--teacher; auto by default): states drawn from the log's box (each of q, qd, qdd between its smallest and "
                  "largest logged value), the student's training rows; --seed draws them")
-      ->capture_default_str()->needs(teacher);
+      ->capture_default_str();
   app.add_option("--teacher-hyperparameter-rows", a->teacher_hyperparameter_rows,
-                 "With --teacher: the teacher learns its hyperparameters on a constant-step subsample of this many "
+                 "Where a teacher teaches (--teacher; auto by default): the teacher learns its hyperparameters on a constant-step subsample of this many "
                  "logged rows, then is conditioned on every row; 0: all rows")
-      ->capture_default_str()->needs(teacher);
+      ->capture_default_str();
   app.add_option("--student-hyperparameter-rows", a->student_hyperparameter_rows,
-                 "With --teacher: the student learns its hyperparameters on a constant-step subsample of this many "
+                 "Where a teacher teaches (--teacher; auto by default): the student learns its hyperparameters on a constant-step subsample of this many "
                  "drawn states (independent draws over the box: a few hundred inform the NLL as well as thousands), "
                  "then is conditioned on every state; 0: all states. --hyperparameter-rows, if given, wins")
-      ->capture_default_str()->needs(teacher);
+      ->capture_default_str();
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   app.add_flag("--distributed", a->distributed,
@@ -104,6 +107,19 @@ Command add_train(CLI::App& app) {
       const bool teaches = automatic ? (a->preset.empty() || a->preset == "default") && !mpi &&
                                            automatic_teaching_applies(o)
                                      : a->teacher != "none";
+      // The teacher's options where no teacher teaches: left over beside --teacher none, but a
+      // misunderstanding beside the default, which the user may have expected to teach.
+      if (!teaches)
+        for (const char* name : {"--teacher-states", "--teacher-hyperparameter-rows", "--student-hyperparameter-rows"}) {
+          if (app.count(name) == 0) continue;
+          if (!automatic) {
+            data_warnings.push_back(std::string(name) + " has no effect: --teacher none trains without a teacher");
+            continue;
+          }
+          throw Error(std::string(name) + " sets up a teacher, and --teacher auto does not teach " + o.name +
+                      " with these options (--kernel gip alone, without --preset real, --inducing, --warm-start-rows, "
+                      "--mean, --robot or --distributed): name a teacher (e.g. --teacher lip), or drop " + name);
+        }
       if (teaches) {
         if (mpi) throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
         TeacherOptions t;
@@ -161,6 +177,13 @@ Command add_train(CLI::App& app) {
                       o.teacher->name.c_str(), o.name.c_str());
       }
       std::printf("\n");
+      // On a robot's log the taught model is almost always thrown away, after the teacher's minutes
+      // (docs/training.md): say so before they are spent, where the log is not a simulated one.
+      if (o.teacher && o.teacher->mode == TeachingMode::Automatic && o.teacher->teaches(data.rows(), joints.size()) &&
+          sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator))
+        std::printf("  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there "
+                    "the model %s teaches is usually thrown away, after %s's fit (minutes on a 6-joint arm)\n",
+                    o.teacher->name.c_str(), o.teacher->name.c_str());
       std::fflush(stdout);
     }
     std::mutex mu;

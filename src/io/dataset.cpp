@@ -93,4 +93,12 @@ std::optional<JointTypes> sidecar_joint_types(const std::string& path) {
   }
 }
 
+std::optional<std::string> sidecar_generator(const std::string& path) {
+  std::ifstream in(path + ".json");
+  if (!in) return std::nullopt;
+  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, false);
+  if (!meta.is_object() || !meta.contains("generator") || !meta["generator"].is_string()) return std::nullopt;
+  return meta["generator"].get<std::string>();
+}
+
 }  // namespace gipdyn

@@ -47,7 +47,7 @@ SimulationResult simulate(const RobotModel& nominal, const SimulationOptions& o)
   if (o.noise_std > 0.0)
     for (Eigen::Index c = 0; c < r.tau.cols(); ++c)
       for (Eigen::Index s = 0; s < r.tau.rows(); ++s) r.tau(s, c) += o.noise_std * noise(rng);
-  r.metadata = {{"generator", "gipdyn simulate"},
+  r.metadata = {{"generator", kSimulationGenerator},
                 {"robot", nominal.name()},
                 {"joints", nominal.joint_types().str()},
                 {"samples", o.samples},

@@ -227,6 +227,8 @@ def test_train_by_default_keeps_lips_teaching_only_where_the_taught_model_fits_t
     assert r.returncode == 0, r.stderr
     assert "taught by lip" in r.stdout and "(--teacher auto; none: no teacher)" in r.stdout
     assert "student gip on the teacher's torques" in r.stdout
+    # A log that simulate did not write may be a robot's: the recommendation for those is said before LIP's fit.
+    assert r.stdout.index("note: on a real robot's log, --preset real is the recommendation") < r.stdout.index("lip on")
     header = model_header(default)
     assert header["teacher"]["mode"] == "automatic" and header["teacher"]["outcome"] == "taught"
     assert header["num_training_samples"] == 2000  # TeacherOptions::states, not the log's 80 rows
@@ -243,8 +245,9 @@ def test_train_by_default_keeps_lips_teaching_only_where_the_taught_model_fits_t
     assert max(s - t for t, s in zip(log_nmse["teacher"], log_nmse["student"])) > 0.1
     # ... the model trained without a teacher, as --teacher none trains it.
     none = tmp_path / "none.gipdyn"
-    r = run(gipdyn_bin, "train", "--data", log, *common, "--teacher", "none", "--out", str(none), "--quiet")
+    r = run(gipdyn_bin, "train", "--data", log, *common, "--teacher", "none", "--out", str(none))
     assert r.returncode == 0, r.stderr
+    assert "--teacher-hyperparameter-rows has no effect: --teacher none trains without a teacher" in r.stderr
     assert "teacher" not in model_header(none)
     test = write_dataset(tmp_path / "test.csv", 30, 2)
     predictions = []
@@ -329,11 +332,13 @@ def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
         assert r.returncode == 0, r.stderr
         predictions.append(csv.read_text())
     assert predictions[0] == predictions[1]
-    # The teacher's options without a teacher are refused by the command line parser.
+    # The teacher's options where the default teacher does not teach: one line that says why, and no model.
     lone = tmp_path / "lone.gipdyn"
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(lone),
-            "--teacher-states", "100")
-    assert r.returncode != 0 and "--teacher-states requires --teacher" in r.stderr and not lone.exists()
+            "--kernel", "rbf", "--teacher-states", "100")
+    assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "--teacher-states sets up a teacher, and --teacher auto does not teach rbf" in r.stderr, r.stderr
+    assert not lone.exists()
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(lone),
             "--teacher", "lip", "--student-hyperparameter-rows", "-1")
     assert r.returncode != 0 and not lone.exists()
@@ -735,6 +740,13 @@ def test_train_and_inspect_take_the_joint_types_a_simulated_logs_sidecar_records
     r = run(gipdyn_bin, "train", "--data", str(log), *fit, "--out", str(tmp_path / "m.gipdyn"))
     assert r.returncode == 0 and "differs" not in r.stderr, r.stderr
     assert "joints RRPR" in r.stdout and model_header(tmp_path / "m.gipdyn")["joints"] == "RRPR"
+    # A simulated log is taught without the note for robots' logs.
+    r = run(gipdyn_bin, "train", "--data", str(log), "--max-iter", "5", "--teacher-hyperparameter-rows", "0",
+            "--out", str(tmp_path / "g.gipdyn"))
+    assert r.returncode == 0 and "taught by lip" in r.stdout, r.stderr
+    assert "--preset real" not in r.stdout
+    # The teacher's options set up the default teacher (--teacher auto) without naming it.
+    assert model_header(tmp_path / "g.gipdyn")["teacher"]["hyperparameter_rows"] == 0
     r = run(gipdyn_bin, "inspect", "--data", str(log))
     assert r.returncode == 0, r.stderr
     # Joint types that contradict the sidecar are used, with a warning (a likely typo, e.g. RRRR for the SCARA).

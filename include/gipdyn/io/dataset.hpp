@@ -45,6 +45,12 @@ void require_joint_columns(const CsvHeader& header, const std::string& path, con
 // sidecar when it is not valid JSON or its string is not joint types.
 std::optional<JointTypes> sidecar_joint_types(const std::string& path);
 
+// What wrote the log, as its sidecar records under "generator" (simulate:
+// kSimulationGenerator, gipdyn/sim/simulate.hpp): nullopt without a sidecar,
+// without such a string, or where the sidecar is not valid JSON (a hint, not a
+// check: sidecar_joint_types reports a broken sidecar).
+std::optional<std::string> sidecar_generator(const std::string& path);
+
 // Throws gipdyn::Error for a MATLAB file, a missing column, a joint count that does not match
 // the file (e.g. joints RRPR on a file with q5; joints_owner as above), bad cells or no rows.
 Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau,

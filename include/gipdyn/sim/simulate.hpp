@@ -28,8 +28,11 @@ struct SimulationResult {
   Eigen::MatrixXd X;         // samples x 3n: q, qd, qdd
   Eigen::MatrixXd tau;       // with noise
   Eigen::MatrixXd tau_true;  // noise-free
-  nlohmann::json metadata;   // everything needed to regenerate the data
+  nlohmann::json metadata;   // everything needed to regenerate the data; "generator": kSimulationGenerator
 };
+
+// What simulate records as a log's "generator", so that a reader can tell a simulated log from a robot's.
+inline constexpr const char* kSimulationGenerator = "gipdyn simulate";
 
 // Independent seeds for the trajectory, the noise and the perturbation are
 // derived from options.seed, so the same seed gives the same data.
