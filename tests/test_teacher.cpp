@@ -59,6 +59,7 @@ TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledAtTheTeachersResidualLevel) {
   for (int j = 0; j < 2; ++j) {
     const double rms = std::sqrt(residual.col(j).squaredNorm() / static_cast<double>(X.rows()));
     EXPECT_NEAR(set.label_noise_std(j), rms, 1e-12 * rms) << "joint " << j + 1;
+    EXPECT_EQ(set.noise_std_in_labels(j), set.label_noise_std(j)) << "joint " << j + 1;
     EXPECT_GT(rms, 0.003) << "joint " << j + 1 << ": the log's noise is 0.01";
     const double spread = std::sqrt(label_noise.col(j).squaredNorm() / 400.0);
     EXPECT_NEAR(spread, rms, 0.15 * rms) << "joint " << j + 1;
@@ -84,6 +85,8 @@ TEST(Teacher, AJointWhoseLoggedTorqueNeverChangesIsLabelledWithThatTorque) {
   const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
   ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
   EXPECT_TRUE((set.Y.col(1).array() == 0.25).all());
+  EXPECT_EQ(set.noise_std_in_labels(1), 0.0) << "a constant holds no noise";
+  EXPECT_GT(set.noise_std_in_labels(0), 0.003);
   EXPECT_GT(set.Y.col(0).maxCoeff() - set.Y.col(0).minCoeff(), 1.0);
 }
 
@@ -102,6 +105,7 @@ TEST(Teacher, AJointWhoseTorqueTheTeacherCallsNoiseIsLabelledWithItsLoggedMean) 
   EXPECT_GE(set.label_noise_std(1) * set.label_noise_std(1), kTeacherNoiseShareForMeanLabels * variance)
       << "the teacher calls " << set.label_noise_std(1) * set.label_noise_std(1) / variance << " of it noise";
   EXPECT_TRUE((set.Y.col(1).array() == Y.col(1).mean()).all());
+  EXPECT_EQ(set.noise_std_in_labels(1), 0.0);
   EXPECT_GT(set.Y.col(0).maxCoeff() - set.Y.col(0).minCoeff(), 1.0);
   // A joint the teacher learned keeps the teacher's torques, scattered by its residual.
   const Eigen::VectorXd spread = set.Y.col(0) - set.teacher->predict(set.X).col(0);
@@ -251,6 +255,13 @@ TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {
     const FitResult r = fit_estimator(o, X, Y, kTwoLink);
     EXPECT_TRUE(r.report.ok()) << r.report.message;
     EXPECT_EQ(r.estimator->gp_model()->num_training_samples(), 300);  // conditioned on every drawn state
+    // The labels carry the teacher's residual as noise, and the student calls at least that much of them noise.
+    for (int j = 0; j < 2; ++j) {
+      const double scale = r.estimator->gp_model()->output_scale()(j);
+      EXPECT_GE(std::sqrt(r.report.joints.at(static_cast<size_t>(j)).noise_variance) * scale,
+                (1.0 - 1e-9) * r.label_noise_std(j))
+          << "joint " << j + 1;
+    }
     return r.report.joints.at(0).hyperparameter_rows;
   };
   EXPECT_EQ(student_rows(), 120);

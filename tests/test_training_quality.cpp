@@ -184,6 +184,40 @@ TEST(TrainingQuality, BadSparseOptionsAreNamed) {
   EXPECT_NE(e.find("TrainOptions::inducing_points (61) exceeds the 60 training rows"), std::string::npos) << e;
 }
 
+// Where the targets' noise is known (a teacher's labels), the learned noise
+// never goes below it: a floor above the data's own noise binds, in the
+// torque's units whatever the scaling; one above the whole variance stops there.
+TEST(TrainingQuality, AKnownNoiseFloorBoundsTheLearnedNoise) {
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = two_link_trajectory(150, 0.15, 3);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 4);
+  TrainOptions o;
+  o.threads = 1;
+  const auto learned_noise_std = [&](const TrainResult& r, int j) {
+    const double sd = std::sqrt((Y.col(j).array() - Y.col(j).mean()).square().mean());
+    return std::sqrt(r.report.joints[static_cast<size_t>(j)].noise_variance) * sd;
+  };
+  const TrainResult free = train_model(X, Y, joints, o);
+  ASSERT_TRUE(free.report.ok()) << free.report.message;
+  o.noise_std_floor = Eigen::Vector2d(0.05, 0.0);
+  const TrainResult floored = train_model(X, Y, joints, o);
+  ASSERT_TRUE(floored.report.ok()) << floored.report.message;
+  EXPECT_LT(learned_noise_std(free, 0), 0.03) << "the data's noise is 0.01: the floor must be what binds";
+  EXPECT_NEAR(learned_noise_std(floored, 0), 0.05, 1e-9);
+  EXPECT_EQ(floored.report.joints[1].noise_variance, free.report.joints[1].noise_variance) << "no floor on joint 2";
+  o.noise_std_floor = Eigen::Vector2d(1e3, 0.0);  // far above the torque's standard deviation
+  const TrainResult noise_only = train_model(X, Y, joints, o);
+  ASSERT_TRUE(noise_only.report.ok()) << noise_only.report.message;
+  EXPECT_NEAR(noise_only.report.joints[0].noise_variance, 1.0, 1e-9) << "the whole (scaled) variance";
+
+  o.noise_std_floor = Eigen::Vector3d(0.01, 0.01, 0.01);
+  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); }).find("TrainOptions::noise_std_floor needs one value per joint (2)"),
+            std::string::npos);
+  o.noise_std_floor = Eigen::Vector2d(0.01, -1.0);
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::noise_std_floor must hold finite values >= 0"),
+            std::string::npos);
+}
+
 TEST(TrainingQuality, BadConvergenceOptionsAreNamed) {
   TrainOptions o;
   o.warm_start_rows = -1;

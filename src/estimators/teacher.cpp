@@ -153,11 +153,15 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
   // Likewise, where the teacher calls nearly all of a joint's logged variance
   // noise (kTeacherNoiseShareForMeanLabels), its torques away from the log are
   // the extrapolation of what it did not learn: the student gets the logged mean.
+  set.noise_std_in_labels = set.label_noise_std;
   for (Eigen::Index j = 0; j < Y.cols(); ++j) {
     if (Y.col(j).maxCoeff() == Y.col(j).minCoeff())
       set.Y.col(j).setConstant(Y(0, j));
     else if (teacher_log_nmse(Y, set.label_noise_std, j) >= kTeacherNoiseShareForMeanLabels)
       set.Y.col(j).setConstant(Y.col(j).mean());
+    else
+      continue;
+    set.noise_std_in_labels(j) = 0.0;
   }
   return set;
 }

@@ -37,6 +37,8 @@ void TrainOptions::validate() const {
   if (!(min_noise_fraction > 0.0) || min_noise_fraction > initial_noise_fraction)
     throw Error("TrainOptions::min_noise_fraction must be > 0 and not above TrainOptions::initial_noise_fraction (" +
                 std::to_string(initial_noise_fraction) + ")");
+  if (!(noise_std_floor.array() >= 0.0).all() || !noise_std_floor.allFinite())
+    throw Error("TrainOptions::noise_std_floor must hold finite values >= 0 (the noise's standard deviation per joint)");
   if (threads < 0) throw Error("TrainOptions::threads must be >= 0");
   if (warm_start_rows < 0) throw Error("TrainOptions::warm_start_rows must be >= 0 (0: no warm start)");
   if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
@@ -91,9 +93,10 @@ struct RowSubset {
 };
 
 // Zm: the inducing rows' features of a sparse GP, or null for the exact GP.
+// noise_variance_floor: TrainOptions::noise_std_floor of this joint, squared, in the scaled output's units.
 JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
                          const Eigen::MatrixXd* Zm, const Eigen::VectorXd& y, const TrainOptions& o,
-                         const ProgressCallback& progress) {
+                         double noise_variance_floor, const ProgressCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
@@ -115,7 +118,8 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   // Box bounds keep exp() finite and the noise above its floor.
   opt.lower_bounds = Eigen::VectorXd::Constant(P + 1, -30.0);
   opt.upper_bounds = Eigen::VectorXd::Constant(P + 1, 30.0);
-  opt.lower_bounds(P) = std::log(o.min_noise_fraction * target);
+  // A known noise floor above the whole variance would leave no room for the kernel: it stops at the variance.
+  opt.lower_bounds(P) = std::log(std::max(o.min_noise_fraction * target, std::min(noise_variance_floor, target)));
   opt.upper_bounds(P) = std::log(10.0 * target);
   kernel->restrict_log_params(Z, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
   x0 = x0.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
@@ -281,6 +285,8 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   const int n = joints.size();
   const FeatureMap features(joints);
   const Eigen::MatrixXd Z = features.compute(X);
+  if (options.noise_std_floor.size() > 0 && options.noise_std_floor.size() != n)
+    throw Error("TrainOptions::noise_std_floor needs one value per joint (" + std::to_string(n) + ") or none");
   if (!options.initial_log_params.empty()) {  // checked here: the joints are trained in worker threads
     if (static_cast<int>(options.initial_log_params.size()) != n)
       throw Error("TrainOptions::initial_log_params needs one vector per joint (" + std::to_string(n) + ") or none");
@@ -344,7 +350,9 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
       options.nll_backend ? 1 : worker_threads(sharing_threads(options.threads, n), n, per_joint, kept);
   run_tasks(n, threads, [&](int j) {
     const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
-    outcomes[static_cast<size_t>(j)] = train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, progress);
+    const double noise_floor = options.noise_std_floor.size() > 0 ? options.noise_std_floor(j) / scale(j) : 0.0;
+    outcomes[static_cast<size_t>(j)] =
+        train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, noise_floor * noise_floor, progress);
   });
 
   TrainResult result;

@@ -99,6 +99,10 @@ struct TeachingSet {
   // Per joint: the root mean square of the teacher's residual on the logged
   // rows, the standard deviation of the label noise.
   Eigen::VectorXd label_noise_std;
+  // Per joint: the standard deviation of the noise Y holds, label_noise_std
+  // where the labels are the teacher's torques, 0 where they are a constant.
+  // The student's noise floor (TrainOptions::noise_std_floor).
+  Eigen::VectorXd noise_std_in_labels;
 };
 
 // A student misses a joint of the log when its nMSE on the logged rows

@@ -84,6 +84,13 @@ struct TrainOptions {
   // Noise variance, relative to the variance of the scaled output: its start and its floor.
   double initial_noise_fraction = 1e-2;
   double min_noise_fraction = 1e-8;
+  // Per joint, a floor on the noise's standard deviation in the torque's units
+  // (N m, N), where the targets' noise is known to be at least that: a
+  // teacher's labels carry the noise it adds (estimators/teacher.hpp). Below
+  // it, an expressive kernel fitted on a subsample can interpolate that noise
+  // (docs/training.md). Empty: min_noise_fraction alone; else one value >= 0
+  // per joint.
+  Eigen::VectorXd noise_std_floor;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
   // of the data-driven start (clamped into the optimiser's bounds); empty: data-driven.
   // refit_model fills it with a model's current hyperparameters.
