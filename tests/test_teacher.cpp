@@ -1,7 +1,7 @@
 // Learning from a teacher (estimators/teacher.hpp): the states are drawn from
-// the log's box with their seed and labelled by the teacher with noise at its
-// residual level, and a student trained on them predicts a new motion like
-// the teacher does.
+// the log's box with their seed and labelled with the teacher's torques, the
+// student's noise floor is the teacher's residual, and a student trained on
+// them predicts a new motion like the teacher does.
 #include <gtest/gtest.h>
 
 #include <cmath>
@@ -24,7 +24,7 @@ double mean_nmse(const Eigen::MatrixXd& truth, const Eigen::MatrixXd& predicted)
   return compute_accuracy(truth, predicted).nmse.mean();
 }
 
-TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledAtTheTeachersResidualLevel) {
+TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledWithTheTeachersTorques) {
   const Eigen::MatrixXd X = two_link_trajectory(80, 0.15, 1);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 2);
   TeacherOptions o;
@@ -52,17 +52,15 @@ TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledAtTheTeachersResidualLevel) {
   const Eigen::VectorXd a = set.X.col(0).array() - set.X.col(0).mean(), b = set.X.col(1).array() - set.X.col(1).mean();
   EXPECT_LT(std::abs(a.dot(b)) / (a.norm() * b.norm()), 0.15);
 
-  // The label noise is the teacher's RMS residual on the log, and the labels
-  // scatter around the teacher's torques by that much.
+  // The labels are the teacher's torques, without noise; their uncertainty,
+  // the student's noise floor, is the teacher's RMS residual on the log.
+  EXPECT_TRUE(set.Y == set.teacher->predict(set.X));
   const Eigen::MatrixXd residual = Y - set.teacher->predict(X);
-  const Eigen::MatrixXd label_noise = set.Y - set.teacher->predict(set.X);
   for (int j = 0; j < 2; ++j) {
     const double rms = std::sqrt(residual.col(j).squaredNorm() / static_cast<double>(X.rows()));
     EXPECT_NEAR(set.label_noise_std(j), rms, 1e-12 * rms) << "joint " << j + 1;
-    EXPECT_EQ(set.noise_std_in_labels(j), set.label_noise_std(j)) << "joint " << j + 1;
+    EXPECT_EQ(set.student_noise_std_floor(j), set.label_noise_std(j)) << "joint " << j + 1;
     EXPECT_GT(rms, 0.003) << "joint " << j + 1 << ": the log's noise is 0.01";
-    const double spread = std::sqrt(label_noise.col(j).squaredNorm() / 400.0);
-    EXPECT_NEAR(spread, rms, 0.15 * rms) << "joint " << j + 1;
   }
 
   // The same seed draws the same states and labels; another seed others.
@@ -85,8 +83,8 @@ TEST(Teacher, AJointWhoseLoggedTorqueNeverChangesIsLabelledWithThatTorque) {
   const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
   ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
   EXPECT_TRUE((set.Y.col(1).array() == 0.25).all());
-  EXPECT_EQ(set.noise_std_in_labels(1), 0.0) << "a constant holds no noise";
-  EXPECT_GT(set.noise_std_in_labels(0), 0.003);
+  EXPECT_EQ(set.student_noise_std_floor(1), 0.0) << "a constant is known exactly";
+  EXPECT_GT(set.student_noise_std_floor(0), 0.003);
   EXPECT_GT(set.Y.col(0).maxCoeff() - set.Y.col(0).minCoeff(), 1.0);
 }
 
@@ -105,11 +103,10 @@ TEST(Teacher, AJointWhoseTorqueTheTeacherCallsNoiseIsLabelledWithItsLoggedMean) 
   EXPECT_GE(set.label_noise_std(1) * set.label_noise_std(1), kTeacherNoiseShareForMeanLabels * variance)
       << "the teacher calls " << set.label_noise_std(1) * set.label_noise_std(1) / variance << " of it noise";
   EXPECT_TRUE((set.Y.col(1).array() == Y.col(1).mean()).all());
-  EXPECT_EQ(set.noise_std_in_labels(1), 0.0);
+  EXPECT_EQ(set.student_noise_std_floor(1), 0.0);
   EXPECT_GT(set.Y.col(0).maxCoeff() - set.Y.col(0).minCoeff(), 1.0);
-  // A joint the teacher learned keeps the teacher's torques, scattered by its residual.
-  const Eigen::VectorXd spread = set.Y.col(0) - set.teacher->predict(set.X).col(0);
-  EXPECT_NEAR(std::sqrt(spread.squaredNorm() / 100.0), set.label_noise_std(0), 0.3 * set.label_noise_std(0));
+  // A joint the teacher learned keeps the teacher's torques.
+  EXPECT_TRUE(set.Y.col(0) == set.teacher->predict(set.X).col(0));
 }
 
 TEST(Teacher, GipTaughtByLipOnAShortMotionPredictsANewMotionLikeLip) {
@@ -255,7 +252,7 @@ TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {
     const FitResult r = fit_estimator(o, X, Y, kTwoLink);
     EXPECT_TRUE(r.report.ok()) << r.report.message;
     EXPECT_EQ(r.estimator->gp_model()->num_training_samples(), 300);  // conditioned on every drawn state
-    // The labels carry the teacher's residual as noise, and the student calls at least that much of them noise.
+    // The student calls at least the teacher's residual noise (its noise floor).
     for (int j = 0; j < 2; ++j) {
       const double scale = r.estimator->gp_model()->output_scale()(j);
       EXPECT_GE(std::sqrt(r.report.joints.at(static_cast<size_t>(j)).noise_variance) * scale,

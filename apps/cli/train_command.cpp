@@ -237,7 +237,7 @@ Command add_train(CLI::App& app) {
                     describe(r.teaching, o.teacher->name).c_str());
       } else if (r.teacher_report) {
         std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
-        std::printf("label noise (the teacher's RMS residual on the log), per joint:");
+        std::printf("label noise (the teacher's RMS residual on the log, the student's noise floor), per joint:");
         for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
         if (r.teaching == TeachingOutcome::Taught)
           std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());

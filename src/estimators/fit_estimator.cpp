@@ -162,8 +162,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
     } else {
       EstimatorOptions student = on_log;
       student.gp = options.teacher->student_train_options(options.gp);
-      // The labels carry the noise teach added: a student that calls less of them noise interpolates it.
-      student.gp.noise_std_floor = lesson.noise_std_in_labels;
+      student.gp.noise_std_floor = lesson.student_noise_std_floor;
       result = fit(student, lesson.X, lesson.Y, joints, progress);
       result.teaching = TeachingOutcome::Taught;
       result.label_noise_std = std::move(lesson.label_noise_std);

@@ -140,20 +140,17 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
   const Eigen::RowVectorXd lo = X.colwise().minCoeff(), hi = X.colwise().maxCoeff();
   std::mt19937_64 rng(options.seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
-  std::normal_distribution<double> normal(0.0, 1.0);
   set.X.resize(options.states, X.cols());
   for (Eigen::Index r = 0; r < set.X.rows(); ++r)
     for (Eigen::Index c = 0; c < set.X.cols(); ++c) set.X(r, c) = lo(c) + (hi(c) - lo(c)) * unit(rng);
   set.Y = set.teacher->predict(set.X);
-  for (Eigen::Index r = 0; r < set.Y.rows(); ++r)
-    for (Eigen::Index j = 0; j < set.Y.cols(); ++j) set.Y(r, j) += set.label_noise_std(j) * normal(rng);
   // A joint whose logged torque never changes (locked, or a dead sensor) tells
   // the teacher nothing but that value; its predictions there differ from it
   // by rounding, which the student would take for a signal of variance 1e-20.
   // Likewise, where the teacher calls nearly all of a joint's logged variance
   // noise (kTeacherNoiseShareForMeanLabels), its torques away from the log are
   // the extrapolation of what it did not learn: the student gets the logged mean.
-  set.noise_std_in_labels = set.label_noise_std;
+  set.student_noise_std_floor = set.label_noise_std;
   for (Eigen::Index j = 0; j < Y.cols(); ++j) {
     if (Y.col(j).maxCoeff() == Y.col(j).minCoeff())
       set.Y.col(j).setConstant(Y(0, j));
@@ -161,7 +158,7 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
       set.Y.col(j).setConstant(Y.col(j).mean());
     else
       continue;
-    set.noise_std_in_labels(j) = 0.0;
+    set.student_noise_std_floor(j) = 0.0;
   }
   return set;
 }

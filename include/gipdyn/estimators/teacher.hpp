@@ -2,8 +2,9 @@
 // Learning from a teacher. One estimator (the teacher, e.g. LIP) is fitted on
 // the logged rows; it then labels states drawn uniformly from the box the log
 // spans (each of q, qd, qdd of every joint between its smallest and largest
-// logged value) with its torques plus noise at its own residual level; another
-// estimator (the student, e.g. GIP) learns from those labels. On one short
+// logged value) with its torques; another estimator (the student, e.g. GIP)
+// learns from those labels, with the teacher's residual on the log as its
+// noise floor. On one short
 // motion the student then extrapolates like the teacher, at its own cost a
 // query: LIP's structure, GIP's microseconds (docs/training.md, "GIP taught by
 // LIP"). The student is as good as the teacher is over the box, not better.
@@ -53,7 +54,7 @@ struct TeacherOptions {
   // with 2000 agree within about 2x) at a 64th of an evaluation's O(N^3).
   // 0: on every state. TrainOptions::hyperparameter_rows, when above 0, wins.
   int student_hyperparameter_rows = 500;
-  // Seed of the drawn states and of their label noise.
+  // Seed of the drawn states.
   std::uint64_t seed = 0;
   TeachingMode mode = TeachingMode::Always;
   // With TeachingMode::Automatic: the longest log, in rows x joints, that is
@@ -93,16 +94,20 @@ struct TeachingSet {
   FitReport teacher_report;
   std::unique_ptr<Estimator> teacher;  // null unless teacher_report.ok()
   Eigen::MatrixXd X;                   // TeacherOptions::states x 3n: the drawn states
-  // states x n: the teacher's torques plus label noise; a joint's logged mean
-  // (its constant) where the teacher learned nothing of it (kTeacherNoiseShareForMeanLabels)
+  // states x n: the teacher's torques (its posterior mean, without noise); a
+  // joint's logged mean (its constant) where the teacher learned nothing of it
+  // (kTeacherNoiseShareForMeanLabels)
   Eigen::MatrixXd Y;
   // Per joint: the root mean square of the teacher's residual on the logged
-  // rows, the standard deviation of the label noise.
+  // rows, how precisely the teacher knows the torque: the labels' uncertainty.
   Eigen::VectorXd label_noise_std;
-  // Per joint: the standard deviation of the noise Y holds, label_noise_std
-  // where the labels are the teacher's torques, 0 where they are a constant.
-  // The student's noise floor (TrainOptions::noise_std_floor).
-  Eigen::VectorXd noise_std_in_labels;
+  // Per joint: the student's noise floor (TrainOptions::noise_std_floor),
+  // label_noise_std where the labels are the teacher's torques, 0 where they
+  // are a constant. Labels without noise and a student that may not call less
+  // than the teacher's residual noise: the student smooths the teacher's
+  // torques as the teacher smoothed the log, and does not interpolate them
+  // (docs/training.md, "The student's noise floor").
+  Eigen::VectorXd student_noise_std_floor;
 };
 
 // A student misses a joint of the log when its nMSE on the logged rows

@@ -85,11 +85,11 @@ struct TrainOptions {
   double initial_noise_fraction = 1e-2;
   double min_noise_fraction = 1e-8;
   // Per joint, a floor on the noise's standard deviation in the torque's units
-  // (N m, N), where the targets' noise is known to be at least that: a
-  // teacher's labels carry the noise it adds (estimators/teacher.hpp). Below
-  // it, an expressive kernel fitted on a subsample can interpolate that noise
-  // (docs/training.md). Empty: min_noise_fraction alone; else one value >= 0
-  // per joint.
+  // (N m, N), where the targets are known to be no more precise than that: a
+  // teacher's torques, known to its residual on the log (estimators/teacher.hpp).
+  // Below it, an expressive kernel fitted on a subsample can interpolate the
+  // targets (docs/training.md). Empty: min_noise_fraction alone; else one
+  // value >= 0 per joint.
   Eigen::VectorXd noise_std_floor;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
   // of the data-driven start (clamped into the optimiser's bounds); empty: data-driven.
