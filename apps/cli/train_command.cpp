@@ -67,17 +67,19 @@ Command add_train(CLI::App& app) {
       "real robot's log it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
       ->capture_default_str();
   app.add_option("--teacher-states", a->teacher_states,
-                 "Where a teacher teaches (--teacher; auto by default): states drawn from the log's box (each of q, qd, qdd between its smallest and "
-                 "largest logged value), the student's training rows; --seed draws them")
+                 "Where a teacher teaches (--teacher; auto by default): states drawn from the log's box (each of "
+                 "q, qd, qdd between its smallest and largest logged value), the student's training rows; --seed "
+                 "draws them")
       ->capture_default_str();
   app.add_option("--teacher-hyperparameter-rows", a->teacher_hyperparameter_rows,
-                 "Where a teacher teaches (--teacher; auto by default): the teacher learns its hyperparameters on a constant-step subsample of this many "
-                 "logged rows, then is conditioned on every row; 0: all rows")
+                 "Where a teacher teaches (--teacher; auto by default): the teacher learns its hyperparameters on "
+                 "a constant-step subsample of this many logged rows, then is conditioned on every row; 0: all rows")
       ->capture_default_str();
   app.add_option("--student-hyperparameter-rows", a->student_hyperparameter_rows,
-                 "Where a teacher teaches (--teacher; auto by default): the student learns its hyperparameters on a constant-step subsample of this many "
-                 "drawn states (independent draws over the box: a few hundred inform the NLL as well as thousands), "
-                 "then is conditioned on every state; 0: all states. --hyperparameter-rows, if given, wins")
+                 "Where a teacher teaches (--teacher; auto by default): the student learns its hyperparameters on "
+                 "a constant-step subsample of this many drawn states (independent draws over the box: a few "
+                 "hundred inform the NLL as well as thousands), then is conditioned on every state; 0: all states. "
+                 "--hyperparameter-rows, if given, wins")
       ->capture_default_str();
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
@@ -177,7 +179,7 @@ Command add_train(CLI::App& app) {
                       o.teacher->name.c_str(), o.name.c_str());
       }
       std::printf("\n");
-      // On a robot's log the taught model is almost always thrown away, after the teacher's minutes
+      // On a robot's log the taught model is usually thrown away, after the teacher's minutes
       // (docs/training.md): say so before they are spent, where the log is not a simulated one.
       if (o.teacher && o.teacher->mode == TeachingMode::Automatic && o.teacher->teaches(data.rows(), joints.size()) &&
           sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator))
