@@ -184,9 +184,10 @@ TEST(TrainingQuality, BadSparseOptionsAreNamed) {
   EXPECT_NE(e.find("TrainOptions::inducing_points (61) exceeds the 60 training rows"), std::string::npos) << e;
 }
 
-// Where the targets' noise is known (a teacher's labels), the learned noise
-// never goes below it: a floor above the data's own noise binds, in the
-// torque's units whatever the scaling; one above the whole variance stops there.
+// Where the targets are known to be no more precise than a floor (a teacher's
+// torques, known to its residual on the log), the learned noise never goes
+// below it: a floor above the data's own noise binds, in the torque's units
+// whatever the scaling; one above the whole variance stops there.
 TEST(TrainingQuality, AKnownNoiseFloorBoundsTheLearnedNoise) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = two_link_trajectory(150, 0.15, 3);
@@ -211,7 +212,8 @@ TEST(TrainingQuality, AKnownNoiseFloorBoundsTheLearnedNoise) {
   EXPECT_NEAR(noise_only.report.joints[0].noise_variance, 1.0, 1e-9) << "the whole (scaled) variance";
 
   o.noise_std_floor = Eigen::Vector3d(0.01, 0.01, 0.01);
-  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); }).find("TrainOptions::noise_std_floor needs one value per joint (2)"),
+  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); })
+                .find("TrainOptions::noise_std_floor needs one value per joint (2)"),
             std::string::npos);
   o.noise_std_floor = Eigen::Vector2d(0.01, -1.0);
   EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::noise_std_floor must hold finite values >= 0"),

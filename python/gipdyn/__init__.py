@@ -147,9 +147,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     subsample's exact NLL),
     teacher (None: learn from (X, Y); "lip": fit LIP on (X, Y), then learn
     from LIP's torques at teacher_states states drawn uniformly from the box
-    X spans, with LIP's residual on (X, Y) as the noise floor; seed draws them. On one short
-    motion this gives a GIP model that extrapolates like LIP and answers like
-    GIP: docs/training.md; "auto", `gipdyn train`'s default: "lip" on a log of
+    X spans, with LIP's residual on (X, Y) as the noise floor; seed draws
+    them. On one short motion this gives a GIP model that extrapolates like
+    LIP and answers like GIP: docs/training.md; "auto", `gipdyn train`'s default: "lip" on a log of
     at most 14000 torque values (rows x joints), the taught model kept only if
     it fits (X, Y) as LIP does, else learned from (X, Y), and only for the gip
     kernel's exact GP without mean, robot, warm start or distributed; after

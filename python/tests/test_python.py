@@ -322,7 +322,7 @@ def test_train_options_are_the_librarys_own():
     assert (o.scaling, o.mean, o.min_noise_fraction) == ("center", "linear", 1e-6)
     assert o.prior.enabled and o.prior.width == 1.5
     o.validate()
-    assert o.noise_std_floor.size == 0  # set only for a teacher's labels, whose noise is known
+    assert o.noise_std_floor.size == 0  # set only for a teacher's labels, known to its residual
     o.noise_std_floor = np.array([0.01, -1.0])
     with pytest.raises(ValueError, match="noise_std_floor must hold finite values >= 0"):
         o.validate()

@@ -78,27 +78,42 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
   return d;
 }
 
-std::optional<JointTypes> sidecar_joint_types(const std::string& path) {
-  const std::string sidecar = path + ".json";
-  std::ifstream in(sidecar);
+namespace {
+
+// The sidecar PATH.json beside a log, parsed without throwing (is_discarded()
+// where it is not JSON); nullopt without a sidecar.
+std::optional<nlohmann::json> read_sidecar(const std::string& path) {
+  std::ifstream in(path + ".json");
   if (!in) return std::nullopt;
-  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, false);
+  return nlohmann::json::parse(in, nullptr, false);
+}
+
+// The string a sidecar records under `key`; nullopt where it records none (or is not JSON).
+std::optional<std::string> recorded_string(const nlohmann::json& meta, const char* key) {
+  if (!meta.is_object() || !meta.contains(key) || !meta[key].is_string()) return std::nullopt;
+  return meta[key].get<std::string>();
+}
+
+}  // namespace
+
+std::optional<JointTypes> sidecar_joint_types(const std::string& path) {
+  const std::optional<nlohmann::json> meta = read_sidecar(path);
+  if (!meta) return std::nullopt;
+  const std::string sidecar = path + ".json";
   const auto fix = "repair or delete it, or give the joint types yourself";
-  if (meta.is_discarded()) throw Error("the sidecar '" + sidecar + "' of '" + path + "' is not valid JSON; " + fix);
-  if (!meta.is_object() || !meta.contains("joints") || !meta["joints"].is_string()) return std::nullopt;
+  if (meta->is_discarded()) throw Error("the sidecar '" + sidecar + "' of '" + path + "' is not valid JSON; " + fix);
+  const std::optional<std::string> joints = recorded_string(*meta, "joints");
+  if (!joints) return std::nullopt;
   try {
-    return JointTypes::parse(meta["joints"].get<std::string>());
+    return JointTypes::parse(*joints);
   } catch (const Error& e) {
     throw Error("the sidecar '" + sidecar + "' of '" + path + "' records bad joint types: " + e.what() + "; " + fix);
   }
 }
 
 std::optional<std::string> sidecar_generator(const std::string& path) {
-  std::ifstream in(path + ".json");
-  if (!in) return std::nullopt;
-  const nlohmann::json meta = nlohmann::json::parse(in, nullptr, false);
-  if (!meta.is_object() || !meta.contains("generator") || !meta["generator"].is_string()) return std::nullopt;
-  return meta["generator"].get<std::string>();
+  const std::optional<nlohmann::json> meta = read_sidecar(path);
+  return meta ? recorded_string(*meta, "generator") : std::nullopt;
 }
 
 }  // namespace gipdyn

@@ -4,10 +4,10 @@
 // spans (each of q, qd, qdd of every joint between its smallest and largest
 // logged value) with its torques; another estimator (the student, e.g. GIP)
 // learns from those labels, with the teacher's residual on the log as its
-// noise floor. On one short
-// motion the student then extrapolates like the teacher, at its own cost a
-// query: LIP's structure, GIP's microseconds (docs/training.md, "GIP taught by
-// LIP"). The student is as good as the teacher is over the box, not better.
+// noise floor. On one short motion the student then extrapolates like the
+// teacher, at its own cost a query: LIP's structure, GIP's microseconds
+// (docs/training.md, "GIP taught by LIP"). The student is as good as the
+// teacher is over the box, not better.
 #include <Eigen/Dense>
 #include <cstdint>
 #include <memory>
