@@ -325,26 +325,27 @@ void BM_Train(benchmark::State& state) {
 // LIP (docs/method.md section 11): the (N n) x (N n) torque covariance and the
 // gradient contraction of one NLL evaluation, at its data-driven start. The
 // factorisation is LAPACK's, as BM_PotrfPotri at N n.
-LagrangianKernel lip_kernel(const Problem& p) {
-  LagrangianKernel k(p.joints);
+LagrangianKernel lip_kernel(const Problem& p, bool serial_chain = false) {
+  LagrangianKernel k(p.joints, false, serial_chain);
   k.initialize(p.X, 1.0);
   return k;
 }
 
 void BM_LipGram(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const LagrangianKernel k = lip_kernel(p);
+  const LagrangianKernel k = lip_kernel(p, state.range(2) != 0);
   Eigen::MatrixXd K;
   for (auto _ : state) {
     k.torque_gram_lower(p.X, K);
     benchmark::DoNotOptimize(K.data());
   }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " system " + std::to_string(K.rows()));
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " system " + std::to_string(K.rows()) +
+                 (k.serial_chain() ? " serial chain" : ""));
 }
 
 void BM_LipGradient(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
-  const LagrangianKernel k = lip_kernel(p);
+  const LagrangianKernel k = lip_kernel(p, state.range(2) != 0);
   const Eigen::Index m = p.X.rows() * p.joints.size();
   const Eigen::MatrixXd W = Eigen::MatrixXd::Constant(m, m, 1e-3);
   Eigen::VectorXd grad(k.num_params());
@@ -353,7 +354,8 @@ void BM_LipGradient(benchmark::State& state) {
     k.add_gradient(p.X, W, grad);
     benchmark::DoNotOptimize(grad.data());
   }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + std::to_string(k.num_params()) + " parameters");
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + std::to_string(k.num_params()) + " parameters" +
+                 (k.serial_chain() ? ", serial chain" : ""));
 }
 
 // One query's torques from a LIP model on N rows (weights arbitrary: the cost does not depend on them).
@@ -420,6 +422,13 @@ void lip_sizes(benchmark::internal::Benchmark* b) {
   b->Unit(benchmark::kMillisecond);
 }
 
+// The same with the third argument: 1 for the serial-chain kernel.
+void lip_chain_sizes(benchmark::internal::Benchmark* b) {
+  for (int robot : {4, 6})
+    for (int chain : {0, 1}) b->Args({robot, 300, chain});
+  b->Unit(benchmark::kMillisecond);
+}
+
 void sizes(benchmark::internal::Benchmark* b) {
   for (int robot : {4, 6})
     for (int N : {1000, 2000, 4000}) b->Args({robot, N});
@@ -450,8 +459,8 @@ BENCHMARK(BM_UpdateOneSample)->Apply(sizes)->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_AddOneSampleSparse)
     ->ArgsProduct({{4, 6}, {4000}, {100, 300, 1000}})
     ->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_LipGram)->Apply(lip_sizes);
-BENCHMARK(BM_LipGradient)->Apply(lip_sizes);
+BENCHMARK(BM_LipGram)->Apply(lip_chain_sizes);
+BENCHMARK(BM_LipGradient)->Apply(lip_chain_sizes);
 BENCHMARK(BM_LipPredictOne)->Apply(lip_sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_LipQueryWeightSpace)->Apply(lip_query_sizes);
 BENCHMARK(BM_LipQueryKernelSpace)->Apply(lip_query_sizes);

@@ -11,6 +11,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
+#include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_weight_space.hpp"
@@ -24,14 +25,17 @@ namespace {
 
 // The energy kernel k_T + k_V written from docs/method.md section 11, with the
 // parameters read in the order of LagrangianKernel::param_names().
+// On a serial chain h_ab's position kernel has only the factors of joints
+// after a (a <= b).
 double energy_kernel(const JointTypes& joints, const Eigen::VectorXd& log_params, const Eigen::VectorXd& q1,
-                     const Eigen::VectorXd& qd1, const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
+                     const Eigen::VectorXd& qd1, const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2,
+                     bool serial_chain = false) {
   const int n = joints.size();
   const Eigen::VectorXd p = log_params.array().exp();
   int k = 0;
-  double velocity = 0.0;
+  Eigen::MatrixXd velocity = Eigen::MatrixXd::Zero(n, n);
   for (int a = 0; a < n; ++a)
-    for (int b = a; b < n; ++b) velocity += p(k++) * qd1(a) * qd1(b) * qd2(a) * qd2(b);
+    for (int b = a; b < n; ++b) velocity(a, b) = p(k++) * qd1(a) * qd1(b) * qd2(a) * qd2(b);
   auto factor = [&](int m) {
     double f = p(k++);
     if (joints.is_revolute(m)) {
@@ -42,10 +46,16 @@ double energy_kernel(const JointTypes& joints, const Eigen::VectorXd& log_params
     }
     return f;
   };
-  double position_t = 1.0, position_v = 1.0;
-  for (int m = 0; m < n; ++m) position_t *= factor(m) * factor(m);
+  std::vector<double> kinetic_factor(static_cast<size_t>(n));
+  for (int m = 0; m < n; ++m) kinetic_factor[static_cast<size_t>(m)] = factor(m) * factor(m);
+  double kinetic = 0.0, position_v = 1.0;
+  for (int a = 0; a < n; ++a) {
+    double position_t = 1.0;
+    for (int m = serial_chain ? a + 1 : 0; m < n; ++m) position_t *= kinetic_factor[static_cast<size_t>(m)];
+    kinetic += velocity.row(a).sum() * position_t;
+  }
   for (int m = 0; m < n; ++m) position_v *= factor(m);
-  return velocity * position_t + position_v;
+  return kinetic + position_v;
 }
 
 // The Lagrange operator tau_i = sum_j qdd_j d2f/dqd_i dqd_j + qd_j d2f/dqd_i dq_j - df/dq_i,
@@ -79,11 +89,11 @@ Eigen::VectorXd random_state(int n, std::mt19937_64& rng) {
   return x;
 }
 
-// "RRPR" or "RRPR+friction".
+// "RRPR", "RRPR+friction", "RRPR+chain" (serial chain) or "RRPR+chain+friction".
 LagrangianKernel random_kernel(const std::string& spec, std::mt19937_64& rng) {
-  const std::string suffix = "+friction";
-  const bool friction = spec.size() > suffix.size() && spec.compare(spec.size() - suffix.size(), suffix.size(), suffix) == 0;
-  LagrangianKernel k(JointTypes::parse(friction ? spec.substr(0, spec.size() - suffix.size()) : spec), friction);
+  const bool friction = spec.find("+friction") != std::string::npos;
+  const bool chain = spec.find("+chain") != std::string::npos;
+  LagrangianKernel k(JointTypes::parse(spec.substr(0, spec.find('+'))), friction, chain);
   std::uniform_real_distribution<double> u(-1.0, 1.0);
   Eigen::VectorXd p(k.num_params());
   for (Eigen::Index i = 0; i < p.size(); ++i) p(i) = u(rng);
@@ -105,7 +115,7 @@ TEST_P(LagrangianKernelTest, TorqueCovarianceIsTheLagrangeOperatorOnBothArgument
   auto inner = [&](const Eigen::VectorXd& q1, const Eigen::VectorXd& qd1) {
     return lagrange_operator(
         [&](const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
-          return energy_kernel(joints, k.log_params(), q1, qd1, q2, qd2);
+          return energy_kernel(joints, k.log_params(), q1, qd1, q2, qd2, k.serial_chain());
         },
         x2, h);
   };
@@ -138,7 +148,7 @@ TEST_P(LagrangianKernelTest, EnergyCovariancesAreTheOperatorOnOneArgument) {
   const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
   const Eigen::VectorXd total = lagrange_operator(
       [&](const Eigen::VectorXd& q2, const Eigen::VectorXd& qd2) {
-        return energy_kernel(joints, k.log_params(), q1, qd1, q2, qd2);
+        return energy_kernel(joints, k.log_params(), q1, qd1, q2, qd2, k.serial_chain());
       },
       x2, 1e-5);
   const Eigen::VectorXd potential = lagrange_operator(
@@ -232,8 +242,9 @@ TEST_P(LagrangianKernelTest, WeightSpaceMeanEqualsTheKernelSum) {
   }
 }
 
-INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest, ::testing::Values("R", "RR", "RRPR", "RPRRRR", "R+friction",
-                                                                       "RRPR+friction"));
+INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest,
+                         ::testing::Values("R", "RR", "RRPR", "RPRRRR", "R+friction", "RRPR+friction", "RR+chain",
+                                           "RRPR+chain", "RPRRRR+chain", "RRPR+chain+friction"));
 
 TEST(LagrangianKernel, InitializeGivesEachEnergyHalfTheTargetVariance) {
   LagrangianKernel k(JointTypes::parse("RRP"));
@@ -284,6 +295,61 @@ TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
   // Training is deterministic.
   const FitResult again = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
   EXPECT_EQ(again.estimator->predict(test.X), r.estimator->predict(test.X));
+}
+
+// On a serial chain (the default) the learned M_ab depends only on the joints
+// after min(a, b): the first joint moves no entry, the second only row and
+// column 0, and the last diagonal entry is a constant. The kernel of the LIP
+// paper (serial_chain off) has no such structure. The flag survives saving,
+// and a file written before it existed loads as the full kernel.
+TEST(LagrangianEstimator, SerialChainInertiaIgnoresEarlierJointsAndIsSaved) {
+  const SimulationResult train = small_scara(1, 60), test = small_scara(2, 6);
+  const int n = 4;
+  auto fit = [&](bool serial_chain) {
+    EstimatorOptions o;
+    o.name = "lip";
+    o.gp.optimizer.max_iterations = 30;
+    o.gp.serial_chain = serial_chain;
+    FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
+    EXPECT_TRUE(r.report.ok()) << r.report.message;
+    return r;
+  };
+  // Largest change of M's entries (a, b) in `entries` when joint m moves, relative to max |M|.
+  auto change = [&](const Estimator& model, int m, auto entries) {
+    Eigen::MatrixXd Q = test.X.leftCols(n), moved = Q;
+    moved.col(m).array() += 0.7;
+    const auto M = inertia(model, Q), Mm = inertia(model, moved);
+    double largest = 0.0, scale = 0.0;
+    for (size_t r = 0; r < M.size(); ++r) {
+      scale = std::max(scale, M[r].cwiseAbs().maxCoeff());
+      for (int a = 0; a < n; ++a)
+        for (int b = 0; b < n; ++b)
+          if (entries(a, b)) largest = std::max(largest, std::abs(Mm[r](a, b) - M[r](a, b)));
+    }
+    return largest / scale;
+  };
+  auto all = [](int, int) { return true; };
+  auto beyond_row_0 = [](int a, int b) { return std::min(a, b) >= 1; };
+  auto last = [&](int a, int b) { return a == n - 1 && b == n - 1; };
+
+  const FitResult chain = fit(true), full = fit(false);
+  EXPECT_LT(change(*chain.estimator, 0, all), 1e-10);
+  EXPECT_LT(change(*chain.estimator, 1, beyond_row_0), 1e-10);
+  EXPECT_LT(change(*chain.estimator, 2, last), 1e-10);
+  EXPECT_GT(change(*chain.estimator, 1, all), 1e-6);  // row 0 does move with joint 2
+  EXPECT_GT(change(*full.estimator, 0, all), 1e-6);
+  EXPECT_GT(change(*full.estimator, 1, beyond_row_0), 1e-6);
+
+  const std::string path = ::testing::TempDir() + "/lip_serial_chain.gipdyn";
+  save_estimator(*chain.estimator, path);
+  const auto loaded = load_estimator(path);
+  EXPECT_TRUE(dynamic_cast<const LagrangianEstimator&>(*loaded).kernel().serial_chain());
+  EXPECT_EQ(loaded->predict(test.X), chain.estimator->predict(test.X));
+  ModelContainer old = dynamic_cast<const LagrangianEstimator&>(*full.estimator).to_container();
+  old.header.erase("serial_chain");
+  const LagrangianEstimator old_model = LagrangianEstimator::from_container(old, "an older file");
+  EXPECT_FALSE(old_model.kernel().serial_chain());
+  EXPECT_EQ(old_model.predict(test.X), full.estimator->predict(test.X));
 }
 
 // A SCARA model answers in weight space (LagrangianWeightSpaceMean), with the
@@ -342,7 +408,7 @@ TEST(LagrangianEstimator, WithFrictionSavesAndLoadsAndKeepsFrictionOutOfTheEnerg
   rest.middleCols(4, 4).setZero();
   EXPECT_LT(a.kinetic_energy(rest).cwiseAbs().maxCoeff(), 1e-12);
   // The energies' covariances with the torques do not read the friction parameters.
-  LagrangianKernel without(JointTypes::parse("RRPR"));
+  LagrangianKernel without(JointTypes::parse("RRPR"), false, a.kernel().serial_chain());
   without.set_log_params(a.kernel().log_params().head(without.num_params()));
   const Eigen::MatrixXd X2 = train.X.topRows(5);
   const Eigen::VectorXd x = test.X.row(0).transpose();

@@ -66,6 +66,10 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
     app.add_flag("--robot-friction", robot_friction,
                  "fe, pp, sp: add viscous and Coulomb friction parameters to the rigid-body regressor");
   }
+  app.add_flag("--no-serial-chain", no_serial_chain,
+               "lip (and the lip teacher): the joints are not ordered from the base to the tip of one serial "
+               "chain, so let every entry of the inertia matrix depend on every joint (the LIP paper's kernel; "
+               "by default entry ab depends only on the joints after min(a, b), docs/method.md section 11)");
   app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)");
   app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str();
   app.add_option("--nn-batch", nn.batch_size, "nn: minibatch size")->capture_default_str();
@@ -118,6 +122,7 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--mean")) o.gp.mean = parse_mean_kind(mean);
   if (given("--min-noise")) o.gp.min_noise_fraction = min_noise;
   if (given("--threads")) o.gp.threads = threads;
+  if (given("--no-serial-chain")) o.gp.serial_chain = !no_serial_chain;
   if (given("--prior") || given("--prior-width")) o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
   if (given("--nn-epochs")) o.nn.epochs = nn.epochs;
   if (given("--nn-batch")) o.nn.batch_size = nn.batch_size;

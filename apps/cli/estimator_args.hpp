@@ -22,6 +22,7 @@ struct EstimatorArgs {
   std::uint64_t seed = 0;
   double min_noise = 1e-8, learning_rate = 0.01;
   bool robot_friction = false;
+  bool no_serial_chain = false;
   NeuralNetworkOptions nn;
 
   // GP, robot and network options (not --kernel, whose help differs per command).

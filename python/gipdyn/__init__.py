@@ -163,7 +163,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     teacher's and the student's nMSE on (X, Y), and a TeachingWarning says
     when the student misses that log by more than 0.1 of a joint's torque
     variance and by more than twice its teacher's error, as on real robots'
-    logs)
+    logs), serial_chain (True: the joints are ordered from the base to the
+    tip of one serial chain, and the lip teacher's inertia entry ab depends
+    only on the joints after min(a, b); False for joints in another order)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
@@ -191,7 +193,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  hyperparameter_objective=_DEFAULTS.hyperparameter_objective, teacher=None,
                  teacher_states=_TEACHER_DEFAULTS.states,
                  teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows,
-                 student_hyperparameter_rows=_TEACHER_DEFAULTS.student_hyperparameter_rows):
+                 student_hyperparameter_rows=_TEACHER_DEFAULTS.student_hyperparameter_rows,
+                 serial_chain=_DEFAULTS.serial_chain):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -220,6 +223,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.teacher_states = teacher_states
         self.teacher_hyperparameter_rows = teacher_hyperparameter_rows
         self.student_hyperparameter_rows = student_hyperparameter_rows
+        self.serial_chain = serial_chain
 
     def teacher_options(self):
         """The library's TeacherOptions for these parameters, or None without a teacher."""
@@ -245,6 +249,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.seed = int(self.seed)
         o.min_noise_fraction = float(self.min_noise)
         o.gradient_tolerance_per_row = float(self.gradient_tolerance)
+        o.serial_chain = bool(self.serial_chain)
         return o
 
     def train_options(self):
@@ -478,17 +483,22 @@ class LagrangianGP(InverseDynamicsGP):
     few thousand.
 
     Parameters: joints, optimizer, max_iter, restarts, seed, min_noise,
-    learning_rate, verbose, gradient_tolerance, hyperparameter_rows, as
-    InverseDynamicsGP's; friction=True adds each joint's smooth friction and
-    torque offset beside the energies (the estimator lip+friction).
+    learning_rate, verbose, gradient_tolerance, hyperparameter_rows,
+    serial_chain, as InverseDynamicsGP's; friction=True adds each joint's
+    smooth friction and torque offset beside the energies (the estimator
+    lip+friction). serial_chain=False for joints not ordered from the base to
+    the tip of one serial chain (every inertia entry may then depend on every
+    joint).
     """
 
     def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
                  restarts=_DEFAULTS.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row,
-                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows, friction=False):
+                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows, friction=False,
+                 serial_chain=_DEFAULTS.serial_chain):
         self.joints = joints
         self.friction = friction
+        self.serial_chain = serial_chain
         self.optimizer = optimizer
         self.max_iter = max_iter
         self.restarts = restarts

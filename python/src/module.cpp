@@ -389,6 +389,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("initial_noise_fraction", &TrainOptions::initial_noise_fraction)
       .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
       .def_readwrite("noise_std_floor", &TrainOptions::noise_std_floor)
+      .def_readwrite("serial_chain", &TrainOptions::serial_chain)
       .def_readwrite("threads", &TrainOptions::threads)
       .def_readwrite("warm_start_rows", &TrainOptions::warm_start_rows)
       .def_readwrite("hyperparameter_rows", &TrainOptions::hyperparameter_rows)

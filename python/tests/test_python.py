@@ -568,6 +568,24 @@ def test_lagrangian_gp_hyperparameters_from_a_subsample(scara):
     assert not np.allclose(full.predict(test["X"][:5]), sub.predict(test["X"][:5]))
 
 
+def test_lagrangian_gp_serial_chain_is_the_default_and_can_be_turned_off(scara):
+    # The library's TrainOptions::serial_chain, on by default, reaches LIP and the lip teacher.
+    train, test = scara
+    assert gipdyn.TrainOptions().serial_chain
+    assert gipdyn.LagrangianGP().train_options().serial_chain
+    assert not gipdyn.LagrangianGP(serial_chain=False).train_options().serial_chain
+    assert not gipdyn.InverseDynamicsGP(serial_chain=False).train_options().serial_chain
+    X, tau = train["X"][:40], train["tau"][:40]
+    chain = gipdyn.LagrangianGP(joints="RRPR", max_iter=20).fit(X, tau)
+    full = gipdyn.LagrangianGP(joints="RRPR", max_iter=20, serial_chain=False).fit(X, tau)
+    assert not np.allclose(chain.predict(test["X"][:5]), full.predict(test["X"][:5]))
+    # The learned inertia's last diagonal entry is a constant on a serial chain only.
+    q = test["X"][:5, :4]
+    last = [m[3, 3] for m in chain.inertia(q)]
+    assert np.ptp(last) < 1e-9 * abs(last[0])
+    assert np.ptp([m[3, 3] for m in full.inertia(q)]) > 1e-6 * abs(last[0])
+
+
 def _gip_model_file(train, tmp_path):
     path = tmp_path / "gip.gipdyn"
     gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"][:50], train["tau"][:50]).save(path)

@@ -216,7 +216,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   for (int i = 0; i < n; ++i)
     joint_variance(i) = std::max(Yh.col(i).squaredNorm() / static_cast<double>(Yh.rows()) / (scale * scale), 1e-12);
 
-  LagrangianKernel kernel(joints, friction);
+  LagrangianKernel kernel(joints, friction, o.serial_chain);
   kernel.initialize(Xh, 1.0);
   const int P = kernel.num_params();
   Eigen::VectorXd x0(P + n);
@@ -410,6 +410,7 @@ ModelContainer LagrangianEstimator::to_container() const {
   c.header["estimator"] = name();
   c.header["joints"] = joints().str();
   c.header["torque_scale"] = scale_;
+  c.header["serial_chain"] = kernel_.serial_chain();
   c.header["param_names"] = kernel_.param_names();
   c.add("log_params", kernel_.log_params());
   c.add("noise_variances", noise_);
@@ -423,6 +424,7 @@ nlohmann::json LagrangianEstimator::summary() const {
   const auto names = kernel_.param_names();
   for (size_t k = 0; k < names.size(); ++k) params[names[k]] = std::exp(kernel_.log_params()(static_cast<Eigen::Index>(k)));
   return {{"estimator", name()},
+          {"serial_chain", kernel_.serial_chain()},
           {"training_rows", X_.rows()},
           {"noise_variances", std::vector<double>(noise_.data(), noise_.data() + noise_.size())},
           {"torque_scale", scale_},
@@ -431,7 +433,9 @@ nlohmann::json LagrangianEstimator::summary() const {
 
 LagrangianEstimator LagrangianEstimator::from_container(const ModelContainer& c, const std::string& what) {
   const JointTypes joints = JointTypes::parse(c.header.at("joints").get<std::string>());
-  LagrangianKernel kernel(joints, c.header.at("estimator").get<std::string>() == "lip+friction");
+  // Files written before the serial-chain kernel have no such entry: theirs was the full one.
+  LagrangianKernel kernel(joints, c.header.at("estimator").get<std::string>() == "lip+friction",
+                          c.header.value("serial_chain", false));
   const Eigen::MatrixXd& p = c.array("log_params", what);
   const Eigen::MatrixXd& noise = c.array("noise_variances", what);
   const Eigen::MatrixXd& X = c.array("training_states", what);

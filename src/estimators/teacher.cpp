@@ -50,6 +50,7 @@ TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) 
   o.jitter = student.jitter;
   o.threads = student.threads;
   o.hyperparameter_rows = hyperparameter_rows;
+  o.serial_chain = student.serial_chain;
   o.keep_factor = false;  // the teacher only predicts means
   return o;
 }

@@ -100,12 +100,14 @@ void value_products(const std::vector<Jet>& jets, std::vector<double>& prefix, s
 
 // The linear function of the position quantities of the product of `jets`, in
 // O(n^2): products over all joints but one or two from prefix and suffix products.
+// The jets before `first` are unit jets (a serial chain's kinetic terms), whose
+// derivative entries are zero: the loops skip them.
 double contract_position(const std::vector<Jet>& jets, const PositionCoefficients& c, std::vector<double>& prefix,
-                         std::vector<double>& suffix) {
+                         std::vector<double>& suffix, int first) {
   const int n = static_cast<int>(jets.size());
   value_products(jets, prefix, suffix);
   double value = c.cP * prefix[static_cast<size_t>(n)];
-  for (int i = 0; i < n; ++i) {
+  for (int i = first; i < n; ++i) {
     const Jet& ji = jets[static_cast<size_t>(i)];
     const double all_but_i = prefix[static_cast<size_t>(i)] * suffix[static_cast<size_t>(i) + 1];
     value += (c.cg(i) * ji[1] + c.cgp(i) * ji[2] + c.cH(i, i) * ji[3]) * all_but_i;
@@ -126,13 +128,13 @@ double contract_position(const std::vector<Jet>& jets, const PositionCoefficient
 // jets[m] a unit jet (the terms without them are exact zeros there), in O(n^2)
 // instead of three O(n^2) contractions with most terms zero. prefix and
 // suffix: value_products of the jets; their entries up to m and from m + 1,
-// the only ones read, do not involve jet m.
+// the only ones read, do not involve jet m. Jets before `first`: unit jets.
 void derivative_sensitivities(const std::vector<Jet>& jets, const PositionCoefficients& c, int m,
-                              const std::vector<double>& prefix, const std::vector<double>& suffix, Jet& d) {
+                              const std::vector<double>& prefix, const std::vector<double>& suffix, int first, Jet& d) {
   const int n = static_cast<int>(jets.size());
   const size_t um = static_cast<size_t>(m);
   double d1 = 0.0, d2 = 0.0;
-  for (int i = 0; i < m; ++i) {  // the pairs (i, m)
+  for (int i = first; i < m; ++i) {  // the pairs (i, m)
     const Jet& ji = jets[static_cast<size_t>(i)];
     double between = 1.0;
     for (int k = i + 1; k < m; ++k) between *= jets[static_cast<size_t>(k)][0];
@@ -156,13 +158,20 @@ void derivative_sensitivities(const std::vector<Jet>& jets, const PositionCoeffi
   d[3] = c.cH(m, m) * all_but_m;
 }
 
-// The position quantities themselves (P, g, g', H) of the product of `jets`.
+// The position quantities themselves (P, g, g', H) of the product of `jets`;
+// those of the unit jets before `first` are zero.
 void position_quantities(const std::vector<Jet>& jets, double& P, Eigen::VectorXd& g, Eigen::VectorXd& gp,
-                         Eigen::MatrixXd& H, std::vector<double>& prefix, std::vector<double>& suffix) {
+                         Eigen::MatrixXd& H, std::vector<double>& prefix, std::vector<double>& suffix, int first = 0) {
   const int n = static_cast<int>(jets.size());
   value_products(jets, prefix, suffix);
   P = prefix[static_cast<size_t>(n)];
-  for (int i = 0; i < n; ++i) {
+  if (first > 0) {
+    g.head(first).setZero();
+    gp.head(first).setZero();
+    H.topRows(first).setZero();
+    H.leftCols(first).setZero();
+  }
+  for (int i = first; i < n; ++i) {
     const Jet& ji = jets[static_cast<size_t>(i)];
     const double all_but_i = prefix[static_cast<size_t>(i)] * suffix[static_cast<size_t>(i) + 1];
     g(i) = ji[1] * all_but_i;
@@ -192,21 +201,6 @@ void symmetric_term(const Eigen::MatrixXd& nu, const Eigen::Ref<const Eigen::Vec
     for (Eigen::Index j = 0; j < n; ++j) d += nu(i, j) * x(j) * y(j);
     S(i, i) += 2.0 * d;
   }
-}
-
-// K -= 2 (u o v) w', allocation-free.
-void subtract_twice_outer(const Eigen::Ref<const Eigen::VectorXd>& u, const Eigen::Ref<const Eigen::VectorXd>& v,
-                          const Eigen::Ref<const Eigen::VectorXd>& w, Eigen::Ref<Eigen::MatrixXd> K) {
-  for (Eigen::Index j = 0; j < K.cols(); ++j)
-    for (Eigen::Index i = 0; i < K.rows(); ++i) K(i, j) -= 2.0 * u(i) * v(i) * w(j);
-}
-
-// K -= 2 w (u o v)', allocation-free.
-void subtract_twice_outer_transposed(const Eigen::Ref<const Eigen::VectorXd>& w,
-                                     const Eigen::Ref<const Eigen::VectorXd>& u,
-                                     const Eigen::Ref<const Eigen::VectorXd>& v, Eigen::Ref<Eigen::MatrixXd> K) {
-  for (Eigen::Index j = 0; j < K.cols(); ++j)
-    for (Eigen::Index i = 0; i < K.rows(); ++i) K(i, j) -= 2.0 * w(i) * u(j) * v(j);
 }
 
 // d <W, S(x, y)> / d nu_ab (entries of nu taken as independent) added to G, times s.
@@ -249,29 +243,40 @@ void parallel_chunks(Eigen::Index rows, Body&& body) {
 struct LagrangianKernel::PairTerms {
   std::vector<AnglePair> angles;
   std::vector<Jet> kinetic, potential;
+  // The kinetic term being evaluated: its jets (kinetic, with unit jets for
+  // the joints its coefficients do not depend on) and velocity weights.
+  std::vector<Jet> term_jets;
+  const Eigen::MatrixXd* nu = nullptr;
   double P = 0.0, PV = 0.0;
   Eigen::VectorXd g, gp, gV, gpV;
-  // Velocity products of the notation above: e = qd1 o qd2, b = nu e,
-  // a5 = nu (qdd1 o qd2), c7 = nu (qdd2 o qd1), h6 = H' qd1, h8 = H qd2,
-  // P1 = qd1.g, P1p = qd2.g', Q = qd1' H qd2.
-  Eigen::VectorXd e, b, a5, c7, h6, h8, product;
+  // Velocity products of the notation above: e = qd1 o qd2, v5 = qdd1 o qd2,
+  // v7 = qdd2 o qd1 (per pair); per term b = nu e, a5 = nu v5, c7 = nu v7,
+  // h6 = H' qd1, h8 = H qd2, P1 = qd1.g, P1p = qd2.g', Q = qd1' H qd2.
+  Eigen::VectorXd e, v5, v7, b, a5, c7, h6, h8;
   double P1 = 0.0, P1p = 0.0, Q = 0.0;
   Eigen::MatrixXd H, HV, S;
+  // The velocity weights times each term's P, P1p, P1 and Q: the four S terms
+  // of all kinetic terms are linear in nu, so they add up to four S terms.
+  Eigen::MatrixXd nuP, nuP1p, nuP1, nuQ;
   std::vector<double> prefix, suffix;
-  // Scratch of add_pair_gradient.
-  Eigen::MatrixXd G;
-  Eigen::VectorXd v;
+  // Scratch of add_pair_gradient: d<W, S(x, y)>/d nu for the four S terms,
+  // and W or W' times a term's vectors.
+  Eigen::MatrixXd MP, MP1p, MP1, MQ;
+  Eigen::VectorXd Wgp, Wh6, Wtg, Wth8, u, w;
   PositionCoefficients kin, pot;
   explicit PairTerms(int n)
-      : angles(static_cast<size_t>(n)), kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), e(n), b(n),
-        a5(n), c7(n), h6(n), h8(n), product(n), H(n, n), HV(n, n), S(n, n), prefix(static_cast<size_t>(n) + 1),
-        suffix(static_cast<size_t>(n) + 1), G(n, n), v(n) {
+      : angles(static_cast<size_t>(n)), kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)),
+        term_jets(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), e(n), v5(n), v7(n), b(n), a5(n), c7(n),
+        h6(n), h8(n), H(n, n), HV(n, n), S(n, n), nuP(n, n), nuP1p(n, n), nuP1(n, n), nuQ(n, n),
+        prefix(static_cast<size_t>(n) + 1), suffix(static_cast<size_t>(n) + 1), MP(n, n), MP1p(n, n), MP1(n, n),
+        MQ(n, n), Wgp(n), Wh6(n), Wtg(n), Wth8(n), u(n), w(n) {
     kin.reset(n);
     pot.reset(n);
   }
 };
 
-LagrangianKernel::LagrangianKernel(JointTypes joints, bool friction) : joints_(std::move(joints)), n_(joints_.size()) {
+LagrangianKernel::LagrangianKernel(JointTypes joints, bool friction, bool serial_chain)
+    : joints_(std::move(joints)), n_(joints_.size()), serial_chain_(serial_chain) {
   int offset = num_velocity_weights();
   for (int m = 0; m < n_; ++m) {
     kinetic_offset_.push_back(offset);
@@ -331,7 +336,21 @@ void LagrangianKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& l
     for (int b = a; b < n_; ++b, ++k) {
       nu_(a, b) = nu_(b, a) = a == b ? params_(k) : 0.5 * params_(k);
     }
+  // On a serial chain, term c holds the coefficients h_cb (b >= c): row and
+  // column c of nu from the diagonal on.
+  term_nu_.assign(static_cast<size_t>(num_kinetic_terms()), Eigen::MatrixXd());
+  if (!serial_chain_) {
+    term_nu_[0] = nu_;
+    return;
+  }
+  for (int c = 0; c < n_; ++c) {
+    Eigen::MatrixXd& nc = term_nu_[static_cast<size_t>(c)];
+    nc.setZero(n_, n_);
+    for (int b = c; b < n_; ++b) nc(c, b) = nc(b, c) = nu_(c, b);
+  }
 }
+
+int LagrangianKernel::first_kinetic_joint(int term) const { return serial_chain_ ? term + 1 : 0; }
 
 void LagrangianKernel::position_jets(const double* q1, const double* q2, PairTerms& t) const {
   for (int m = 0; m < n_; ++m) {
@@ -343,46 +362,104 @@ void LagrangianKernel::position_jets(const double* q1, const double* q2, PairTer
   }
 }
 
-void LagrangianKernel::kinetic_pair_terms(const double* x1, const double* x2, PairTerms& t) const {
+int LagrangianKernel::term_support(int term) const { return serial_chain_ ? term : 0; }
+
+void LagrangianKernel::term_product(int term, const Eigen::VectorXd& v, Eigen::VectorXd& out) const {
+  if (!serial_chain_) {
+    out.noalias() = nu_ * v;
+    return;
+  }
+  // Row and column `term` of nu: (nu v)_term sums the row, the rows below see v_term only.
+  double sum = 0.0;
+  for (int b = term; b < n_; ++b) sum += nu_(term, b) * v(b);
+  for (int i = 0; i < term; ++i) out(i) = 0.0;
+  out(term) = sum;
+  for (int i = term + 1; i < n_; ++i) out(i) = nu_(i, term) * v(term);
+}
+
+void LagrangianKernel::write_term_weights(int term, double scale, Eigen::MatrixXd& out) const {
+  if (!serial_chain_) {
+    out = scale * nu_;
+    return;
+  }
+  for (int b = term; b < n_; ++b) out(term, b) = out(b, term) = scale * nu_(term, b);
+}
+
+double LagrangianKernel::term_contraction(int term, const Eigen::MatrixXd& M) const {
+  if (!serial_chain_) return nu_.cwiseProduct(M).sum();
+  double sum = nu_(term, term) * M(term, term);
+  for (int b = term + 1; b < n_; ++b) sum += nu_(term, b) * (M(term, b) + M(b, term));
+  return sum;
+}
+
+void LagrangianKernel::velocity_products(const double* x1, const double* x2, PairTerms& t) const {
   const int n = n_;
-  position_jets(x1, x2, t);
-  position_quantities(t.kinetic, t.P, t.g, t.gp, t.H, t.prefix, t.suffix);
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
   t.e = qd1.cwiseProduct(qd2);
-  t.b.noalias() = nu_ * t.e;
-  t.product = qdd1.cwiseProduct(qd2);  // a named vector: a product expression would make GEMV allocate
-  t.a5.noalias() = nu_ * t.product;
-  t.product = qdd2.cwiseProduct(qd1);
-  t.c7.noalias() = nu_ * t.product;
-  t.h6.noalias() = t.H.transpose() * qd1;
-  t.h8.noalias() = t.H * qd2;
-  t.P1 = qd1.dot(t.g);
-  t.P1p = qd2.dot(t.gp);
-  t.Q = qd1.dot(t.h8);
+  t.v5 = qdd1.cwiseProduct(qd2);
+  t.v7 = qdd2.cwiseProduct(qd1);
+}
+
+void LagrangianKernel::kinetic_term_quantities(const double* x1, const double* x2, int term, PairTerms& t) const {
+  const int n = n_;
+  const int first = first_kinetic_joint(term);
+  for (int m = 0; m < n; ++m)
+    t.term_jets[static_cast<size_t>(m)] = m < first ? Jet{1.0, 0.0, 0.0, 0.0} : t.kinetic[static_cast<size_t>(m)];
+  t.nu = &term_nu_[static_cast<size_t>(term)];
+  position_quantities(t.term_jets, t.P, t.g, t.gp, t.H, t.prefix, t.suffix, first);
+  const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qd2(x2 + n, n);
+  term_product(term, t.e, t.b);
+  term_product(term, t.v5, t.a5);
+  term_product(term, t.v7, t.c7);
+  // g, g' and H vanish before `first`.
+  t.P1 = t.P1p = t.Q = 0.0;
+  for (int i = 0; i < first; ++i) t.h6(i) = t.h8(i) = 0.0;
+  for (int i = first; i < n; ++i) {
+    double h6 = 0.0, h8 = 0.0;
+    for (int k = first; k < n; ++k) {
+      h6 += t.H(k, i) * qd1(k);
+      h8 += t.H(i, k) * qd2(k);
+    }
+    t.h6(i) = h6;
+    t.h8(i) = h8;
+    t.P1 += qd1(i) * t.g(i);
+    t.P1p += qd2(i) * t.gp(i);
+    t.Q += qd1(i) * h8;
+  }
 }
 
 void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTerms& t,
                                       Eigen::Ref<Eigen::MatrixXd> K) const {
   const int n = n_;
-  kinetic_pair_terms(x1, x2, t);
-  position_quantities(t.potential, t.PV, t.gV, t.gpV, t.HV, t.prefix, t.suffix);
+  position_jets(x1, x2, t);
+  velocity_products(x1, x2, t);
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
-  const Eigen::VectorXd &e = t.e, &b = t.b, &a5 = t.a5, &c7 = t.c7, &h6 = t.h6, &h8 = t.h8;
-  const double P1 = t.P1, P1p = t.P1p, Q = t.Q, U = e.dot(b);
-
-  symmetric_term(nu_, qdd1, qdd2, t.S);
-  K.noalias() = t.P * t.S;
-  symmetric_term(nu_, qdd1, qd2, t.S);
-  K.noalias() += P1p * t.S;
-  symmetric_term(nu_, qd1, qdd2, t.S);
-  K.noalias() += P1 * t.S;
-  symmetric_term(nu_, qd1, qd2, t.S);
-  K.noalias() += Q * t.S;
-  subtract_twice_outer(qd2, a5, t.gp, K);
-  subtract_twice_outer(qd2, b, h6, K);
-  subtract_twice_outer_transposed(t.g, qd1, c7, K);
-  subtract_twice_outer_transposed(h8, qd1, b, K);
-  K.noalias() += U * t.H + t.HV;
+  K.setZero();
+  for (int term = 0; term < num_kinetic_terms(); ++term) {
+    kinetic_term_quantities(x1, x2, term, t);
+    write_term_weights(term, t.P, t.nuP);
+    write_term_weights(term, t.P1p, t.nuP1p);
+    write_term_weights(term, t.P1, t.nuP1);
+    write_term_weights(term, t.Q, t.nuQ);
+    // The outer products of the notation, on the rows and columns where this
+    // term's vectors can be non-zero.
+    const double U = t.e.dot(t.b);
+    const int lo = term_support(term);
+    for (int j = lo; j < n; ++j)
+      for (int i = lo; i < n; ++i)
+        K(i, j) += -2.0 * qd2(i) * (t.a5(i) * t.gp(j) + t.b(i) * t.h6(j)) -
+                   2.0 * qd1(j) * (t.g(i) * t.c7(j) + t.h8(i) * t.b(j)) + U * t.H(i, j);
+  }
+  symmetric_term(t.nuP, qdd1, qdd2, t.S);
+  K += t.S;
+  symmetric_term(t.nuP1p, qdd1, qd2, t.S);
+  K += t.S;
+  symmetric_term(t.nuP1, qd1, qdd2, t.S);
+  K += t.S;
+  symmetric_term(t.nuQ, qd1, qd2, t.S);
+  K += t.S;
+  position_quantities(t.potential, t.PV, t.gV, t.gpV, t.HV, t.prefix, t.suffix);
+  K += t.HV;
   if (has_friction())
     for (int m = 0; m < n; ++m) K(m, m) += friction_covariance(m, qd1(m), qd2(m));
 }
@@ -485,77 +562,105 @@ void LagrangianKernel::torque_gram_lower(const Eigen::MatrixXd& X, Eigen::Matrix
 void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, const Eigen::Ref<const Eigen::MatrixXd>& W,
                                          PairTerms& t, Eigen::Ref<Eigen::VectorXd> grad) const {
   const int n = n_;
-  kinetic_pair_terms(x1, x2, t);
+  position_jets(x1, x2, t);
+  velocity_products(x1, x2, t);
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
-  const Eigen::VectorXd &e = t.e, &b = t.b, &a5 = t.a5, &c7 = t.c7, &h6 = t.h6, &h8 = t.h8;
-  const double P1 = t.P1, P1p = t.P1p, Q = t.Q, WH = W.cwiseProduct(t.H).sum();
-
-  // Velocity weights: G_ab = d<W, K>/d nu_ab with the entries of nu independent.
-  // Products into the scratch's named vectors: as nested expressions they would allocate.
-  Eigen::MatrixXd& G = t.G;
-  G.setZero();
-  add_symmetric_term_gradient(W, qdd1, qdd2, t.P, G);
-  add_symmetric_term_gradient(W, qdd1, qd2, P1p, G);
-  add_symmetric_term_gradient(W, qd1, qdd2, P1, G);
-  add_symmetric_term_gradient(W, qd1, qd2, Q, G);
-  t.v.noalias() = W * t.gp;
-  G.noalias() -= 2.0 * qd2.cwiseProduct(t.v) * qdd1.cwiseProduct(qd2).transpose();
-  t.v.noalias() = W * h6;
-  G.noalias() -= 2.0 * qd2.cwiseProduct(t.v) * e.transpose();
-  t.v.noalias() = W.transpose() * t.g;
-  G.noalias() -= 2.0 * qd1.cwiseProduct(t.v) * qdd2.cwiseProduct(qd1).transpose();
-  t.v.noalias() = W.transpose() * h8;
-  G.noalias() -= 2.0 * qd1.cwiseProduct(t.v) * e.transpose();
-  G.noalias() += WH * e * e.transpose();
-  int k = 0;
-  for (int a = 0; a < n; ++a)
-    for (int c = a; c < n; ++c, ++k) grad(k) += a == c ? nu_(a, a) * G(a, a) : nu_(a, c) * (G(a, c) + G(c, a));
-
-  // Position parameters: <W, K> as a linear function of each energy's position quantities.
-  PositionCoefficients& kin = t.kin;
-  kin.reset(n);
-  symmetric_term(nu_, qdd1, qdd2, t.S);
-  kin.cP = W.cwiseProduct(t.S).sum();
-  symmetric_term(nu_, qdd1, qd2, t.S);
-  kin.cgp = W.cwiseProduct(t.S).sum() * qd2 - 2.0 * W.transpose() * qd2.cwiseProduct(a5);
-  symmetric_term(nu_, qd1, qdd2, t.S);
-  kin.cg = W.cwiseProduct(t.S).sum() * qd1 - 2.0 * W * qd1.cwiseProduct(c7);
-  symmetric_term(nu_, qd1, qd2, t.S);
-  kin.cH = W.cwiseProduct(t.S).sum() * qd1 * qd2.transpose();
-  kin.cH.noalias() -= 2.0 * qd1 * (W.transpose() * qd2.cwiseProduct(b)).transpose();
-  kin.cH.noalias() -= 2.0 * (W * qd1.cwiseProduct(b)) * qd2.transpose();
-  kin.cH += e.dot(b) * W;
-  PositionCoefficients& pot = t.pot;
-  pot.reset(n);
-  pot.cH = W;
-
+  auto dot = [](const Jet& a, const Jet& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]; };
   // The contraction is linear in each joint's jet: its partial derivatives are
-  // the contraction with that jet replaced by a unit jet.
-  auto jet_sensitivity = [&](std::vector<Jet>& jets, const PositionCoefficients& c, int m) {
+  // the contraction with that jet replaced by a unit jet. Jets before `first` are unit jets.
+  auto jet_sensitivity = [&](std::vector<Jet>& jets, const PositionCoefficients& c, int m, int first) {
     const Jet saved = jets[static_cast<size_t>(m)];
     Jet d{};
     jets[static_cast<size_t>(m)] = {1.0, 0.0, 0.0, 0.0};
-    d[0] = contract_position(jets, c, t.prefix, t.suffix);  // leaves value_products of these jets
+    d[0] = contract_position(jets, c, t.prefix, t.suffix, first);  // leaves value_products of these jets
     jets[static_cast<size_t>(m)] = saved;
-    derivative_sensitivities(jets, c, m, t.prefix, t.suffix, d);
+    derivative_sensitivities(jets, c, m, t.prefix, t.suffix, first, d);
     return d;
   };
-  auto dot = [](const Jet& a, const Jet& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]; };
+  // d<W, S(x, y)>/d nu_ab with the entries of nu independent, for the four S terms:
+  // every term's share of them is a sum over its entries of nu.
+  t.MP.setZero();
+  t.MP1p.setZero();
+  t.MP1.setZero();
+  t.MQ.setZero();
+  add_symmetric_term_gradient(W, qdd1, qdd2, 1.0, t.MP);
+  add_symmetric_term_gradient(W, qdd1, qd2, 1.0, t.MP1p);
+  add_symmetric_term_gradient(W, qd1, qdd2, 1.0, t.MP1);
+  add_symmetric_term_gradient(W, qd1, qd2, 1.0, t.MQ);
+
+  for (int term = 0; term < num_kinetic_terms(); ++term) {
+    kinetic_term_quantities(x1, x2, term, t);
+    const int first = first_kinetic_joint(term), lo = term_support(term);
+    // W and W' times this term's vectors, on the rows the term can touch.
+    double WH = 0.0;
+    for (int i = lo; i < n; ++i) {
+      double Wgp = 0.0, Wh6 = 0.0, Wtg = 0.0, Wth8 = 0.0;
+      for (int k = first; k < n; ++k) {
+        Wgp += W(i, k) * t.gp(k);
+        Wh6 += W(i, k) * t.h6(k);
+        Wtg += W(k, i) * t.g(k);
+        Wth8 += W(k, i) * t.h8(k);
+        if (i >= first) WH += W(i, k) * t.H(i, k);
+      }
+      t.Wgp(i) = Wgp, t.Wh6(i) = Wh6, t.Wtg(i) = Wtg, t.Wth8(i) = Wth8;
+    }
+
+    // Velocity weights of this term: G_ab = d<W, K>/d nu_ab with the entries of nu independent.
+    auto G = [&](int a, int b) {
+      return t.P * t.MP(a, b) + t.P1p * t.MP1p(a, b) + t.P1 * t.MP1(a, b) + t.Q * t.MQ(a, b) -
+             2.0 * qd2(a) * (t.Wgp(a) * t.v5(b) + t.Wh6(a) * t.e(b)) -
+             2.0 * qd1(a) * (t.Wtg(a) * t.v7(b) + t.Wth8(a) * t.e(b)) + WH * t.e(a) * t.e(b);
+    };
+    int k = 0;
+    for (int a = 0; a < n; ++a)
+      for (int c = a; c < n; ++c, ++k)
+        if (!serial_chain_ || a == term) grad(k) += a == c ? nu_(a, a) * G(a, a) : nu_(a, c) * (G(a, c) + G(c, a));
+
+    // Position parameters: <W, K> as a linear function of this term's position
+    // quantities, on the joints from `first` on (the others' jets are constant).
+    PositionCoefficients& kin = t.kin;
+    kin.cP = term_contraction(term, t.MP);
+    const double sP1p = term_contraction(term, t.MP1p), sP1 = term_contraction(term, t.MP1),
+                 sQ = term_contraction(term, t.MQ), U = t.e.dot(t.b);
+    for (int i = first; i < n; ++i) {
+      double Wta5 = 0.0, Wc7 = 0.0, Wtb = 0.0, Wb = 0.0;
+      for (int k2 = lo; k2 < n; ++k2) {
+        Wta5 += W(k2, i) * qd2(k2) * t.a5(k2);
+        Wc7 += W(i, k2) * qd1(k2) * t.c7(k2);
+        Wtb += W(k2, i) * qd2(k2) * t.b(k2);
+        Wb += W(i, k2) * qd1(k2) * t.b(k2);
+      }
+      kin.cgp(i) = sP1p * qd2(i) - 2.0 * Wta5;
+      kin.cg(i) = sP1 * qd1(i) - 2.0 * Wc7;
+      t.u(i) = Wtb;
+      t.w(i) = Wb;
+    }
+    for (int j = first; j < n; ++j)
+      for (int i = first; i < n; ++i)
+        kin.cH(i, j) = sQ * qd1(i) * qd2(j) - 2.0 * qd1(i) * t.u(j) - 2.0 * t.w(i) * qd2(j) + U * W(i, j);
+    for (int m = first; m < n; ++m) {
+      const bool rev = joints_.is_revolute(m);
+      const int fs = factor_size(m);
+      const AnglePair& a = t.angles[static_cast<size_t>(m)];  // set by position_jets
+      const Jet dk = jet_sensitivity(t.term_jets, kin, m, first);
+      const int ko = kinetic_offset_[static_cast<size_t>(m)];
+      const Jet f1 = factor_jet(rev, params_.data() + ko, a);
+      const Jet f2 = factor_jet(rev, params_.data() + ko + fs, a);
+      for (int p = 0; p < fs; ++p) {
+        grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, a), f2));
+        grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, a)));
+      }
+    }
+  }
+
+  PositionCoefficients& pot = t.pot;
+  pot.cH = W;
   for (int m = 0; m < n; ++m) {
     const bool rev = joints_.is_revolute(m);
-    const int fs = factor_size(m);
-    const AnglePair& a = t.angles[static_cast<size_t>(m)];  // set by kinetic_pair_terms
-    const Jet dk = jet_sensitivity(t.kinetic, kin, m);
-    const int ko = kinetic_offset_[static_cast<size_t>(m)];
-    const Jet f1 = factor_jet(rev, params_.data() + ko, a);
-    const Jet f2 = factor_jet(rev, params_.data() + ko + fs, a);
-    for (int p = 0; p < fs; ++p) {
-      grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, a), f2));
-      grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, a)));
-    }
-    const Jet dv = jet_sensitivity(t.potential, pot, m);
+    const AnglePair& a = t.angles[static_cast<size_t>(m)];
+    const Jet dv = jet_sensitivity(t.potential, pot, m, 0);
     const int po = potential_joint_[static_cast<size_t>(m)];
-    for (int p = 0; p < fs; ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, a));
+    for (int p = 0; p < factor_size(m); ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, a));
     if (has_friction()) add_friction_gradient(m, qd1(m), qd2(m), W(m, m), grad);
   }
 }
@@ -583,20 +688,24 @@ void LagrangianKernel::add_gradient(const Eigen::MatrixXd& X, const Eigen::Matri
 
 Eigen::RowVectorXd LagrangianKernel::kinetic_torque_covariance(const double* x, const Eigen::MatrixXd& X) const {
   const int n = n_;
-  Eigen::RowVectorXd out(X.rows() * n);
+  Eigen::RowVectorXd out = Eigen::RowVectorXd::Zero(X.rows() * n);
   PairTerms t(n);
   const Eigen::Map<const Eigen::VectorXd> qd(x + n, n);
   Eigen::VectorXd xs(3 * n);
   for (Eigen::Index s = 0; s < X.rows(); ++s) {
     xs = X.row(s).transpose();
     position_jets(x, xs.data(), t);
-    position_quantities(t.kinetic, t.P, t.g, t.gp, t.H, t.prefix, t.suffix);
-    const auto qd2 = xs.segment(n, n), qdd2 = xs.segment(2 * n, n);
-    const Eigen::VectorXd e = qd.cwiseProduct(qd2);
-    const Eigen::VectorXd nu_e = nu_ * e;
-    const Eigen::VectorXd row = 2.0 * qd.cwiseProduct(nu_ * qdd2.cwiseProduct(qd)) * t.P +
-                                2.0 * qd.cwiseProduct(nu_e) * qd2.dot(t.gp) - e.dot(nu_e) * t.gp;
-    out.segment(s * n, n) = row.transpose();
+    velocity_products(x, xs.data(), t);
+    for (int term = 0; term < num_kinetic_terms(); ++term) {
+      kinetic_term_quantities(x, xs.data(), term, t);
+      const Eigen::MatrixXd& nu = *t.nu;
+      const auto qd2 = xs.segment(n, n), qdd2 = xs.segment(2 * n, n);
+      const Eigen::VectorXd e = qd.cwiseProduct(qd2);
+      const Eigen::VectorXd nu_e = nu * e;
+      const Eigen::VectorXd row = 2.0 * qd.cwiseProduct(nu * qdd2.cwiseProduct(qd)) * t.P +
+                                  2.0 * qd.cwiseProduct(nu_e) * qd2.dot(t.gp) - e.dot(nu_e) * t.gp;
+      out.segment(s * n, n) += row.transpose();
+    }
   }
   return out;
 }

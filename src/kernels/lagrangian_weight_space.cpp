@@ -196,7 +196,18 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
     kinetic_prior.push_back(joint_prior(kernel, m, true));
     potential_prior.push_back(joint_prior(kernel, m, false));
   }
-  multiply_per_joint(kinetic_prior, kinetic_weights_);
+  if (!kernel.serial_chain()) multiply_per_joint(kinetic_prior, kinetic_weights_);
+  // On a serial chain h_ab's factors before joint a + 1 are 1: the constant
+  // basis function with weight 1. The pairs (a, b) of one a are adjacent columns.
+  for (int a = 0, column = 0; a < n && kernel.serial_chain(); column += n - a, ++a) {
+    std::vector<Eigen::MatrixXd> prior = kinetic_prior;
+    for (int m = 0; m < kernel.first_kinetic_joint(a); ++m) {
+      prior[static_cast<size_t>(m)].setZero();
+      prior[static_cast<size_t>(m)](0, 0) = 1.0;
+    }
+    auto columns = kinetic_weights_.middleCols(column, n - a);
+    multiply_per_joint(prior, columns);
+  }
   for (Eigen::Index p = 0; p < P; ++p) {
     const auto [i, j] = pairs_[static_cast<size_t>(p)];
     kinetic_weights_.col(p) *= kernel.velocity_weight(i, j);

@@ -282,6 +282,16 @@ def test_train_by_default_learns_from_the_log_where_the_teacher_cannot_start(tmp
     assert not (tmp_path / "named.gipdyn").exists()
 
 
+def test_train_lip_records_the_serial_chain_and_no_serial_chain_turns_it_off(tmp_path, gipdyn_bin):
+    write_dataset(tmp_path / "log.csv", 40, 1)
+    for flags, expected in [([], True), (["--no-serial-chain"], False)]:
+        out = tmp_path / f"lip{len(flags)}.gipdyn"
+        r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--kernel", "lip",
+                "--max-iter", "20", "--out", str(out), *flags)
+        assert r.returncode == 0, r.stderr
+        assert model_header(out)["serial_chain"] is expected
+
+
 def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "log.csv", 80, 1)
     out = tmp_path / "m.gipdyn"

@@ -19,6 +19,14 @@
 // gradient with respect to the log-hyperparameters, and the covariance of
 // each energy with the torques (to estimate T and V from torque data alone).
 //
+// On a serial chain whose joints are ordered from the base to the tip
+// (serial_chain, the default of the estimators), h_ab depends only on the
+// joints after min(a, b): the inertia matrix's entry ab, written in the frame
+// of link min(a, b), involves only the links and joints beyond it. Its
+// position kernel is then the product of p_T's factors over those joints
+// alone (h_nn is a constant), which removes most of the coefficients' freedom
+// that no serial arm uses (docs/method.md section 11).
+//
 // With friction, each joint's torque gets an independent dissipative term
 // beside the Lagrangian ones, the smooth Stribeck friction and offset of
 // kernels/friction_kernel.hpp on its own velocity: it adds
@@ -39,9 +47,10 @@ class LagrangianKernel {
   struct PairTerms;
 
  public:
-  explicit LagrangianKernel(JointTypes joints, bool friction = false);
+  explicit LagrangianKernel(JointTypes joints, bool friction = false, bool serial_chain = false);
 
   const JointTypes& joints() const { return joints_; }
+  bool serial_chain() const { return serial_chain_; }
   bool has_friction() const { return friction_offset_ >= 0; }
   int num_params() const { return static_cast<int>(log_params_.size()); }
   // "kinetic.velocity.w1_2", "kinetic.joint2.factor1.l_cos", "potential.joint1.bias", ...,
@@ -100,6 +109,9 @@ class LagrangianKernel {
   void potential_monomial_weights(int joint, double* weights) const;
   // The prior variance of h_ab: lambda_ab (a <= b).
   double velocity_weight(int a, int b) const { return a == b ? nu_(a, a) : 2.0 * nu_(a, b); }
+  // h_ab's position kernel (a <= b) is the product of p_T's factors over the
+  // joints from first_kinetic_joint(a) on: a + 1 on a serial chain, 0 otherwise.
+  int first_kinetic_joint(int a) const;
   // Joint m's friction term as FrictionKernel's four features at velocity v and
   // their prior variances (s_offset, s_viscous, s_coulomb, s_stribeck); only
   // with friction.
@@ -116,8 +128,22 @@ class LagrangianKernel {
  private:
   // Per-joint jets of the position kernels for one pair of states.
   void position_jets(const double* q1, const double* q2, PairTerms& t) const;
-  // The kinetic energy's position quantities and velocity products for a pair.
-  void kinetic_pair_terms(const double* x1, const double* x2, PairTerms& t) const;
+  // The kinetic energy is a sum of terms, each with one position kernel: on a
+  // serial chain term c holds the coefficients h_cb (b >= c), otherwise one
+  // term holds them all. This sets a term's position quantities and velocity
+  // products for a pair whose jets position_jets has set.
+  int num_kinetic_terms() const { return serial_chain_ ? n_ : 1; }
+  void kinetic_term_quantities(const double* x1, const double* x2, int term, PairTerms& t) const;
+  // The pair's velocity products that every term reads (e, v5, v7).
+  void velocity_products(const double* x1, const double* x2, PairTerms& t) const;
+  // A term's vectors and blocks are zero before joint term_support(term).
+  int term_support(int term) const;
+  // out = (the term's entries of nu) v, in O(n) on a chain.
+  void term_product(int term, const Eigen::VectorXd& v, Eigen::VectorXd& out) const;
+  // The term's entries of nu, times scale, written into out (each entry belongs to one term).
+  void write_term_weights(int term, double scale, Eigen::MatrixXd& out) const;
+  // sum over the term's entries (a, b) of nu_ab M_ab.
+  double term_contraction(int term, const Eigen::MatrixXd& M) const;
   // The blocks of cov(tau(X1), tau(X2)), or only those on and below the diagonal.
   void fill_blocks(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2, bool lower_only, Eigen::MatrixXd& K) const;
   void assemble_block(const double* x1, const double* x2, PairTerms& t, Eigen::Ref<Eigen::MatrixXd> block) const;
@@ -130,6 +156,7 @@ class LagrangianKernel {
 
   JointTypes joints_;
   int n_ = 0;
+  bool serial_chain_ = false;
   int potential_offset_ = 0;
   int friction_offset_ = -1;
   std::vector<int> kinetic_offset_;    // per joint: its first factor's bias; the second factor follows
@@ -137,6 +164,7 @@ class LagrangianKernel {
   Eigen::VectorXd log_params_;
   Eigen::VectorXd params_;    // exp(log_params_)
   Eigen::MatrixXd nu_;        // symmetric velocity weights: lambda_aa on the diagonal, lambda_ab / 2 off it
+  std::vector<Eigen::MatrixXd> term_nu_;  // per kinetic term: the entries of nu_ it holds, zero elsewhere
 };
 
 }  // namespace gipdyn

@@ -91,6 +91,13 @@ struct TrainOptions {
   // targets (docs/training.md). Empty: min_noise_fraction alone; else one
   // value >= 0 per joint.
   Eigen::VectorXd noise_std_floor;
+  // lip (and a lip teacher): the joints are ordered from the base to the tip
+  // of a serial chain, as in every URDF chain, DH table and robot log, so the
+  // inertia matrix's entry ab depends only on the joints after min(a, b), and
+  // the kernel says so (LagrangianKernel's serial_chain, docs/method.md
+  // section 11). Off: every entry may depend on every joint (the LIP paper's
+  // kernel), for joints in another order.
+  bool serial_chain = true;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
   // of the data-driven start (clamped into the optimiser's bounds); empty: data-driven.
   // refit_model fills it with a model's current hyperparameters.
