@@ -375,7 +375,8 @@ void BM_LipPredictOne(benchmark::State& state) {
 void BM_LipQueryWeightSpace(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   const int n = p.joints.size();
-  const LagrangianWeightSpaceMean mean(lip_kernel(p), p.X, Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
+  const LagrangianWeightSpaceMean mean(lip_kernel(p, state.range(2) != 0), p.X,
+                                       Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
   LagrangianWeightSpaceMean::Workspace w(mean);
   const Eigen::VectorXd x = p.X.row(0).transpose();
   Eigen::VectorXd tau(n);
@@ -386,7 +387,8 @@ void BM_LipQueryWeightSpace(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " " +
                  std::to_string(static_cast<long>(LagrangianWeightSpaceMean::kinetic_basis_size(p.joints))) +
                  " basis products per coefficient" +
-                 (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? ", chosen" : ""));
+                 (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? ", chosen" : "") +
+                 (state.range(2) != 0 ? ", serial chain" : ""));
 }
 
 void BM_LipQueryKernelSpace(benchmark::State& state) {
@@ -413,6 +415,13 @@ void BM_LipQueryKernelSpace(benchmark::State& state) {
 void lip_query_sizes(benchmark::internal::Benchmark* b) {
   for (int robot : {4, 6})
     for (int N : {50, 150, 600, 2000}) b->Args({robot, N});
+  b->Unit(benchmark::kMicrosecond);
+}
+
+// Weight space: the third argument is 1 for the serial-chain kernel.
+void lip_query_chain_sizes(benchmark::internal::Benchmark* b) {
+  for (int robot : {4, 6})
+    for (int chain : {0, 1}) b->Args({robot, 2000, chain});
   b->Unit(benchmark::kMicrosecond);
 }
 
@@ -462,7 +471,7 @@ BENCHMARK(BM_AddOneSampleSparse)
 BENCHMARK(BM_LipGram)->Apply(lip_chain_sizes);
 BENCHMARK(BM_LipGradient)->Apply(lip_chain_sizes);
 BENCHMARK(BM_LipPredictOne)->Apply(lip_sizes)->Unit(benchmark::kMicrosecond);
-BENCHMARK(BM_LipQueryWeightSpace)->Apply(lip_query_sizes);
+BENCHMARK(BM_LipQueryWeightSpace)->Apply(lip_query_chain_sizes);
 BENCHMARK(BM_LipQueryKernelSpace)->Apply(lip_query_sizes);
 BENCHMARK(BM_Train)->Apply(sizes)->Iterations(1)->Unit(benchmark::kSecond)->UseRealTime();
 

@@ -100,7 +100,8 @@ bool LagrangianWeightSpaceMean::worthwhile(const JointTypes& joints, Eigen::Inde
 LagrangianWeightSpaceMean::Workspace::Workspace(const LagrangianWeightSpaceMean& mean)
     : kinetic_features(mean.kinetic_count_, mean.n_ + 1),
       potential_features(mean.potential_count_, mean.n_ + 1),
-      coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1) {}
+      coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1),
+      term_features(mean.term_stride_.empty() ? 0 : mean.kinetic_count_ / mean.term_stride_[0], mean.n_ + 1) {}
 
 void LagrangianWeightSpaceMean::features(const double* q, bool kinetic, Eigen::MatrixXd& out) const {
   const int n = n_;
@@ -212,6 +213,18 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
     const auto [i, j] = pairs_[static_cast<size_t>(p)];
     kinetic_weights_.col(p) *= kernel.velocity_weight(i, j);
   }
+  if (kernel.serial_chain()) {
+    Eigen::Index stride = 1;
+    for (int a = 0, column = 0; a < n; column += n - a, ++a) {
+      stride *= kinetic_size_[static_cast<size_t>(a)];
+      const Eigen::Index rows = kinetic_count_ / stride;
+      Eigen::MatrixXd weights(rows, n - a);
+      for (Eigen::Index r = 0; r < rows; ++r) weights.row(r) = kinetic_weights_.block(r * stride, column, 1, n - a);
+      term_stride_.push_back(stride);
+      term_weights_.push_back(std::move(weights));
+    }
+    kinetic_weights_.resize(0, 0);  // the other rows are zeros
+  }
   multiply_per_joint(potential_prior, potential_weights_);
   for (int m = 0; m < n && kernel.has_friction(); ++m) {
     const Eigen::Vector4d s = kernel.friction_variances(m);
@@ -225,7 +238,16 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
   Eigen::Map<Eigen::VectorXd> tau(tau_out, n);
   features(x, true, w.kinetic_features);
   // Each h_ab and its gradient in q at this state.
-  w.coefficients.noalias() = kinetic_weights_.transpose() * w.kinetic_features;
+  if (term_stride_.empty()) {
+    w.coefficients.noalias() = kinetic_weights_.transpose() * w.kinetic_features;
+  } else {
+    for (int a = 0, column = 0; a < n; column += n - a, ++a) {
+      const Eigen::Index stride = term_stride_[static_cast<size_t>(a)], rows = kinetic_count_ / stride;
+      for (Eigen::Index r = 0; r < rows; ++r) w.term_features.row(r) = w.kinetic_features.row(r * stride);
+      w.coefficients.middleRows(column, n - a).noalias() =
+          term_weights_[static_cast<size_t>(a)].transpose() * w.term_features.topRows(rows);
+    }
+  }
   tau.setZero();
   for (size_t p = 0; p < pairs_.size(); ++p) {
     const auto [a, b] = pairs_[p];

@@ -47,6 +47,7 @@ class LagrangianWeightSpaceMean {
    private:
     friend class LagrangianWeightSpaceMean;
     Eigen::MatrixXd kinetic_features, potential_features, coefficients;
+    Eigen::MatrixXd term_features;  // on a serial chain: one term's rows of kinetic_features
   };
 
   int num_joints() const { return n_; }
@@ -66,6 +67,11 @@ class LagrangianWeightSpaceMean {
   Eigen::Index kinetic_count_ = 0, potential_count_ = 0;
   std::vector<std::pair<int, int>> pairs_;  // (a, b), a <= b, in the columns' order
   Eigen::MatrixXd kinetic_weights_;         // kinetic_count_ x pairs: posterior mean of each h_ab's weights
+  // On a serial chain h_ab's weights vanish unless joints 0..a take their
+  // constant basis function: the rows r * term_stride_[a]. term_weights_[a]
+  // holds those rows of the columns (a, b >= a), so a query multiplies only them.
+  std::vector<Eigen::Index> term_stride_;
+  std::vector<Eigen::MatrixXd> term_weights_;
   Eigen::VectorXd potential_weights_;       // potential_count_
   Eigen::MatrixXd friction_weights_;        // 4 x n, or empty without friction
 };
