@@ -244,9 +244,8 @@ struct LagrangianKernel::PairTerms {
   std::vector<AnglePair> angles;
   std::vector<Jet> kinetic, potential;
   // The kinetic term being evaluated: its jets (kinetic, with unit jets for
-  // the joints its coefficients do not depend on) and velocity weights.
+  // the joints its coefficients do not depend on).
   std::vector<Jet> term_jets;
-  const Eigen::MatrixXd* nu = nullptr;
   double P = 0.0, PV = 0.0;
   Eigen::VectorXd g, gp, gV, gpV;
   // Velocity products of the notation above: e = qd1 o qd2, v5 = qdd1 o qd2,
@@ -336,18 +335,6 @@ void LagrangianKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& l
     for (int b = a; b < n_; ++b, ++k) {
       nu_(a, b) = nu_(b, a) = a == b ? params_(k) : 0.5 * params_(k);
     }
-  // On a serial chain, term c holds the coefficients h_cb (b >= c): row and
-  // column c of nu from the diagonal on.
-  term_nu_.assign(static_cast<size_t>(num_kinetic_terms()), Eigen::MatrixXd());
-  if (!serial_chain_) {
-    term_nu_[0] = nu_;
-    return;
-  }
-  for (int c = 0; c < n_; ++c) {
-    Eigen::MatrixXd& nc = term_nu_[static_cast<size_t>(c)];
-    nc.setZero(n_, n_);
-    for (int b = c; b < n_; ++b) nc(c, b) = nc(b, c) = nu_(c, b);
-  }
 }
 
 int LagrangianKernel::first_kinetic_joint(int term) const { return serial_chain_ ? term + 1 : 0; }
@@ -405,7 +392,6 @@ void LagrangianKernel::kinetic_term_quantities(const double* x1, const double* x
   const int first = first_kinetic_joint(term);
   for (int m = 0; m < n; ++m)
     t.term_jets[static_cast<size_t>(m)] = m < first ? Jet{1.0, 0.0, 0.0, 0.0} : t.kinetic[static_cast<size_t>(m)];
-  t.nu = &term_nu_[static_cast<size_t>(term)];
   position_quantities(t.term_jets, t.P, t.g, t.gp, t.H, t.prefix, t.suffix, first);
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qd2(x2 + n, n);
   term_product(term, t.e, t.b);
@@ -697,14 +683,10 @@ Eigen::RowVectorXd LagrangianKernel::kinetic_torque_covariance(const double* x, 
     position_jets(x, xs.data(), t);
     velocity_products(x, xs.data(), t);
     for (int term = 0; term < num_kinetic_terms(); ++term) {
+      // The term's nu (qdd2 o qd) is c7, its nu e is b, and qd2.g' is P1p.
       kinetic_term_quantities(x, xs.data(), term, t);
-      const Eigen::MatrixXd& nu = *t.nu;
-      const auto qd2 = xs.segment(n, n), qdd2 = xs.segment(2 * n, n);
-      const Eigen::VectorXd e = qd.cwiseProduct(qd2);
-      const Eigen::VectorXd nu_e = nu * e;
-      const Eigen::VectorXd row = 2.0 * qd.cwiseProduct(nu * qdd2.cwiseProduct(qd)) * t.P +
-                                  2.0 * qd.cwiseProduct(nu_e) * qd2.dot(t.gp) - e.dot(nu_e) * t.gp;
-      out.segment(s * n, n) += row.transpose();
+      out.segment(s * n, n) +=
+          (2.0 * qd.cwiseProduct(t.c7) * t.P + 2.0 * qd.cwiseProduct(t.b) * t.P1p - t.e.dot(t.b) * t.gp).transpose();
     }
   }
   return out;

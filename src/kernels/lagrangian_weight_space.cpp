@@ -197,25 +197,30 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
     kinetic_prior.push_back(joint_prior(kernel, m, true));
     potential_prior.push_back(joint_prior(kernel, m, false));
   }
-  if (!kernel.serial_chain()) multiply_per_joint(kinetic_prior, kinetic_weights_);
-  // On a serial chain h_ab's factors before joint a + 1 are 1: the constant
-  // basis function with weight 1. The pairs (a, b) of one a are adjacent columns.
-  for (int a = 0, column = 0; a < n && kernel.serial_chain(); column += n - a, ++a) {
-    std::vector<Eigen::MatrixXd> prior = kinetic_prior;
-    for (int m = 0; m < kernel.first_kinetic_joint(a); ++m) {
-      prior[static_cast<size_t>(m)].setZero();
-      prior[static_cast<size_t>(m)](0, 0) = 1.0;
+  auto scale_by_velocity_weights = [&](Eigen::Index first, Eigen::Index count) {
+    for (Eigen::Index p = first; p < first + count; ++p) {
+      const auto [i, j] = pairs_[static_cast<size_t>(p)];
+      kinetic_weights_.col(p) *= kernel.velocity_weight(i, j);
     }
-    auto columns = kinetic_weights_.middleCols(column, n - a);
-    multiply_per_joint(prior, columns);
-  }
-  for (Eigen::Index p = 0; p < P; ++p) {
-    const auto [i, j] = pairs_[static_cast<size_t>(p)];
-    kinetic_weights_.col(p) *= kernel.velocity_weight(i, j);
-  }
-  if (kernel.serial_chain()) {
+  };
+  if (!kernel.serial_chain()) {
+    multiply_per_joint(kinetic_prior, kinetic_weights_);
+    scale_by_velocity_weights(0, P);
+  } else {
+    // On a serial chain h_ab's factors before joint a + 1 are 1: the constant
+    // basis function with weight 1. So its weights vanish but in the rows
+    // r * stride (joints 0..a at their constant function), which term_weights_
+    // keeps. The pairs (a, b) of one a are adjacent columns.
     Eigen::Index stride = 1;
     for (int a = 0, column = 0; a < n; column += n - a, ++a) {
+      std::vector<Eigen::MatrixXd> prior = kinetic_prior;
+      for (int m = 0; m < kernel.first_kinetic_joint(a); ++m) {
+        prior[static_cast<size_t>(m)].setZero();
+        prior[static_cast<size_t>(m)](0, 0) = 1.0;
+      }
+      auto columns = kinetic_weights_.middleCols(column, n - a);
+      multiply_per_joint(prior, columns);
+      scale_by_velocity_weights(column, n - a);
       stride *= kinetic_size_[static_cast<size_t>(a)];
       const Eigen::Index rows = kinetic_count_ / stride;
       Eigen::MatrixXd weights(rows, n - a);

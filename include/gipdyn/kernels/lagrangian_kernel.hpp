@@ -164,7 +164,6 @@ class LagrangianKernel {
   Eigen::VectorXd log_params_;
   Eigen::VectorXd params_;    // exp(log_params_)
   Eigen::MatrixXd nu_;        // symmetric velocity weights: lambda_aa on the diagonal, lambda_ab / 2 off it
-  std::vector<Eigen::MatrixXd> term_nu_;  // per kinetic term: the entries of nu_ it holds, zero elsewhere
 };
 
 }  // namespace gipdyn
