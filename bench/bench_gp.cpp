@@ -375,8 +375,8 @@ void BM_LipPredictOne(benchmark::State& state) {
 void BM_LipQueryWeightSpace(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   const int n = p.joints.size();
-  const LagrangianWeightSpaceMean mean(lip_kernel(p, state.range(2) != 0), p.X,
-                                       Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
+  const LagrangianKernel k = lip_kernel(p, state.range(2) != 0);
+  const LagrangianWeightSpaceMean mean(k, p.X, Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
   LagrangianWeightSpaceMean::Workspace w(mean);
   const Eigen::VectorXd x = p.X.row(0).transpose();
   Eigen::VectorXd tau(n);
@@ -387,14 +387,14 @@ void BM_LipQueryWeightSpace(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " " +
                  std::to_string(static_cast<long>(LagrangianWeightSpaceMean::kinetic_basis_size(p.joints))) +
                  " basis products per coefficient" +
-                 (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? ", chosen" : "") +
+                 (LagrangianWeightSpaceMean::worthwhile(k, p.X.rows()) ? ", chosen" : "") +
                  (state.range(2) != 0 ? ", serial chain" : ""));
 }
 
 void BM_LipQueryKernelSpace(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
   const int n = p.joints.size();
-  const LagrangianKernel k = lip_kernel(p);
+  const LagrangianKernel k = lip_kernel(p, state.range(2) != 0);
   LagrangianKernel::PairScratch scratch(k);
   const Eigen::MatrixXd states = p.X.transpose();
   const Eigen::VectorXd alpha = Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3);
@@ -409,12 +409,15 @@ void BM_LipQueryKernelSpace(benchmark::State& state) {
     benchmark::DoNotOptimize(tau.data());
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) +
-                 (LagrangianWeightSpaceMean::worthwhile(p.joints, p.X.rows()) ? "" : ", chosen"));
+                 (LagrangianWeightSpaceMean::worthwhile(k, p.X.rows()) ? "" : ", chosen") +
+                 (state.range(2) != 0 ? ", serial chain" : ""));
 }
 
+// Kernel space: the third argument is 1 for the serial-chain kernel.
 void lip_query_sizes(benchmark::internal::Benchmark* b) {
   for (int robot : {4, 6})
-    for (int N : {50, 150, 600, 2000}) b->Args({robot, N});
+    for (int N : {50, 150, 600, 2000})
+      for (int chain : {0, 1}) b->Args({robot, N, chain});
   b->Unit(benchmark::kMicrosecond);
 }
 

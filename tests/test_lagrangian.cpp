@@ -352,6 +352,21 @@ TEST(LagrangianEstimator, SerialChainInertiaIgnoresEarlierJointsAndIsSaved) {
   EXPECT_EQ(old_model.predict(test.X), full.estimator->predict(test.X));
 }
 
+// The choice of space follows the cost of a query: a 6R arm's serial-chain
+// weights multiply about a third of the full kernel's basis products and its
+// kernel blocks cost more, so its weight space pays from far fewer rows
+// (bench/RESULTS.md: 46 us against 259 us).
+TEST(LagrangianWeightSpaceMean, SerialChainPaysFromFewerRows) {
+  const JointTypes arm = JointTypes::parse("RRRRRR");
+  const LagrangianKernel chain(arm, false, true), full(arm, false, false);
+  EXPECT_FALSE(LagrangianWeightSpaceMean::worthwhile(chain, 12));
+  EXPECT_TRUE(LagrangianWeightSpaceMean::worthwhile(chain, 100));
+  EXPECT_FALSE(LagrangianWeightSpaceMean::worthwhile(full, 100));
+  EXPECT_TRUE(LagrangianWeightSpaceMean::worthwhile(full, 2000));
+  const LagrangianKernel scara(JointTypes::parse("RRPR"), true, true);
+  EXPECT_TRUE(LagrangianWeightSpaceMean::worthwhile(scara, 20));
+}
+
 // A SCARA model answers in weight space (LagrangianWeightSpaceMean), with the
 // kernel-space sum's torques, through predict and through a query workspace.
 TEST(LagrangianEstimator, ScaraModelAnswersInWeightSpaceWithTheKernelSumsTorques) {

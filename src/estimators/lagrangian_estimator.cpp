@@ -169,7 +169,7 @@ LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorX
   const int n = kernel_.joints().size();
   if (noise_.size() != n || X_.cols() != 3 * n || alpha_.size() != X_.rows() * n || !(scale_ > 0.0))
     throw Error("LagrangianEstimator: inconsistent shapes (noise, training states, weights or scale)");
-  if (LagrangianWeightSpaceMean::worthwhile(kernel_.joints(), X_.rows()))
+  if (LagrangianWeightSpaceMean::worthwhile(kernel_, X_.rows()))
     weight_space_ = std::make_shared<const LagrangianWeightSpaceMean>(kernel_, X_, alpha_);
 }
 

@@ -83,16 +83,31 @@ double LagrangianWeightSpaceMean::kinetic_basis_size(const JointTypes& joints) {
   return count;
 }
 
-bool LagrangianWeightSpaceMean::worthwhile(const JointTypes& joints, Eigen::Index rows) {
-  const double n = joints.size(), pairs = n * (n + 1) / 2, N = static_cast<double>(rows);
+bool LagrangianWeightSpaceMean::worthwhile(const LagrangianKernel& kernel, Eigen::Index rows) {
+  const JointTypes& joints = kernel.joints();
+  const int n = joints.size();
+  const double pairs = n * (n + 1) / 2.0, N = static_cast<double>(rows);
   const double F = kinetic_basis_size(joints);
-  // A weight-space query is a product of the F x pairs weights with the F x
-  // (n + 1) basis products, about 0.1 ns per multiply-add; a kernel-space
-  // one builds an n x n block per training row, about 40 ns per n^2
-  // (BM_LipQuery* in bench/RESULTS.md). Weight space must win by 2x, and
-  // building it (N F (3 pairs + 2 (n + 1)) operations) must take seconds at most.
-  const double weight_space_ns = 0.1 * F * (n + 1.0) * (pairs + 2.0);
-  const double kernel_space_ns = 40.0 * N * n * n;
+  // Basis products a query multiplies with the weights: all F of every h_ab,
+  // or on a serial chain only the rows of each term that can be non-zero (F /
+  // the term's stride, for its n - a pairs).
+  double multiplied = F * pairs;
+  if (kernel.serial_chain()) {
+    multiplied = 0.0;
+    double stride = 1.0;
+    for (int a = 0; a < n; ++a) {
+      stride *= kinetic_size(joints.is_revolute(a));
+      multiplied += F / stride * (n - a);
+    }
+  }
+  // A weight-space query builds the F x (n + 1) basis products (about two
+  // passes) and multiplies them with the weights, about 0.1 ns per
+  // multiply-add; a kernel-space one builds an n x n block per training row,
+  // about 40 ns per n^2 (60 on a serial chain, whose blocks are sums of n
+  // terms) (BM_LipQuery* in bench/RESULTS.md). Weight space must win by 2x,
+  // and building it (N F (3 pairs + 2 (n + 1)) operations) must take seconds at most.
+  const double weight_space_ns = 0.1 * (n + 1.0) * (multiplied + 2.0 * F);
+  const double kernel_space_ns = (kernel.serial_chain() ? 60.0 : 40.0) * N * n * n;
   const double build_operations = N * F * (3.0 * pairs + 2.0 * (n + 1.0));
   return 2.0 * weight_space_ns < kernel_space_ns && build_operations < 3e10;
 }

@@ -48,8 +48,8 @@ class LagrangianEstimator final : public Estimator {
   std::string name() const override { return kernel_.has_friction() ? "lip+friction" : "lip"; }
   const JointTypes& joints() const override { return kernel_.joints(); }
   // In weight space where that is cheaper (LagrangianWeightSpaceMean::worthwhile:
-  // a SCARA past about 10 rows, a 6R arm past about 350), else one n x n block
-  // per training row.
+  // a SCARA past about 10 rows, a 6R arm past about 35 on the serial chain and
+  // 350 with the full kernel), else one n x n block per training row.
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
   // Single queries make no heap allocation, in either space.
   bool queries_in_weight_space() const { return weight_space_ != nullptr; }

@@ -32,8 +32,8 @@ class LagrangianWeightSpaceMean {
   // Basis products per kinetic coefficient for these joints (a double: 5^n overflows int for long chains).
   static double kinetic_basis_size(const JointTypes& joints);
   // Whether a query in weight space costs less than one in kernel space over
-  // `rows` training states (measured costs; bench/RESULTS.md).
-  static bool worthwhile(const JointTypes& joints, Eigen::Index rows);
+  // `rows` training states with this kernel (measured costs; bench/RESULTS.md).
+  static bool worthwhile(const LagrangianKernel& kernel, Eigen::Index rows);
 
   // alpha: the kernel-space weights (rows(X) n, sample-major), so that the mean
   // is sum_r K(x, x_r) alpha_r.
