@@ -2,7 +2,9 @@
 // out directly, with the Lagrange operator applied by finite differences.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
+#include <map>
 #include <mutex>
 #include <set>
 #include <thread>
@@ -521,6 +523,60 @@ TEST(LagrangianEstimator, StartsRunSideBySideWithTheSequentialResult) {
   EXPECT_EQ(four.estimator->kernel().log_params(), one.estimator->kernel().log_params());
   EXPECT_EQ(four.estimator->noise_variances(), one.estimator->noise_variances());
   EXPECT_EQ(four.estimator->predict(test.X), one.estimator->predict(test.X));
+}
+
+// Screening: every start runs start_screening_evaluations; then only the one
+// with the lowest NLL so far goes on, on its own undisturbed path (the same
+// L-BFGS run as without screening), and the others stop there. The choice
+// does not depend on the threads.
+TEST(LagrangianEstimator, ScreenedStartsContinueOnlyTheLeaderOnItsOwnPath) {
+  const SimulationResult train = small_scara(5, 40);
+  const JointTypes joints = JointTypes::parse("RRPR");
+  constexpr int kBudget = 10;
+  TrainOptions o;
+  o.optimizer.max_iterations = 400;
+  o.restarts = 2;
+  struct Run {
+    LagrangianEstimator::FitOutcome fit;
+    std::map<int, int> last_iteration;
+    std::map<int, double> best_within_budget;
+  };
+  auto fit_with = [&](int screening, int threads) {
+    o.start_screening_evaluations = screening;
+    o.threads = threads;
+    Run run;
+    std::mutex mu;
+    run.fit = LagrangianEstimator::fit(train.X, train.tau, joints, o, [&](const ProgressEvent& e) {
+      const std::lock_guard<std::mutex> lock(mu);
+      if (e.iteration <= 0) return;
+      run.last_iteration[e.restart] = std::max(run.last_iteration[e.restart], e.iteration);
+      if (e.iteration <= kBudget) {
+        auto [it, fresh] = run.best_within_budget.emplace(e.restart, e.objective);
+        if (!fresh) it->second = std::min(it->second, e.objective);
+      }
+    });
+    return run;
+  };
+  const Run full = fit_with(0, 0), screened = fit_with(kBudget, 0), one_thread = fit_with(kBudget, 1);
+  ASSERT_TRUE(full.fit.report.ok()) << full.fit.report.message;
+  ASSERT_TRUE(screened.fit.report.ok()) << screened.fit.report.message;
+  const JointReport &f = full.fit.report.joints.front(), &s = screened.fit.report.joints.front();
+  ASSERT_EQ(full.best_within_budget.size(), 5u);
+  const int leader = std::min_element(full.best_within_budget.begin(), full.best_within_budget.end(),
+                                      [](const auto& a, const auto& b) { return a.second < b.second; })
+                         ->first;
+  ASSERT_GT(full.last_iteration.at(leader), kBudget) << "the leader must have work left after the budget";
+  for (const auto& [restart, iteration] : screened.last_iteration)
+    if (restart == leader)
+      EXPECT_EQ(iteration, full.last_iteration.at(leader));
+    else
+      EXPECT_LE(iteration, kBudget) << "start " << restart;
+  EXPECT_EQ(s.restart_nlls[static_cast<size_t>(leader)], f.restart_nlls[static_cast<size_t>(leader)]);
+  EXPECT_EQ(*std::min_element(s.restart_nlls.begin(), s.restart_nlls.end()), s.restart_nlls[static_cast<size_t>(leader)]);
+  EXPECT_EQ(s.status, OptimizerResult::Status::Converged);
+  EXPECT_LT(s.evaluations, f.evaluations);
+  EXPECT_EQ(one_thread.fit.report.joints.front().restart_nlls, s.restart_nlls);
+  EXPECT_EQ(one_thread.fit.report.joints.front().evaluations, s.evaluations);
 }
 
 TEST(LagrangianEstimator, RefusesOptionsItCannotHonourAndBadInput) {

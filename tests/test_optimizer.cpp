@@ -2,6 +2,7 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <vector>
 
 #include "gipdyn/optim/optimizer.hpp"
 
@@ -132,6 +133,34 @@ TEST(Lbfgs, ALineSearchThatFailsOnASmoothObjectiveIsAStall) {
   };
   const OptimizerResult r = minimize(uphill, Eigen::VectorXd::Constant(2, 0.0), OptimizerOptions{});
   EXPECT_EQ(r.status, OptimizerResult::Status::Stalled) << r.message;
+}
+
+// The caller's gate sees every evaluation count and the best objective so
+// far, and a closed gate ends the run there, for either minimiser, with the
+// best point so far and a message that says who stopped it.
+TEST(Minimize, AClosedGateEndsTheRunWithItsBestPoint) {
+  for (OptimizerKind kind : {OptimizerKind::Lbfgs, OptimizerKind::Adam}) {
+    SCOPED_TRACE(to_string(kind));
+    OptimizerOptions o;
+    o.kind = kind;
+    o.max_iterations = 500;
+    std::vector<int> asked;
+    double best_seen = 0.0;
+    const EvaluationGate gate = [&](int evaluations, double best) {
+      asked.push_back(evaluations);
+      best_seen = best;
+      return evaluations < 7;
+    };
+    const OptimizerResult r = minimize(rosenbrock, Eigen::Vector2d(-1.2, 1.0), o, {}, gate);
+    EXPECT_EQ(r.status, OptimizerResult::Status::MaxIterations);
+    EXPECT_EQ(r.evaluations, 7);
+    EXPECT_EQ(asked, (std::vector<int>{1, 2, 3, 4, 5, 6, 7}));
+    EXPECT_EQ(r.f, best_seen);
+    EXPECT_NE(r.message.find("stopped by the caller after 7 evaluations"), std::string::npos) << r.message;
+    const OptimizerResult open = minimize(rosenbrock, Eigen::Vector2d(-1.2, 1.0), o, {},
+                                          [](int, double) { return true; });
+    EXPECT_GT(open.evaluations, 7);
+  }
 }
 
 TEST(Minimize, ReportsFailureWhenNoPointCanBeEvaluated) {

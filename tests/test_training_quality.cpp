@@ -225,6 +225,9 @@ TEST(TrainingQuality, BadConvergenceOptionsAreNamed) {
   o.warm_start_rows = -1;
   EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::warm_start_rows"), std::string::npos);
   o = TrainOptions();
+  o.start_screening_evaluations = -1;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::start_screening_evaluations"), std::string::npos);
+  o = TrainOptions();
   o.gradient_tolerance_per_row = -1e-3;
   EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::gradient_tolerance_per_row"), std::string::npos);
   o = TrainOptions();

@@ -70,6 +70,11 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
                "lip (and the lip teacher): the joints are not ordered from the base to the tip of one serial "
                "chain, so let every entry of the inertia matrix depend on every joint (the LIP paper's kernel; "
                "by default entry ab depends only on the joints after min(a, b), docs/method.md section 11)");
+  app.add_option("--start-screening", start_screening,
+                 "lip (and the lip teacher): every start first runs at most this many NLL evaluations, then only "
+                 "the one with the lowest NLL continues to convergence (0: every start runs to convergence; "
+                 "docs/training.md)")
+      ->capture_default_str();
   app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)");
   app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str();
   app.add_option("--nn-batch", nn.batch_size, "nn: minibatch size")->capture_default_str();
@@ -123,6 +128,7 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--min-noise")) o.gp.min_noise_fraction = min_noise;
   if (given("--threads")) o.gp.threads = threads;
   if (given("--no-serial-chain")) o.gp.serial_chain = !no_serial_chain;
+  if (given("--start-screening")) o.gp.start_screening_evaluations = start_screening;
   if (given("--prior") || given("--prior-width")) o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
   if (given("--nn-epochs")) o.nn.epochs = nn.epochs;
   if (given("--nn-batch")) o.nn.batch_size = nn.batch_size;

@@ -23,6 +23,7 @@ struct EstimatorArgs {
   double min_noise = 1e-8, learning_rate = 0.01;
   bool robot_friction = false;
   bool no_serial_chain = false;
+  int start_screening = TrainOptions{}.start_screening_evaluations;
   NeuralNetworkOptions nn;
 
   // GP, robot and network options (not --kernel, whose help differs per command).

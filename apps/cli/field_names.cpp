@@ -15,6 +15,7 @@ const FieldNames& cli_field_names() {
       {"TrainOptions::restarts", "--restarts"},
       {"TrainOptions::min_noise_fraction", "--min-noise"},
       {"TrainOptions::threads", "--threads"},
+      {"TrainOptions::start_screening_evaluations", "--start-screening"},
       {"TrainOptions::warm_start_rows", "--warm-start-rows"},
       {"TrainOptions::hyperparameter_rows", "--hyperparameter-rows"},
       {"TrainOptions::hyperparameter_objective", "--hyperparameter-objective"},

@@ -165,7 +165,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     variance and by more than twice its teacher's error, as on real robots'
     logs), serial_chain (True: the joints are ordered from the base to the
     tip of one serial chain, and the lip teacher's inertia entry ab depends
-    only on the joints after min(a, b); False for joints in another order)
+    only on the joints after min(a, b); False for joints in another order),
+    start_screening (the lip teacher's starts run this many NLL evaluations,
+    then only the best goes on; 0: every start to convergence)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
@@ -194,7 +196,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  teacher_states=_TEACHER_DEFAULTS.states,
                  teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows,
                  student_hyperparameter_rows=_TEACHER_DEFAULTS.student_hyperparameter_rows,
-                 serial_chain=_DEFAULTS.serial_chain):
+                 serial_chain=_DEFAULTS.serial_chain,
+                 start_screening=_DEFAULTS.start_screening_evaluations):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -224,6 +227,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.teacher_hyperparameter_rows = teacher_hyperparameter_rows
         self.student_hyperparameter_rows = student_hyperparameter_rows
         self.serial_chain = serial_chain
+        self.start_screening = start_screening
 
     def teacher_options(self):
         """The library's TeacherOptions for these parameters, or None without a teacher."""
@@ -250,6 +254,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.min_noise_fraction = float(self.min_noise)
         o.gradient_tolerance_per_row = float(self.gradient_tolerance)
         o.serial_chain = bool(self.serial_chain)
+        o.start_screening_evaluations = int(self.start_screening)
         return o
 
     def train_options(self):
@@ -488,17 +493,21 @@ class LagrangianGP(InverseDynamicsGP):
     smooth friction and torque offset beside the energies (the estimator
     lip+friction). serial_chain=False for joints not ordered from the base to
     the tip of one serial chain (every inertia entry may then depend on every
-    joint).
+    joint). start_screening: every start (three starting noises plus the
+    restarts) runs this many NLL evaluations, then only the one with the
+    lowest NLL goes on (0: every start to convergence).
     """
 
     def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
                  restarts=_DEFAULTS.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row,
                  hyperparameter_rows=_DEFAULTS.hyperparameter_rows, friction=False,
-                 serial_chain=_DEFAULTS.serial_chain):
+                 serial_chain=_DEFAULTS.serial_chain,
+                 start_screening=_DEFAULTS.start_screening_evaluations):
         self.joints = joints
         self.friction = friction
         self.serial_chain = serial_chain
+        self.start_screening = start_screening
         self.optimizer = optimizer
         self.max_iter = max_iter
         self.restarts = restarts

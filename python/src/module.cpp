@@ -52,6 +52,7 @@ const FieldNames& python_field_names() {
       {"TrainOptions::min_noise_fraction", "min_noise"},
       {"TrainOptions::initial_noise_fraction", "initial_noise_fraction"},
       {"TrainOptions::threads", "threads"},
+      {"TrainOptions::start_screening_evaluations", "start_screening"},
       {"TrainOptions::warm_start_rows", "warm_start_rows"},
       {"TrainOptions::hyperparameter_rows", "hyperparameter_rows"},
       {"TrainOptions::hyperparameter_objective", "hyperparameter_objective"},
@@ -390,6 +391,7 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
       .def_readwrite("noise_std_floor", &TrainOptions::noise_std_floor)
       .def_readwrite("serial_chain", &TrainOptions::serial_chain)
+      .def_readwrite("start_screening_evaluations", &TrainOptions::start_screening_evaluations)
       .def_readwrite("threads", &TrainOptions::threads)
       .def_readwrite("warm_start_rows", &TrainOptions::warm_start_rows)
       .def_readwrite("hyperparameter_rows", &TrainOptions::hyperparameter_rows)

@@ -333,6 +333,7 @@ def test_train_options_are_the_librarys_own():
     ({"restarts": -1}, "restarts must be between 0 and 1000"),
     ({"max_iter": 0}, "max_iter must be at least 1"),
     ({"warm_start_rows": -1}, "warm_start_rows must be >= 0"),
+    ({"teacher": "lip", "start_screening": -1}, "start_screening must be >= 0"),
     ({"gradient_tolerance": -1.0}, "gradient_tolerance must be >= 0"),
     ({"prior": "lognormal", "prior_width": 0.0}, "prior_width must be > 0"),
     ({"kernel": "pp"}, "needs the nominal robot (robot)"),
@@ -575,6 +576,9 @@ def test_lagrangian_gp_serial_chain_is_the_default_and_can_be_turned_off(scara):
     assert gipdyn.LagrangianGP().train_options().serial_chain
     assert not gipdyn.LagrangianGP(serial_chain=False).train_options().serial_chain
     assert not gipdyn.InverseDynamicsGP(serial_chain=False).train_options().serial_chain
+    assert gipdyn.LagrangianGP().train_options().start_screening_evaluations == 60
+    assert gipdyn.LagrangianGP(start_screening=0).train_options().start_screening_evaluations == 0
+    assert gipdyn.InverseDynamicsGP(start_screening=5).train_options().start_screening_evaluations == 5
     X, tau = train["X"][:40], train["tau"][:40]
     chain = gipdyn.LagrangianGP(joints="RRPR", max_iter=20).fit(X, tau)
     full = gipdyn.LagrangianGP(joints="RRPR", max_iter=20, serial_chain=False).fit(X, tau)

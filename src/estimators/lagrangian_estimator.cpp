@@ -1,7 +1,11 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 
+#include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <condition_variable>
+#include <limits>
+#include <mutex>
 #include <random>
 #include <vector>
 
@@ -155,6 +159,87 @@ class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
   LagrangianWeightSpaceMean::Workspace workspace_;
 };
 
+// At most `slots` evaluations at once, for starts that are all in flight but
+// must share the cores as TrainOptions::threads asks.
+class ComputeSlots {
+ public:
+  explicit ComputeSlots(int slots) : free_(slots) {}
+  // Holds a slot for its lifetime (none for a null ComputeSlots).
+  class Hold {
+   public:
+    explicit Hold(ComputeSlots* slots) : slots_(slots) {
+      if (slots_) slots_->acquire();
+    }
+    ~Hold() {
+      if (slots_) slots_->release();
+    }
+    Hold(const Hold&) = delete;
+    Hold& operator=(const Hold&) = delete;
+
+   private:
+    ComputeSlots* slots_;
+  };
+  void acquire() {
+    std::unique_lock<std::mutex> lock(mu_);
+    cv_.wait(lock, [&] { return free_ > 0; });
+    --free_;
+  }
+  void release() {
+    {
+      const std::lock_guard<std::mutex> lock(mu_);
+      ++free_;
+    }
+    cv_.notify_one();
+  }
+
+ private:
+  std::mutex mu_;
+  std::condition_variable cv_;
+  int free_;
+};
+
+// TrainOptions::start_screening_evaluations: every start runs up to the
+// budget, waits there for the others (or for their end, where they converged
+// sooner), and then only the one with the lowest NLL so far goes on (the
+// first of equals). It depends on the starts' NLLs at the budget alone, not on
+// timing, so the result does not depend on the threads.
+class StartScreening {
+ public:
+  StartScreening(int starts, int budget)
+      : best_(static_cast<size_t>(starts), std::numeric_limits<double>::infinity()),
+        arrived_(static_cast<size_t>(starts), false), budget_(budget) {}
+
+  // Start r's EvaluationGate.
+  bool proceed(int r, int evaluations, double best) {
+    if (evaluations < budget_) return true;
+    std::unique_lock<std::mutex> lock(mu_);
+    if (!arrived_[static_cast<size_t>(r)]) arrive(r, best);
+    cv_.wait(lock, [&] { return arrivals_ == static_cast<int>(best_.size()); });
+    return r == leader_;
+  }
+  // Start r ended (converged, failed or threw) before its gate closed.
+  void finished(int r, double best) {
+    const std::lock_guard<std::mutex> lock(mu_);
+    if (!arrived_[static_cast<size_t>(r)]) arrive(r, best);
+  }
+
+ private:
+  void arrive(int r, double best) {
+    arrived_[static_cast<size_t>(r)] = true;
+    if (std::isfinite(best)) best_[static_cast<size_t>(r)] = best;
+    if (++arrivals_ == static_cast<int>(best_.size())) {
+      leader_ = static_cast<int>(std::min_element(best_.begin(), best_.end()) - best_.begin());
+      cv_.notify_all();
+    }
+  }
+
+  std::mutex mu_;
+  std::condition_variable cv_;
+  std::vector<double> best_;
+  std::vector<bool> arrived_;
+  int budget_, arrivals_ = 0, leader_ = -1;
+};
+
 }  // namespace
 
 std::unique_ptr<QueryWorkspace> LagrangianEstimator::make_query_workspace() const {
@@ -256,12 +341,31 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   // alone and BLAS runs on one thread, so the kept optimum does not depend on
   // how many run at once.
   const int num_starts = static_cast<int>(start_points.size());
+  const int compute_threads = worker_threads(sharing_threads(o.threads, num_starts), num_starts, start_bytes);
+  // Screening (TrainOptions::start_screening_evaluations): the starts that
+  // reach the worse optima show it early (the noise-explained ones sit
+  // thousands of nats above), while the good ones spend most of their
+  // evaluations on the last few nats. Every start must then be in flight at
+  // once, each keeping its L-BFGS memory, so screening needs the memory for
+  // all of them; the cores are shared through ComputeSlots as without it.
+  const bool screened = o.start_screening_evaluations > 0 && num_starts > 1 &&
+                        o.start_screening_evaluations < opt.max_iterations &&
+                        worker_threads(num_starts, num_starts, start_bytes) == num_starts;
+  StartScreening screening(num_starts, o.start_screening_evaluations);
+  ComputeSlots slots(compute_threads);
   std::vector<OptimizerResult> results(static_cast<size_t>(num_starts));
-  run_tasks(num_starts, worker_threads(sharing_threads(o.threads, num_starts), num_starts, start_bytes), [&](int r) {
+  run_tasks(num_starts, screened ? num_starts : compute_threads, [&](int r) {
+    struct Finish {  // every way out of the start, an exception's too, must release the others' wait
+      StartScreening& screening;
+      int r;
+      double best = std::numeric_limits<double>::infinity();
+      ~Finish() { screening.finished(r, best); }
+    } finish{screening, r};
     LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
     LagrangianKernel trial = kernel;
     Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
       trial.set_log_params(x.head(P));
+      const ComputeSlots::Hold hold(screened ? &slots : nullptr);
       const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
       if (!e.ok) return false;
       f = e.nll;
@@ -278,7 +382,12 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
         e.seconds = seconds();
         progress(e);
       };
-    results[static_cast<size_t>(r)] = minimize(objective, start_points[static_cast<size_t>(r)], opt, cb);
+    EvaluationGate gate;
+    if (screened)
+      gate = [&](int evaluations, double best) { return screening.proceed(r, evaluations, best); };
+    OptimizerResult& result = results[static_cast<size_t>(r)];
+    result = minimize(objective, start_points[static_cast<size_t>(r)], opt, cb, gate);
+    if (result.usable()) finish.best = result.f;
   });
   BestOfStarts starts;
   for (const OptimizerResult& res : results) {

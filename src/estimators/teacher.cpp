@@ -51,6 +51,7 @@ TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) 
   o.threads = student.threads;
   o.hyperparameter_rows = hyperparameter_rows;
   o.serial_chain = student.serial_chain;
+  o.start_screening_evaluations = student.start_screening_evaluations;
   o.keep_factor = false;  // the teacher only predicts means
   return o;
 }

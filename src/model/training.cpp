@@ -40,6 +40,8 @@ void TrainOptions::validate() const {
   if (!(noise_std_floor.array() >= 0.0).all() || !noise_std_floor.allFinite())
     throw Error("TrainOptions::noise_std_floor must hold finite values >= 0 (the noise's standard deviation per joint)");
   if (threads < 0) throw Error("TrainOptions::threads must be >= 0");
+  if (start_screening_evaluations < 0)
+    throw Error("TrainOptions::start_screening_evaluations must be >= 0 (0: every start runs to convergence)");
   if (warm_start_rows < 0) throw Error("TrainOptions::warm_start_rows must be >= 0 (0: no warm start)");
   if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
     throw Error("TrainOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));

@@ -83,8 +83,22 @@ struct Tracker {
   double best_grad_norm = std::numeric_limits<double>::quiet_NaN();
   int evaluations = 0;
   int failures = 0;
+  const EvaluationGate& gate;
   bool at_cap = false;  // L-BFGS asked for an evaluation beyond OptimizerOptions::max_iterations
   bool gradient_small = false;  // an evaluated point met OptimizerOptions::gradient_tolerance
+  bool gate_closed = false;     // the caller's gate ended the run
+
+  // Whether another evaluation is allowed: below the cap and through the gate
+  // (asked once per evaluation; once closed it stays closed).
+  bool may_evaluate() {
+    if (evaluations >= options.max_iterations || gate_closed) return false;
+    if (gate && evaluations > 0 && !gate(evaluations, best_f)) gate_closed = true;
+    return !gate_closed;
+  }
+  std::string stop_message() const {
+    return gate_closed ? "stopped by the caller after " + std::to_string(evaluations) + " evaluations"
+                       : "stopped at the evaluation limit (" + std::to_string(options.max_iterations) + ")";
+  }
 
   bool eval(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
     ++evaluations;
@@ -126,7 +140,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
       [](unsigned dim, const double* x, double* grad, void* data) -> double {
         auto* tr = static_cast<Tracker*>(data);
         // NLopt may ask for one evaluation beyond its maxeval: the cap is ours to keep.
-        if (tr->evaluations >= tr->options.max_iterations) {
+        if (!tr->may_evaluate()) {
           tr->at_cap = true;
           throw nlopt::forced_stop();
         }
@@ -162,9 +176,11 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
     error = e.what();
     result = nlopt::FAILURE;
   }
-  // Our gradient test stops NLopt from inside the objective, and NLopt's
-  // L-BFGS reports that stop as a failure rather than as forced.
-  return t.gradient_small ? nlopt::SUCCESS : result;
+  // Our gradient test, our cap and the caller's gate stop NLopt from inside
+  // the objective, and NLopt's L-BFGS reports such a stop as a failure rather
+  // than as forced.
+  if (t.gradient_small) return nlopt::SUCCESS;
+  return t.at_cap ? nlopt::MAXEVAL_REACHED : result;
 }
 
 // Where L-BFGS can no longer improve on its best point, is the objective's
@@ -186,7 +202,7 @@ struct RoundingCheck {
 RoundingCheck check_rounding(Tracker& t, const OptimizerOptions& o) {
   RoundingCheck c;
   if (t.best_x.size() == 0 || t.best_g.size() != t.best_x.size()) return c;
-  if (t.evaluations + 3 > o.max_iterations) return c;  // the cap is a promise
+  if (t.evaluations + 3 > o.max_iterations || !t.may_evaluate()) return c;  // the cap is a promise
   const Eigen::VectorXd x0 = t.best_x;
   Eigen::VectorXd d = -t.best_g;
   for (Eigen::Index k = 0; k < d.size(); ++k)
@@ -242,15 +258,15 @@ OptimizerResult run_lbfgs(Tracker& t, const Eigen::VectorXd& x0, const Optimizer
   for (int launch = 0; launch < 4; ++launch) {
     std::string error;
     const int remaining = o.max_iterations - t.evaluations;
-    if (remaining <= 0) {
+    if (remaining <= 0 || t.gate_closed) {
       r.status = OptimizerResult::Status::MaxIterations;
-      r.message = "stopped at the evaluation limit (" + std::to_string(o.max_iterations) + ")";
+      r.message = t.stop_message();
       return r;
     }
     const nlopt::result res = lbfgs_once(t, start, o, remaining, error);
     if (res == nlopt::MAXEVAL_REACHED) {
       r.status = OptimizerResult::Status::MaxIterations;
-      r.message = "stopped at the evaluation limit (" + std::to_string(o.max_iterations) + ")";
+      r.message = t.stop_message();
       return r;
     }
     if (res > 0 || res == nlopt::ROUNDOFF_LIMITED) {
@@ -276,6 +292,7 @@ OptimizerResult run_adam(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   double f = 0.0, last_best = std::numeric_limits<double>::infinity();
   int since_improvement = 0;
   for (int k = 1; k <= o.max_iterations; ++k) {
+    if (!t.may_evaluate()) break;
     if (!t.eval(x, f, g)) {
       r.status = OptimizerResult::Status::Stalled;
       r.message = "Adam reached a point where the kernel matrix could not be factorised; kept the best point";
@@ -302,17 +319,17 @@ OptimizerResult run_adam(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
     x = clamp(x, o);
   }
   r.status = OptimizerResult::Status::MaxIterations;
-  r.message = "stopped at the step limit (" + std::to_string(o.max_iterations) + ")";
+  r.message = t.gate_closed ? t.stop_message() : "stopped at the step limit (" + std::to_string(o.max_iterations) + ")";
   return r;
 }
 
 }  // namespace
 
 OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, const OptimizerOptions& options,
-                         const ProgressCallback& progress) {
+                         const ProgressCallback& progress, const EvaluationGate& gate) {
   options.validate();
   Tracker tracker{objective, progress, options, std::numeric_limits<double>::infinity(), Eigen::VectorXd(), Eigen::VectorXd(),
-                  std::numeric_limits<double>::quiet_NaN(), 0, 0, false, false};
+                  std::numeric_limits<double>::quiet_NaN(), 0, 0, gate};
   OptimizerResult r = options.kind == OptimizerKind::Lbfgs ? run_lbfgs(tracker, x0, options) : run_adam(tracker, x0, options);
   r.evaluations = tracker.evaluations;
   if (tracker.best_x.size() == 0) {

@@ -117,6 +117,8 @@ def test_evaluate_checks_all_its_options_before_writing(folder, gipdyn_bin):
       "--out", "{d}/n.gipdyn"], ["needs about", "--nn-hidden"]),
     (["train", "--data", "{d}/d.csv", "--joints", "RR", "--restarts", "5000", "--out", "{d}/r.gipdyn"],
      ["--restarts must be between 0 and 1000"]),
+    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--kernel", "lip", "--start-screening", "-1",
+      "--out", "{d}/r.gipdyn"], ["--start-screening must be >= 0"]),
 ])
 def test_sizes_beyond_the_machine_are_refused_before_allocating(folder, gipdyn_bin, args, words):
     before = snapshot(folder)

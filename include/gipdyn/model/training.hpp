@@ -98,6 +98,13 @@ struct TrainOptions {
   // section 11). Off: every entry may depend on every joint (the LIP paper's
   // kernel), for joints in another order.
   bool serial_chain = true;
+  // lip: its starts (three starting noises, plus restarts) first run for at
+  // most this many NLL evaluations each; only the one with the lowest NLL
+  // then continues to convergence. On 15 logs (SCARA, PUMA, UR10, 7R arm;
+  // docs/training.md) the leader after 60 ends within 2 nats of the best of
+  // the starts run to the end, at half the evaluations on a 6R arm.
+  // 0: every start runs to convergence.
+  int start_screening_evaluations = 60;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
   // of the data-driven start (clamped into the optimiser's bounds); empty: data-driven.
   // refit_model fills it with a model's current hyperparameters.

@@ -65,9 +65,16 @@ struct BestOfStarts {
   bool found_ = false;
 };
 
+// Asked before every evaluation after the first, with the evaluations made
+// and the best objective so far: false ends the run there, with status
+// MaxIterations, as at the evaluation cap. How several starts run side by
+// side and only the best goes on (LagrangianEstimator's screening); it may
+// block until the other starts catch up.
+using EvaluationGate = std::function<bool(int evaluations, double best_objective)>;
+
 // progress gets one event after every accepted evaluation (iteration, objective,
 // projected |grad|_inf); the caller's fields of the event are left empty.
 OptimizerResult minimize(const Objective& objective, const Eigen::VectorXd& x0, const OptimizerOptions& options,
-                         const ProgressCallback& progress = {});
+                         const ProgressCallback& progress = {}, const EvaluationGate& gate = {});
 
 }  // namespace gipdyn
