@@ -574,6 +574,10 @@ TEST(LagrangianEstimator, ScreenedStartsContinueOnlyTheLeaderOnItsOwnPath) {
   EXPECT_EQ(s.restart_nlls[static_cast<size_t>(leader)], f.restart_nlls[static_cast<size_t>(leader)]);
   EXPECT_EQ(*std::min_element(s.restart_nlls.begin(), s.restart_nlls.end()), s.restart_nlls[static_cast<size_t>(leader)]);
   EXPECT_EQ(s.status, OptimizerResult::Status::Converged);
+  EXPECT_EQ(s.screening_evaluations, kBudget);
+  EXPECT_EQ(f.screening_evaluations, 0);
+  EXPECT_NE(screened.fit.report.brief_report().find("stopped after 10 evaluations"), std::string::npos)
+      << screened.fit.report.brief_report();
   EXPECT_LT(s.evaluations, f.evaluations);
   EXPECT_EQ(one_thread.fit.report.joints.front().restart_nlls, s.restart_nlls);
   EXPECT_EQ(one_thread.fit.report.joints.front().evaluations, s.evaluations);

@@ -179,6 +179,7 @@ py::list report_to_list(const std::vector<JointReport>& reports) {
     d["status"] = to_string(r.status);
     d["evaluations"] = r.evaluations;
     d["warm_start_evaluations"] = r.warm_start_evaluations;
+    d["screening_evaluations"] = r.screening_evaluations;
     d["hyperparameter_rows"] = r.hyperparameter_rows;
     d["nll"] = r.nll;
     d["grad_norm"] = r.grad_norm;

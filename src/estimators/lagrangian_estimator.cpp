@@ -408,6 +408,10 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
   LikelihoodWorkspace final_ws(X, y, n, o.jitter);
   if (subsampled) shared.hyperparameter_rows = static_cast<long>(Xh.rows());
+  const bool some_start_stopped = std::any_of(results.begin(), results.end(), [&](const OptimizerResult& res) {
+    return res.status == OptimizerResult::Status::MaxIterations && res.evaluations == o.start_screening_evaluations;
+  });
+  if (screened && some_start_stopped) shared.screening_evaluations = o.start_screening_evaluations;
   const Evaluation final_fit = final_ws.evaluate(kernel, noise, false);
   if (!final_fit.ok) {
     out.report.message = "lip: final fit failed: " + final_fit.message;

@@ -46,7 +46,11 @@ std::string FitReport::brief_report() const {
   for (const auto& j : joints) {
     if (j.restart_nlls.size() < 2) continue;
     out += " joint " + std::to_string(j.joint + 1) +
-           (j.warm_start_evaluations > 0 ? " NLL over starts (warm-start subsample):" : " NLL over starts:");
+           (j.warm_start_evaluations > 0 ? " NLL over starts (warm-start subsample):"
+            : j.screening_evaluations > 0
+                ? " NLL over starts (those behind the leader stopped after " + std::to_string(j.screening_evaluations) +
+                      " evaluations):"
+                : " NLL over starts:");
     for (double v : j.restart_nlls) {
       std::snprintf(buf, sizeof buf, " %.6g", v);
       out += buf;

@@ -22,6 +22,7 @@ nlohmann::json training_to_json(const JointReport& r) {
                       {"evaluations", r.evaluations},
                       {"nll", number_or_null(r.nll)},
                       {"warm_start_evaluations", r.warm_start_evaluations},
+                      {"screening_evaluations", r.screening_evaluations},
                       {"hyperparameter_rows", r.hyperparameter_rows},
                       {"grad_norm", number_or_null(r.grad_norm)},
                       {"noise_variance", number_or_null(r.noise_variance)},
@@ -39,6 +40,7 @@ JointReport training_from_json(const nlohmann::json& t, int joint) {
   r.status = parse_optimizer_status(t.at("status").get<std::string>());
   r.evaluations = t.at("evaluations").get<int>();
   r.warm_start_evaluations = t.value("warm_start_evaluations", 0);  // absent before warm starts existed
+  r.screening_evaluations = t.value("screening_evaluations", 0);    // absent before screening existed
   r.hyperparameter_rows = t.value("hyperparameter_rows", 0L);       // absent before such subsamples existed
   r.nll = number_or_nan(t.at("nll"));
   r.grad_norm = number_or_nan(t.at("grad_norm"));
