@@ -207,7 +207,7 @@ class StartScreening {
  public:
   StartScreening(int starts, int budget)
       : best_(static_cast<size_t>(starts), std::numeric_limits<double>::infinity()),
-        arrived_(static_cast<size_t>(starts), false), budget_(budget) {}
+        arrived_(static_cast<size_t>(starts), false), stopped_(static_cast<size_t>(starts), false), budget_(budget) {}
 
   // Start r's EvaluationGate.
   bool proceed(int r, int evaluations, double best) {
@@ -215,7 +215,13 @@ class StartScreening {
     std::unique_lock<std::mutex> lock(mu_);
     if (!arrived_[static_cast<size_t>(r)]) arrive(r, best);
     cv_.wait(lock, [&] { return arrivals_ == static_cast<int>(best_.size()); });
+    if (r != leader_) stopped_[static_cast<size_t>(r)] = true;
     return r == leader_;
+  }
+  // Whether the gate stopped a start (else every start ended before the budget).
+  bool stopped_any() {
+    const std::lock_guard<std::mutex> lock(mu_);
+    return std::find(stopped_.begin(), stopped_.end(), true) != stopped_.end();
   }
   // Start r ended (converged, failed or threw) before its gate closed.
   void finished(int r, double best) {
@@ -236,7 +242,7 @@ class StartScreening {
   std::mutex mu_;
   std::condition_variable cv_;
   std::vector<double> best_;
-  std::vector<bool> arrived_;
+  std::vector<bool> arrived_, stopped_;
   int budget_, arrivals_ = 0, leader_ = -1;
 };
 
@@ -408,10 +414,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
   LikelihoodWorkspace final_ws(X, y, n, o.jitter);
   if (subsampled) shared.hyperparameter_rows = static_cast<long>(Xh.rows());
-  const bool some_start_stopped = std::any_of(results.begin(), results.end(), [&](const OptimizerResult& res) {
-    return res.status == OptimizerResult::Status::MaxIterations && res.evaluations == o.start_screening_evaluations;
-  });
-  if (screened && some_start_stopped) shared.screening_evaluations = o.start_screening_evaluations;
+  if (screened && screening.stopped_any()) shared.screening_evaluations = o.start_screening_evaluations;
   const Evaluation final_fit = final_ws.evaluate(kernel, noise, false);
   if (!final_fit.ok) {
     out.report.message = "lip: final fit failed: " + final_fit.message;
