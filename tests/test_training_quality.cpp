@@ -5,6 +5,8 @@
 #include <gtest/gtest.h>
 
 #include <cmath>
+#include <limits>
+#include <map>
 
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/model_file.hpp"
@@ -80,6 +82,71 @@ TEST(TrainingQuality, RestartsWithDifferentSeedsReachTheSameNll) {
     const double nb = b.result.report.joints[static_cast<size_t>(j)].nll;
     EXPECT_NEAR(na, nb, 1e-3 * std::abs(na) + 0.5) << "joint " << j + 1;
   }
+}
+
+// Screened restarts, one after another: a start goes on past the budget only
+// while its NLL there is the lowest so far, so the start kept is the one
+// with the lowest NLL at the budget, run on its own path to its own end, as
+// when every start runs to the end; the others stop at the budget.
+TEST(TrainingQuality, ScreenedRestartsContinueOnlyTheLeadersOnTheirOwnPaths) {
+  constexpr int kBudget = 10;
+  TrainOptions o;
+  o.threads = 1;
+  o.restarts = 3;
+  o.restart_spread = 1.0;
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = two_link_trajectory(200, 0.1, 5);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 8);
+  struct Run {
+    TrainResult fit;
+    std::map<std::pair<int, int>, int> last_iteration;          // (joint, restart)
+    std::map<std::pair<int, int>, double> best_within_budget;  // (joint, restart)
+  };
+  auto fit_with = [&](int screening) {
+    o.start_screening_evaluations = screening;
+    Run run;
+    run.fit = train_model(X, Y, joints, o, [&](const ProgressEvent& e) {
+      if (e.finished || e.iteration <= 0) return;
+      const std::pair<int, int> key{e.joint, e.restart};
+      run.last_iteration[key] = std::max(run.last_iteration[key], e.iteration);
+      if (e.iteration <= kBudget) {
+        auto [it, fresh] = run.best_within_budget.emplace(key, e.objective);
+        if (!fresh) it->second = std::min(it->second, e.objective);
+      }
+    });
+    return run;
+  };
+  const Run full = fit_with(0), screened = fit_with(kBudget);
+  ASSERT_TRUE(full.fit.report.ok()) << full.fit.report.message;
+  ASSERT_TRUE(screened.fit.report.ok()) << screened.fit.report.message;
+  int stopped = 0;
+  for (int j = 0; j < 2; ++j) {
+    const JointReport &f = full.fit.report.joints[static_cast<size_t>(j)],
+                      &s = screened.fit.report.joints[static_cast<size_t>(j)];
+    double lead = std::numeric_limits<double>::infinity();
+    int leader = -1;
+    for (int r = 0; r <= o.restarts; ++r) {
+      const double at_budget = full.best_within_budget.at({j, r});
+      const bool leads = at_budget < lead;
+      if (leads) {
+        lead = at_budget;
+        leader = r;
+        EXPECT_EQ(screened.last_iteration.at({j, r}), full.last_iteration.at({j, r})) << "joint " << j << " start " << r;
+        EXPECT_EQ(s.restart_nlls[static_cast<size_t>(r)], f.restart_nlls[static_cast<size_t>(r)]);
+      } else {
+        EXPECT_LE(screened.last_iteration.at({j, r}), kBudget) << "joint " << j << " start " << r;
+        stopped += full.last_iteration.at({j, r}) > kBudget;
+      }
+    }
+    EXPECT_EQ(*std::min_element(s.restart_nlls.begin(), s.restart_nlls.end()),
+              s.restart_nlls[static_cast<size_t>(leader)]);
+    EXPECT_EQ(s.nll, f.restart_nlls[static_cast<size_t>(leader)]);
+    EXPECT_EQ(f.screening_evaluations, 0);
+    EXPECT_LE(s.evaluations, f.evaluations);
+  }
+  ASSERT_GT(stopped, 0) << "no start had work left after the budget that screening saved";
+  EXPECT_NE(screened.fit.report.brief_report().find("stopped after 10 evaluations"), std::string::npos)
+      << screened.fit.report.brief_report();
 }
 
 TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {

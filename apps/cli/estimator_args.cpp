@@ -71,9 +71,9 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
                "chain, so let every entry of the inertia matrix depend on every joint (the LIP paper's kernel; "
                "by default entry ab depends only on the joints after min(a, b), docs/method.md section 11)");
   app.add_option("--start-screening", start_screening,
-                 "lip (and the lip teacher): every start first runs at most this many NLL evaluations, then only "
-                 "the one with the lowest NLL continues to convergence (0: every start runs to convergence; "
-                 "docs/training.md)")
+                 "lip (and the lip teacher), and a GP's --restarts: every start first runs at most this many NLL "
+                 "evaluations, then only the one with the lowest NLL continues to convergence (0: every start runs "
+                 "to convergence; docs/training.md)")
       ->capture_default_str();
   app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)");
   app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str();

@@ -166,8 +166,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     logs), serial_chain (True: the joints are ordered from the base to the
     tip of one serial chain, and the lip teacher's inertia entry ab depends
     only on the joints after min(a, b); False for joints in another order),
-    start_screening (the lip teacher's starts run this many NLL evaluations,
-    then only the best goes on; 0: every start to convergence)
+    start_screening (the lip teacher's starts, and the restarts of each
+    joint's GP, run this many NLL evaluations, then only the best goes on;
+    0: every start to convergence)
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first

@@ -137,7 +137,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   // One optimisation of the NLL on the rows (Xr, Zr, yr).
   // all_rows: (Xr, Zr, yr) are the hyperparameter rows, not the warm-start subsample.
   auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
-                      const Eigen::VectorXd& start, int restart) {
+                      const Eigen::VectorXd& start, int restart, const EvaluationGate& gate = {}) {
     const bool sparse = Zm && all_rows && !exact_objective, distributed = o.nll_backend && all_rows;
     // The exact NLL of a finite feature expansion (PP) in weight space: the same
     // value and gradient without the O(N^3) factorisation.
@@ -173,7 +173,7 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
       };
     OptimizerOptions stage = opt;
     stage.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(yr.size());
-    return minimize(objective, start, stage, cb);
+    return minimize(objective, start, stage, cb, gate);
   };
 
   // The rows the hyperparameters are learned on: all, or a constant-step subsample.
@@ -190,15 +190,41 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   const bool warm = o.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
   RowSubset w;  // the warm-start subsample, taken once for every start
   if (warm) w = RowSubset(Xo, Zo, yo, o.warm_start_rows);
+  // Screening (TrainOptions::start_screening_evaluations), one start after
+  // another: a start goes on past the budget only if its NLL there is below
+  // every earlier start's at the budget, so the start run to its end last is
+  // the one with the lowest NLL at the budget (the first of equals), as
+  // LagrangianEstimator's starts side by side choose it.
+  const int budget = o.restarts > 0 && o.start_screening_evaluations < opt.max_iterations
+                         ? o.start_screening_evaluations
+                         : 0;
+  double leader_at_budget = std::numeric_limits<double>::infinity();
+  bool stopped_any = false;
   BestOfStarts starts;
   for (int r = 0; r <= o.restarts; ++r) {
     Eigen::VectorXd start = x0;
     if (r > 0)
       for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    OptimizerResult res = warm ? optimise(w.X, w.Z, w.y, false, start, r) : optimise(Xo, Zo, yo, true, start, r);
+    double at_budget = std::numeric_limits<double>::infinity();
+    bool decided = false, stopped = false;
+    EvaluationGate gate;
+    if (budget > 0)
+      gate = [&](int evaluations, double best) {
+        if (evaluations < budget || decided) return !stopped;
+        decided = true;
+        at_budget = best;
+        stopped = !(best < leader_at_budget);
+        return !stopped;
+      };
+    OptimizerResult res =
+        warm ? optimise(w.X, w.Z, w.y, false, start, r, gate) : optimise(Xo, Zo, yo, true, start, r, gate);
     (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
+    if (budget > 0 && !decided && res.usable()) at_budget = res.f;  // ended before the budget
+    if (at_budget < leader_at_budget) leader_at_budget = at_budget;
+    stopped_any = stopped_any || stopped;
     starts.add(res);
   }
+  if (stopped_any) out.report.screening_evaluations = budget;
   out.report.restart_nlls = starts.objectives;
   OptimizerResult kept = starts.kept;
   Eigen::VectorXd best_x = starts.found() ? kept.x : Eigen::VectorXd();

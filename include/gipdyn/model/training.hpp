@@ -102,7 +102,9 @@ struct TrainOptions {
   // most this many NLL evaluations each; only the one with the lowest NLL
   // then continues to convergence. On 15 logs (SCARA, PUMA, UR10, 7R arm;
   // docs/training.md) the leader after 60 ends within 2 nats of the best of
-  // the starts run to the end, at half the evaluations on a 6R arm.
+  // the starts run to the end, at half the evaluations on a 6R arm. The GP
+  // estimators' restarts are screened the same way, one start after another:
+  // a start goes on past the budget only while its NLL there leads.
   // 0: every start runs to convergence.
   int start_screening_evaluations = 60;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
