@@ -17,7 +17,10 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
+#include "gipdyn/features.hpp"
 #include "gipdyn/gipdyn.h"
+#include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"
 #include "test_util.hpp"
@@ -33,36 +36,44 @@ void __libc_free(void*);
 namespace {
 std::atomic<bool> g_armed{false};
 std::atomic<long> g_allocations{0};
-void note() {
-  if (g_armed.load(std::memory_order_relaxed)) g_allocations.fetch_add(1, std::memory_order_relaxed);
+// Allocations of g_matrix_bytes plus at most an alignment's padding (Eigen's
+// N x N matrices), counted while armed. OpenBLAS allocates its own buffers,
+// of other sizes, in every call.
+std::atomic<size_t> g_matrix_bytes{0};
+std::atomic<long> g_matrix_allocations{0};
+void note(size_t bytes) {
+  if (!g_armed.load(std::memory_order_relaxed)) return;
+  g_allocations.fetch_add(1, std::memory_order_relaxed);
+  const size_t matrix = g_matrix_bytes.load(std::memory_order_relaxed);
+  if (bytes >= matrix && bytes <= matrix + 128) g_matrix_allocations.fetch_add(1, std::memory_order_relaxed);
 }
 }  // namespace
 
 extern "C" {
 void* malloc(size_t n) {
-  note();
+  note(n);
   return __libc_malloc(n);
 }
 void* calloc(size_t a, size_t b) {
-  note();
+  note(a * b);
   return __libc_calloc(a, b);
 }
 void* realloc(void* p, size_t n) {
-  note();
+  note(n);
   return __libc_realloc(p, n);
 }
 void free(void* p) { __libc_free(p); }
 int posix_memalign(void** out, size_t align, size_t n) {
-  note();
+  note(n);
   *out = __libc_memalign(align, n);
   return *out ? 0 : 12;
 }
 void* aligned_alloc(size_t align, size_t n) {
-  note();
+  note(n);
   return __libc_memalign(align, n);
 }
 void* memalign(size_t align, size_t n) {
-  note();
+  note(n);
   return __libc_memalign(align, n);
 }
 }
@@ -260,6 +271,35 @@ TEST(NoAllocation, CApiLagrangianAndFisherianQueriesDoNotAllocate) {
       EXPECT_EQ(dynamic_cast<const LagrangianEstimator&>(*fitted.estimator).queries_in_weight_space(), spec == "RRPR");
     }
     expect_queries_do_not_allocate(*fitted.estimator, "gipdyn_c_api_" + name + spec);
+  }
+}
+
+// An optimiser evaluates the NLL and its gradient hundreds of times on the same
+// rows: after the first evaluation, the workspace's buffers must serve every
+// N x N matrix. A composite kernel whose children resized a shared buffer
+// between N x N and N x F, or allocated its children's matrices, paged in
+// fresh N x N blocks at every evaluation (SP's fits took 1.6x as long).
+TEST(NoAllocation, RepeatedNllEvaluationsAllocateNoKernelSizedMatrix) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const FeatureMap features(joints);
+  const Eigen::Index n = 120;
+  const Eigen::MatrixXd Z = features.compute(test::random_inputs(joints, n, 71));
+  const Eigen::VectorXd y = test::random_matrix(n, 1, -1.0, 1.0, 72).col(0);
+  RobotPrior prior;
+  prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
+  for (const char* name : {"gip", "rbf", "sp", "gip+rbf", "gip+friction", "gip+friction+rbf", "gip-envelope",
+                           "gip-envelope+friction"}) {
+    const std::unique_ptr<Kernel> kernel = make_kernel(name, features, 1, prior);
+    kernel->initialize(Z, 1.0);
+    GpWorkspace ws;
+    ASSERT_TRUE(evaluate_nll(*kernel, std::log(0.1), Z, y, true, ws).ok()) << name;
+    g_matrix_bytes = static_cast<size_t>(n * n) * sizeof(double);
+    g_matrix_allocations = 0;
+    allocations_during([&] {
+      for (int e = 0; e < 3; ++e) evaluate_nll(*kernel, std::log(0.1 + 0.01 * e), Z, y, true, ws);
+    });
+    g_matrix_bytes = 0;
+    EXPECT_EQ(g_matrix_allocations.load(), 0) << name;
   }
 }
 

@@ -8,6 +8,37 @@
 
 namespace gipdyn {
 
+namespace {
+
+// A composite's buffer for its further children at its own nesting level (a
+// product inside a sum has the level below its sum's), held for one scope: the
+// children it calls take the next level, and leaving the scope, even by an
+// exception, hands the level back. Sized by the caller once: a control-loop
+// query then allocates nothing.
+// A composite that needs several buffers at once takes as many levels
+// (operator[]); a deque keeps them in place when a deeper level is added.
+template <class Buffer>
+class LevelBuffer {
+ public:
+  LevelBuffer(std::deque<Buffer>& buffers, size_t& level, size_t count = 1)
+      : buffers_(buffers), level_(level), first_(level), count_(count) {
+    if (buffers.size() < level + count) buffers.resize(level + count);
+    level_ += count;
+  }
+  ~LevelBuffer() { level_ -= count_; }
+  LevelBuffer(const LevelBuffer&) = delete;
+  LevelBuffer& operator=(const LevelBuffer&) = delete;
+  Buffer& operator*() const { return buffers_[first_]; }
+  Buffer& operator[](size_t i) const { return buffers_[first_ + i]; }
+
+ private:
+  std::deque<Buffer>& buffers_;
+  size_t& level_;
+  size_t first_, count_;
+};
+
+}  // namespace
+
 CompositeKernel::CompositeKernel(std::vector<std::unique_ptr<Kernel>> children) : children_(std::move(children)) {
   if (children_.empty()) throw Error("a composite kernel needs at least one child kernel");
 }
@@ -83,6 +114,19 @@ void ProductKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, 
   }
 }
 
+void ProductKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const {
+  // The same products as cross(), so fits do not change: the children's
+  // lower-triangle paths round differently and were no faster (1000 rows,
+  // the real preset's kernel).
+  children_[0]->cross(Z, Z, K);
+  LevelBuffer<Eigen::MatrixXd> level(scratch.child_grams, scratch.gram_level);
+  Eigen::MatrixXd& Kc = *level;
+  for (size_t c = 1; c < children_.size(); ++c) {
+    children_[c]->cross(Z, Z, Kc);
+    K.array() *= Kc.array();
+  }
+}
+
 void ProductKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
   children_[0]->diagonal(Z, d);
   Eigen::VectorXd dc;
@@ -106,30 +150,35 @@ void ProductKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::Matr
 
 // sum_ij W_ij (dK_c)_ij prod_{c' != c} (K_c')_ij: each child c contracts W o R_c,
 // with R_c the product of the other children's k(Z1, Z2).
+// The children's matrices and W o R_c live in the scratch's buffers, so that
+// an optimiser's evaluations reuse them instead of allocating (and paging in)
+// n + 1 fresh N x N matrices each time.
 template <class ContractChild>
 void contract_product(const std::vector<std::unique_ptr<Kernel>>& children, const Eigen::MatrixXd& Z1,
-                      const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W, ContractChild&& contract_child) {
-  std::vector<Eigen::MatrixXd> parts(children.size());
-  for (size_t c = 0; c < children.size(); ++c) children[c]->cross(Z1, Z2, parts[c]);
-  Eigen::MatrixXd WR;
-  for (size_t c = 0; c < children.size(); ++c) {
+                      const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W, KernelScratch& scratch,
+                      ContractChild&& contract_child) {
+  const size_t n = children.size();
+  LevelBuffer<Eigen::MatrixXd> buffers(scratch.child_grams, scratch.gram_level, n + 1);
+  for (size_t c = 0; c < n; ++c) children[c]->cross(Z1, Z2, buffers[c]);
+  Eigen::MatrixXd& WR = buffers[n];
+  for (size_t c = 0; c < n; ++c) {
     WR = W;
-    for (size_t o = 0; o < children.size(); ++o)
-      if (o != c) WR.array() *= parts[o].array();
+    for (size_t o = 0; o < n; ++o)
+      if (o != c) WR.array() *= buffers[o].array();
     contract_child(c, WR);
   }
 }
 
 void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                              KernelScratch& scratch) const {
-  contract_product(children_, Z, Z, W, [&](size_t c, const Eigen::MatrixXd& WR) {
+  contract_product(children_, Z, Z, W, scratch, [&](size_t c, const Eigen::MatrixXd& WR) {
     children_[c]->contract(Z, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
   });
 }
 
 void ProductKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                    Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  contract_product(children_, Z1, Z2, W, [&](size_t c, const Eigen::MatrixXd& WR) {
+  contract_product(children_, Z1, Z2, W, scratch, [&](size_t c, const Eigen::MatrixXd& WR) {
     children_[c]->contract_cross(Z1, Z2, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()),
                                  scratch);
   });
@@ -157,29 +206,6 @@ void EnvelopeKernel::initialize(const Eigen::MatrixXd& Z, double target_variance
 }
 
 namespace {
-
-// A composite's buffer for its further children at its own nesting level (a
-// product inside a sum has the level below its sum's), held for one scope: the
-// children it calls take the next level, and leaving the scope, even by an
-// exception, hands the level back. Sized by the caller once: a control-loop
-// query then allocates nothing.
-template <class Buffer>
-class LevelBuffer {
- public:
-  LevelBuffer(std::deque<Buffer>& buffers, size_t& level) : level_(level) {
-    if (buffers.size() <= level) buffers.resize(level + 1);
-    buffer_ = &buffers[level];
-    ++level_;
-  }
-  ~LevelBuffer() { --level_; }
-  LevelBuffer(const LevelBuffer&) = delete;
-  LevelBuffer& operator=(const LevelBuffer&) = delete;
-  Buffer& operator*() const { return *buffer_; }
-
- private:
-  size_t& level_;
-  Buffer* buffer_;
-};
 
 // The first child's row into out, each further child's combined into it by `combine(out, part)`.
 template <class Combine>

@@ -164,7 +164,7 @@ void FrictionKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::Mat
 void FrictionKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                               KernelScratch& scratch) const {
   // K = F S F^T is rank 4: every contraction is a 4 x 4 product with W F, never an N x N matrix.
-  Eigen::MatrixXd &F = scratch.a, &WF = scratch.b;
+  Eigen::MatrixXd &F = scratch.features, &WF = scratch.weighted_features;
   Eigen::MatrixXd Dc, Dr;
   feature_matrix(Z, F, &Dc, &Dr);
   WF.noalias() = W * F;
@@ -180,7 +180,7 @@ void FrictionKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W
 void FrictionKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
   // K = F1 S F2^T: sum_ij W_ij dK_ij = sum_k s_k (D1_k^T W F2_k + F1_k^T W D2_k) for the velocity scales.
-  Eigen::MatrixXd &WF2 = scratch.a, &WtF1 = scratch.b;
+  Eigen::MatrixXd &WF2 = scratch.features, &WtF1 = scratch.weighted_features;
   Eigen::MatrixXd F1, F2, Dc1, Dr1, Dc2, Dr2;
   feature_matrix(Z1, F1, &Dc1, &Dr1);
   feature_matrix(Z2, F2, &Dc2, &Dr2);

@@ -77,17 +77,17 @@ void ParametricKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::M
 void ParametricKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                                 KernelScratch& scratch) const {
   // sum_ij W_ij s_k phi_ik phi_jk = s_k phi_k^T W phi_k, for every k from one N x N x p product.
-  scratch.a = features(Z);
-  scratch.b.noalias() = W * scratch.a;
-  grad += (variances_.array() * (scratch.a.array() * scratch.b.array()).colwise().sum().transpose()).matrix();
+  scratch.features = features(Z);
+  scratch.weighted_features.noalias() = W * scratch.features;
+  grad += (variances_.array() * (scratch.features.array() * scratch.weighted_features.array()).colwise().sum().transpose()).matrix();
 }
 
 void ParametricKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
   // sum_ij W_ij s_k phi1_ik phi2_jk = s_k sum_i phi1_ik (W phi2)_ik.
-  scratch.a = features(Z1);
-  scratch.b.noalias() = W * features(Z2);
-  grad += (variances_.array() * (scratch.a.array() * scratch.b.array()).colwise().sum().transpose()).matrix();
+  scratch.features = features(Z1);
+  scratch.weighted_features.noalias() = W * features(Z2);
+  grad += (variances_.array() * (scratch.features.array() * scratch.weighted_features.array()).colwise().sum().transpose()).matrix();
 }
 
 void ParametricKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {

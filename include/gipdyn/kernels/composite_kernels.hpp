@@ -46,6 +46,9 @@ class ProductKernel : public CompositeKernel {
                 KernelScratch& scratch) const override;
   void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+  // cross(Z, Z, K), with the further children's matrices in the scratch's
+  // buffers: an NLL evaluation allocates no N x N matrix.
+  void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
   // One query through each child's own row(): the children's fast paths, one
   // N-vector allocated per further child.
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,

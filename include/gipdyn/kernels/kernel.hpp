@@ -28,6 +28,11 @@ struct MeanPlan {
 // leave `c` alone.
 struct KernelScratch {
   Eigen::MatrixXd a, b, c, d;
+  // Low-rank kernels' (parametric, friction) N x F features and W times them,
+  // apart from a and b: in a sum those hold another child's N x N matrices, and
+  // sharing them would free and reallocate (and page in) 2 N^2 doubles at every
+  // evaluation.
+  Eigen::MatrixXd features, weighted_features;
   Eigen::VectorXd v, w;
   // Composite kernels' child rows in row(), one per nesting level (a product
   // inside a sum). A deque, so that a deeper level's first use does not move
