@@ -239,6 +239,24 @@ TEST(Teacher, TheWarningNamesOnlyTheJointsPastTheGap) {
             "");
 }
 
+// The joints whose teacher is the better model where the check passes: ten
+// times the teacher's nMSE and above the floor; not those the warning names.
+TEST(Teacher, TheTeacherIsFarAheadOnlyByTheRatioAboveTheFloorAndWhereTheStudentPasses) {
+  TeachingCheck check;
+  const double floor = kTeacherFarAheadFloor, ratio = kTeacherFarAheadRatio;
+  check.teacher_nmse = (Eigen::VectorXd(6) << 3.8e-5, 0.002, 1e-5, 0.01, 0.01, 0.2).finished();
+  check.student_nmse =
+      (Eigen::VectorXd(6) << 0.044, 0.9 * ratio * 0.002, 0.9 * floor, 0.01 * ratio, std::nan(""), 3.0).finished();
+  // Joint 2 is 9x behind, joint 3 below the floor, joint 5's torque constant, joint 6 missed (warned about).
+  EXPECT_EQ(check.joints_teacher_far_ahead(), (std::vector<int>{0, 3}));
+  EXPECT_NE(check.warning("lip").find("joint 6 ("), std::string::npos);
+  check.student_nmse(1) = ratio * 0.002;
+  check.student_nmse(2) = 1.1 * floor;
+  EXPECT_EQ(check.joints_teacher_far_ahead(), (std::vector<int>{0, 1, 2, 3}));
+  check.teacher_nmse(0) = 0.044;
+  EXPECT_EQ(check.joints_teacher_far_ahead(), (std::vector<int>{1, 2, 3}));
+}
+
 TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {
   const Eigen::MatrixXd X = two_link_trajectory(80, 0.1, 11);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);

@@ -1,6 +1,7 @@
 // `gipdyn train`: fit any estimator on a CSV and write its model file.
 #include <algorithm>
 #include <cstdio>
+#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -29,7 +30,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, mat_variable, joints, kernel = "gip", out, preset, teacher = "auto";
+  std::string data, mat_variable, joints, kernel = "gip", out, preset, teacher = "auto", teacher_out;
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -81,6 +82,11 @@ Command add_train(CLI::App& app) {
                  "hundred inform the NLL as well as thousands), then is conditioned on every state; 0: all states. "
                  "--hyperparameter-rows, if given, wins")
       ->capture_default_str();
+  app.add_option("--teacher-out", a->teacher_out,
+                 "Where a teacher teaches (--teacher; auto by default): also write the teacher's model (e.g. lip) "
+                 "to this file, whatever became of the taught one. train notes the joints on which the teacher "
+                 "fits the log ten times better than its student: there it is likely the more accurate model, "
+                 "with a slower query (docs/training.md)");
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   app.add_flag("--distributed", a->distributed,
@@ -99,7 +105,11 @@ Command add_train(CLI::App& app) {
     Eigen::Index total = 0;
     std::string setup_error;
     try {
-      refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}}, {{"--out", a->out}});
+      refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}},
+                                {{"--out", a->out}, {"--teacher-out", a->teacher_out}});
+      if (!a->teacher_out.empty() && std::filesystem::absolute(a->teacher_out).lexically_normal() ==
+                                         std::filesystem::absolute(a->out).lexically_normal())
+        throw Error("--teacher-out and --out name the same file '" + a->out + "': give the teacher's model its own");
       o = a->preset.empty()
               ? a->estimator.build(a->kernel)
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
@@ -111,6 +121,13 @@ Command add_train(CLI::App& app) {
                                      : a->teacher != "none";
       // The teacher's options where no teacher teaches: left over beside --teacher none, but a
       // misunderstanding beside the default, which the user may have expected to teach.
+      if (!teaches && !a->teacher_out.empty())
+        throw Error(std::string("--teacher-out writes a teacher's model, and ") +
+                    (automatic ? "--teacher auto does not teach " + o.name +
+                                     " with these options (--kernel gip alone, without --preset real, --inducing, "
+                                     "--warm-start-rows, --mean, --robot or --distributed)"
+                               : std::string("--teacher none trains without one")) +
+                    ": name a teacher (e.g. --teacher lip), or drop --teacher-out");
       if (!teaches)
         for (const char* name : {"--teacher-states", "--teacher-hyperparameter-rows", "--student-hyperparameter-rows"}) {
           if (app.count(name) == 0) continue;
@@ -233,6 +250,9 @@ Command add_train(CLI::App& app) {
       model.header["teacher"]["log_nmse"] = {{"teacher", numbers_or_null(r.teaching_check->teacher_nmse)},
                                              {"student", numbers_or_null(r.teaching_check->student_nmse)}};
     write_container(model, a->out);
+    // Whatever became of the taught model: the teacher's fit is the user's to keep.
+    const bool teacher_written = r.teacher && !a->teacher_out.empty();
+    if (teacher_written) write_container(r.teacher->to_container(), a->teacher_out);
     if (!a->quiet) {
       if (r.teaching == TeachingOutcome::TeacherFailed) {
         std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),
@@ -256,7 +276,24 @@ Command add_train(CLI::App& app) {
         for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
           std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
         std::printf("\n");
+        const std::vector<int> ahead = r.teaching_check->joints_teacher_far_ahead();
+        if (r.teaching == TeachingOutcome::Taught && !ahead.empty()) {
+          std::string joints_text;
+          for (int j : ahead) {
+            char buf[96];
+            std::snprintf(buf, sizeof buf, "%s%d (%.3g against %.3g)", joints_text.empty() ? "" : ", ", j + 1,
+                          r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
+            joints_text += buf;
+          }
+          std::printf("note: the teacher %s fits the logged rows of joint %s ten times better or more than its "
+                      "student: there it is likely the more accurate model, with a slower query (%s; "
+                      "docs/training.md)\n",
+                      o.teacher->name.c_str(), joints_text.c_str(),
+                      teacher_written ? ("written to " + a->teacher_out).c_str()
+                                      : "--teacher-out FILE writes it beside the student");
+        }
       }
+      if (teacher_written) std::printf("saved the teacher's %s model to %s\n", r.teacher->name().c_str(), a->teacher_out.c_str());
       const InverseDynamicsModel* gp = r.estimator->gp_model();
       if (gp && gp->is_sparse())
         std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),

@@ -163,7 +163,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     teacher's and the student's nMSE on (X, Y), and a TeachingWarning says
     when the student misses that log by more than 0.1 of a joint's torque
     variance and by more than twice its teacher's error, as on real robots'
-    logs), serial_chain (True: the joints are ordered from the base to the
+    logs; its "teacher_far_ahead" lists the joints, from 0, that the teacher
+    fits ten times better than a student that passes: there teacher_ is
+    likely the more accurate model, with a slower query), serial_chain (True: the joints are ordered from the base to the
     tip of one serial chain, and the lip teacher's inertia entry ab depends
     only on the joints after min(a, b); False for joints in another order),
     start_screening (the lip teacher's starts, and the restarts of each

@@ -215,6 +215,7 @@ py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teach
   d["student_nmse"] = c.student_nmse;
   d["warning"] = c.warning(teacher);
   d["passed"] = c.passed();
+  d["teacher_far_ahead"] = c.joints_teacher_far_ahead();
   return d;
 }
 

@@ -710,6 +710,8 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     np.testing.assert_allclose(check["teacher_nmse"], gipdyn.nmse(train["tau"], taught.teacher_.predict(train["X"])),
                                rtol=1e-9)
     assert check["warning"] == ""
+    far_ahead = [j for j, (t, s) in enumerate(zip(check["teacher_nmse"], check["student_nmse"])) if s >= 10 * t and s > 1e-3]
+    assert check["teacher_far_ahead"] == far_ahead
     # The student follows its teacher at fresh states of the same box far closer than the torque varies.
     rng = np.random.default_rng(0)
     X_box = rng.uniform(train["X"].min(axis=0), train["X"].max(axis=0), size=(200, 12))

@@ -102,6 +102,15 @@ bool TeachingCheck::passed() const {
   return true;
 }
 
+std::vector<int> TeachingCheck::joints_teacher_far_ahead() const {
+  std::vector<int> joints;
+  for (Eigen::Index j = 0; j < student_nmse.size(); ++j)  // false for NaN, a joint whose logged torque is constant
+    if (student_nmse(j) > kTeacherFarAheadFloor && student_nmse(j) >= kTeacherFarAheadRatio * teacher_nmse(j) &&
+        !student_misses_joint(*this, j))
+      joints.push_back(static_cast<int>(j));
+  return joints;
+}
+
 std::string TeachingCheck::warning(const std::string& teacher_name) const {
   std::string joints;
   for (Eigen::Index j = 0; j < student_nmse.size(); ++j) {

@@ -259,6 +259,45 @@ def test_train_by_default_keeps_lips_teaching_only_where_the_taught_model_fits_t
     np.testing.assert_allclose(predictions[0], predictions[1], rtol=1e-10, atol=1e-12)
 
 
+def test_train_writes_the_teacher_and_notes_the_joints_it_fits_far_better(tmp_path, gipdyn_bin):
+    write_dataset(tmp_path / "log.csv", 80, 1)
+    log = str(tmp_path / "log.csv")
+    student, teacher = tmp_path / "student.gipdyn", tmp_path / "teacher.gipdyn"
+    # 25 drawn states teach GIP the two-link log well enough to pass, and LIP fits it far better.
+    setup = ["--data", log, "--joints", "RR", "--teacher-states", "25", "--teacher-hyperparameter-rows", "0",
+             "--max-iter", "60", "--seed", "4"]
+    common = setup + ["--teacher", "lip"]
+    r = run(gipdyn_bin, "train", *common, "--teacher-out", str(teacher), "--out", str(student))
+    assert r.returncode == 0, r.stderr
+    assert "far worse" not in r.stderr
+    assert model_header(teacher)["estimator"] == "lip" and model_header(student)["estimator"] == "gp"
+    log_nmse = model_header(student)["teacher"]["log_nmse"]
+    assert all(s >= 10 * t and s > 1e-3 for t, s in zip(log_nmse["teacher"], log_nmse["student"])), log_nmse
+    assert re.search(r"note: the teacher lip fits the logged rows of joint 1 \([-0-9.e]+ against [-0-9.e]+\), 2 "
+                     r"\([-0-9.e]+ against [-0-9.e]+\) ten times better or more than its student: .* \(written to " +
+                     re.escape(str(teacher)), r.stdout), r.stdout
+    assert f"saved the teacher's lip model to {teacher}" in r.stdout
+    # The file is the teacher whose residual the student's header records: its nMSE on the log is the teacher's.
+    r = run(gipdyn_bin, "predict", "--model", str(teacher), "--data", log, "--out", str(tmp_path / "p.csv"))
+    assert r.returncode == 0, r.stderr
+    predicted = np.loadtxt(tmp_path / "p.csv", delimiter=",", skiprows=1)[:, :2]
+    measured = np.loadtxt(log, delimiter=",", skiprows=1)[:, 7:9]
+    nmse = ((predicted - measured) ** 2).mean(axis=0) / measured.var(axis=0)
+    np.testing.assert_allclose(nmse, log_nmse["teacher"], rtol=1e-6)
+    # Without --teacher-out the note says how to keep the teacher.
+    r = run(gipdyn_bin, "train", *common, "--out", str(tmp_path / "again.gipdyn"))
+    assert r.returncode == 0 and "--teacher-out FILE writes it beside the student" in r.stdout, r.stdout
+    # No teacher, or one file for both: a one-line error, nothing written.
+    for extra, message in (
+            (["--teacher", "none", "--teacher-out", str(tmp_path / "t2.gipdyn"), "--out", str(tmp_path / "s2.gipdyn")],
+             "--teacher-out writes a teacher's model, and --teacher none trains without one"),
+            (["--teacher-out", str(tmp_path / "s3.gipdyn"), "--out", str(tmp_path / "s3.gipdyn")],
+             "--teacher-out and --out name the same file")):
+        r = run(gipdyn_bin, "train", *setup, *(extra if "none" in extra else ["--teacher", "lip", *extra]))
+        assert r.returncode != 0 and message in r.stderr and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert not any((tmp_path / f).exists() for f in ("t2.gipdyn", "s2.gipdyn", "s3.gipdyn"))
+
+
 def test_train_by_default_learns_from_the_log_where_the_teacher_cannot_start(tmp_path, gipdyn_bin):
     # LIP on 3500 rows of a SCARA is one 14000-square system, 1.5 GiB: more than a 1.5 GB address space leaves.
     # The teacher nobody asked for must not stop a fit GIP alone can make (it stopped train with an error).
