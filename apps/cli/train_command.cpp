@@ -253,6 +253,12 @@ Command add_train(CLI::App& app) {
     // Whatever became of the taught model: the teacher's fit is the user's to keep.
     const bool teacher_written = r.teacher && !a->teacher_out.empty();
     if (teacher_written) write_container(r.teacher->to_container(), a->teacher_out);
+    // Even with --quiet: an output the user asked for is missing.
+    if (!a->teacher_out.empty() && !r.teacher)
+      print_warnings({"no teacher model written to " + a->teacher_out + ": " +
+                      (r.teaching == TeachingOutcome::LogTooLong
+                           ? "the log is longer than --teacher auto teaches, so no teacher was fitted"
+                           : "the teacher " + o.teacher->name + " failed to fit the log")});
     if (!a->quiet) {
       if (r.teaching == TeachingOutcome::TeacherFailed) {
         std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),

@@ -10,13 +10,13 @@ namespace gipdyn {
 
 namespace {
 
-// A composite's buffer for its further children at its own nesting level (a
-// product inside a sum has the level below its sum's), held for one scope: the
-// children it calls take the next level, and leaving the scope, even by an
-// exception, hands the level back. Sized by the caller once: a control-loop
-// query then allocates nothing.
-// A composite that needs several buffers at once takes as many levels
-// (operator[]); a deque keeps them in place when a deeper level is added.
+// A composite's buffers for its further children at its own nesting level (a
+// product inside a sum has the levels below its sum's), held for one scope: the
+// children it calls take the next levels, and leaving the scope, even by an
+// exception, hands the levels back. One level unless a composite needs several
+// buffers at once (operator[]); a deque keeps them in place when a deeper level
+// is added. Sized by the caller once: a control-loop query, and an optimiser's
+// next evaluation, then allocate nothing.
 template <class Buffer>
 class LevelBuffer {
  public:

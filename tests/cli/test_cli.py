@@ -307,9 +307,12 @@ def test_train_by_default_learns_from_the_log_where_the_teacher_cannot_start(tmp
     out = tmp_path / "m.gipdyn"
     command = [gipdyn_bin, "train", "--data", str(log), "--joints", "RRPR", "--max-iter", "2", "--threads", "1",
                "--out", str(out)]
-    r = subprocess.run(["bash", "-c", 'ulimit -v 1500000 && exec "$@"', "bash", *command], capture_output=True,
-                       text=True, timeout=300)
+    teacher = tmp_path / "teacher.gipdyn"
+    r = subprocess.run(["bash", "-c", 'ulimit -v 1500000 && exec "$@"', "bash", *command, "--teacher-out",
+                        str(teacher)], capture_output=True, text=True, timeout=300)
     assert r.returncode == 0, r.stderr
+    assert f"no teacher model written to {teacher}: the teacher lip failed to fit the log" in r.stderr
+    assert not teacher.exists()
     assert "the teacher lip failed: lip on 3500 rows of 4 joints" in r.stdout and "needs about 1.5 GiB" in r.stdout
     assert "gip learned from the log: the teacher lip failed to fit it" in r.stdout
     header = model_header(out)
