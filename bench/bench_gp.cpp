@@ -87,17 +87,19 @@ void BM_KernelBuild(benchmark::State& state) {
   state.SetLabel(label(static_cast<int>(state.range(0))) + " gip");
 }
 
-void nll_gradient(benchmark::State& state, const std::string& kernel) {
-  JointSetup s = joint_setup(state, kernel);
-  const Problem& p = s.p;
+void time_nll_gradient(benchmark::State& state, const JointSetup& s, const std::string& what) {
   GpWorkspace ws;
   for (auto _ : state) {
-    const NllEvaluation e = evaluate_nll(*s.kernel, s.log_noise, p.Z, s.y, true, ws);
+    const NllEvaluation e = evaluate_nll(*s.kernel, s.log_noise, s.p.Z, s.y, true, ws);
     if (!e.ok()) state.SkipWithError(e.message.c_str());
     benchmark::DoNotOptimize(e.gradient.data());
   }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + kernel + ", " +
-                 std::to_string(s.kernel->num_params() + 1) + " params");
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + what);
+}
+
+void nll_gradient(benchmark::State& state, const std::string& kernel) {
+  const JointSetup s = joint_setup(state, kernel);
+  time_nll_gradient(state, s, kernel + ", " + std::to_string(s.kernel->num_params() + 1) + " params");
 }
 
 
@@ -124,28 +126,40 @@ void BM_NllGradient(benchmark::State& state) { nll_gradient(state, "gip"); }
 void BM_NllGradientGipFriction(benchmark::State& state) { nll_gradient(state, "gip+friction"); }
 // GIP times the RBF envelope (EnvelopeKernel): two kernel matrices and their product per evaluation.
 void BM_NllGradientGipEnvelope(benchmark::State& state) { nll_gradient(state, "gip-envelope"); }
+// The real preset's kernel: the envelope's product and the friction term share one W.
+void BM_NllGradientGipEnvelopeFriction(benchmark::State& state) { nll_gradient(state, "gip-envelope+friction"); }
+
+// W = alpha alpha^T - Kinv from Kinv's lower triangle (Kernel::nll_weights): what
+// a sum saves per child without a fused contraction beyond the first, since its
+// children share one W.
+void BM_NllWeights(benchmark::State& state) {
+  JointSetup s = joint_setup(state);
+  const Eigen::Index N = s.p.Z.rows();
+  Eigen::MatrixXd Kinv(N, N), W;
+  KernelScratch scratch;
+  s.kernel->gram_lower(s.p.Z, Kinv, scratch);
+  for (auto _ : state) {
+    Kernel::nll_weights(s.y, Kinv, W);
+    benchmark::DoNotOptimize(W.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))));
+}
 
 // PP (a prior on the rigid-body parameters, rank 40 on the SCARA and 60 on the UR10): the exact
 // NLL on the N x N matrix against the weight-space evaluation that training uses for it.
-JointSetup pp_setup(const benchmark::State& state) {
+JointSetup pp_setup(const benchmark::State& state, const std::string& kernel = "pp") {
   JointSetup s = joint_setup(state);
   RobotPrior prior;
   prior.robot = std::make_shared<const RobotModel>(state.range(0) == 4 ? scara_robot() : ur10_robot());
-  s.kernel = make_kernel("pp", FeatureMap(s.p.joints), 0, prior);
+  s.kernel = make_kernel(kernel, FeatureMap(s.p.joints), 0, prior);
   s.kernel->initialize(s.p.Z, 1.0);
   return s;
 }
 
-void BM_NllGradientPpExact(benchmark::State& state) {
-  JointSetup s = pp_setup(state);
-  GpWorkspace ws;
-  for (auto _ : state) {
-    const NllEvaluation e = evaluate_nll(*s.kernel, s.log_noise, s.p.Z, s.y, true, ws);
-    if (!e.ok()) state.SkipWithError(e.message.c_str());
-    benchmark::DoNotOptimize(e.gradient.data());
-  }
-  state.SetLabel(label(static_cast<int>(state.range(0))) + " pp, N x N");
-}
+void BM_NllGradientPpExact(benchmark::State& state) { time_nll_gradient(state, pp_setup(state), "pp, N x N"); }
+
+// SP (PP + RBF) as training evaluates it: both children contract one shared W.
+void BM_NllGradientSp(benchmark::State& state) { time_nll_gradient(state, pp_setup(state, "sp"), "sp"); }
 
 void BM_NllGradientPpWeightSpace(benchmark::State& state) {
   JointSetup s = pp_setup(state);
@@ -460,8 +474,11 @@ BENCHMARK(BM_NllGradient)->Apply(sizes);
 BENCHMARK(BM_GradientContraction)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipFriction)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipEnvelope)->Apply(sizes);
+BENCHMARK(BM_NllGradientGipEnvelopeFriction)->Apply(sizes);
+BENCHMARK(BM_NllWeights)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_NllGradientPpExact)->Apply(sizes);
+BENCHMARK(BM_NllGradientSp)->Apply(sizes);
 BENCHMARK(BM_NllGradientPpWeightSpace)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMean)->Apply(sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_PredictOneMeanPresetReal)->Apply(sizes)->Unit(benchmark::kMicrosecond);

@@ -142,6 +142,18 @@ TEST(RbfKernel, ValueAndGradients) {
   expect_contractions_match(*k, Z1, "rbf");
 }
 
+// A sum's NLL contraction runs its fused children (GIP) on alpha and Kinv and
+// shares one W among the others: every mix must equal the contraction with W.
+TEST(CompositeKernels, SumNllContractionOfFusedAndUnfusedChildren) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  const Eigen::MatrixXd Z = fm.compute(random_inputs(fm.joints(), 9, 85));
+  for (const char* name : {"gip+rbf", "gip+friction", "gip+friction+rbf", "gip-friction+rbf", "gip-envelope+friction"}) {
+    auto k = make_kernel(name, fm, 1);
+    k->set_log_params(random_vector(k->num_params(), -0.5, 0.5, 86));
+    expect_contractions_match(*k, Z, name);
+  }
+}
+
 // The control-loop mean k(z, Z) alpha through a plan (the friction part folded
 // into four weights) must equal the kernel row dotted with alpha, for every
 // kernel with a friction part and for one without; an empty plan falls back.

@@ -327,10 +327,23 @@ void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelS
 
 void SumKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                              Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  // W is shared by the children of a sum: each uses its own (possibly fused) path.
+  // W is shared by the children of a sum. A fused child reads alpha and Kinv
+  // directly; the others share one W, built after the fused ones, which may use
+  // the scratch's buffers. (W per child cost SP about 4 % of an evaluation.)
+  const auto segment = [&](size_t c) {
+    return grad.segment(offset(static_cast<int>(c)), children_[c]->num_params());
+  };
+  bool needs_w = false;
+  for (size_t c = 0; c < children_.size(); ++c) {
+    if (children_[c]->fuses_nll_contraction())
+      children_[c]->contract_nll(Z, alpha, Kinv_lower, segment(c), scratch);
+    else
+      needs_w = true;
+  }
+  if (!needs_w) return;
+  nll_weights(alpha, Kinv_lower, scratch.c);
   for (size_t c = 0; c < children_.size(); ++c)
-    children_[c]->contract_nll(Z, alpha, Kinv_lower,
-                               grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
+    if (!children_[c]->fuses_nll_contraction()) children_[c]->contract(Z, scratch.c, segment(c), scratch);
 }
 
 std::unique_ptr<ProductKernel> make_mpk(const std::vector<int>& columns, int degree, const std::string& prefix,

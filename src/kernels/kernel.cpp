@@ -8,16 +8,20 @@ void Kernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScra
   cross(Z, Z, K);
 }
 
-void Kernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
-                          Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  Eigen::MatrixXd& W = scratch.c;
-  W.resize(Z.rows(), Z.rows());
+void Kernel::nll_weights(const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower, Eigen::MatrixXd& W) {
+  const Eigen::Index N = alpha.size();
+  W.resize(N, N);
   W.triangularView<Eigen::Lower>() = Kinv_lower.triangularView<Eigen::Lower>();
   W.triangularView<Eigen::StrictlyUpper>() = Kinv_lower.transpose().triangularView<Eigen::StrictlyUpper>();
   // In place: `alpha * alpha^T - W` would first evaluate the outer product into an N x N temporary.
   W = -W;
   W.noalias() += alpha * alpha.transpose();
-  contract(Z, W, grad, scratch);
+}
+
+void Kernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
+                          Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  nll_weights(alpha, Kinv_lower, scratch.c);
+  contract(Z, scratch.c, grad, scratch);
 }
 
 void Kernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,

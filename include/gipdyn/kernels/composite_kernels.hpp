@@ -91,6 +91,7 @@ class SumKernel final : public CompositeKernel {
   void gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const override;
   void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+  bool fuses_nll_contraction() const override { return true; }
   // As ProductKernel::row, summing.
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;

@@ -41,6 +41,7 @@ class GipKernel final : public Kernel {
                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
+  bool fuses_nll_contraction() const override { return true; }
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
   double self(const double* z, int feature_dim) const override;

@@ -98,6 +98,11 @@ class Kernel {
   // only the lower triangle of Kinv is read.
   virtual void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                             Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const;
+  // True where contract_nll reads alpha and Kinv_lower directly instead of
+  // building W: a sum then builds W once for the children that need it.
+  virtual bool fuses_nll_contraction() const { return false; }
+  // W = alpha alpha^T - Kinv (both triangles) from the lower triangle of Kinv.
+  static void nll_weights(const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower, Eigen::MatrixXd& W);
   // out(j) = k(z, Z.row(j)) for one query z (feature_dim entries). Kernels that
   // override it do not allocate once the scratch has its size.
   virtual void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
