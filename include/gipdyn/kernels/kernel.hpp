@@ -98,8 +98,9 @@ class Kernel {
   // only the lower triangle of Kinv is read.
   virtual void contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower,
                             Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const;
-  // True where contract_nll reads alpha and Kinv_lower directly instead of
-  // building W: a sum then builds W once for the children that need it.
+  // True where contract_nll does better than the default's W plus contract():
+  // it reads alpha and Kinv_lower directly (GIP), or builds W only for the
+  // children that need it (a sum). A sum builds one W for its other children.
   virtual bool fuses_nll_contraction() const { return false; }
   // W = alpha alpha^T - Kinv (both triangles) from the lower triangle of Kinv.
   static void nll_weights(const Eigen::VectorXd& alpha, const Eigen::MatrixXd& Kinv_lower, Eigen::MatrixXd& W);
