@@ -12,10 +12,40 @@
 #include "gipdyn/training_data.hpp"
 
 #ifdef GIPDYN_HAVE_TORCH
+#include <ATen/CPUGeneratorImpl.h>
 #include <torch/torch.h>
 #endif
 
 namespace gipdyn {
+
+#ifdef GIPDYN_HAVE_TORCH
+namespace {
+
+// Each fit draws its initial weights from a generator of its own. Seeding
+// libtorch's global generator instead made fits running on other threads at
+// the same time draw from one stream, so their weights depended on which
+// thread drew first. The draws are libtorch's own default initialisation
+// (Linear::reset_parameters: kaiming_uniform_ with a = sqrt(5) for the weight,
+// U(-1/sqrt(fan_in), 1/sqrt(fan_in)) for the bias), in its order and at its
+// single precision, so that a seed gives the network it always gave.
+void draw_initial_weights(torch::nn::Sequential& model, std::uint64_t seed) {
+  at::Generator generator = at::detail::createCPUGenerator(seed);
+  torch::NoGradGuard no_grad;
+  const double a = std::sqrt(5.0);
+  const double gain = std::sqrt(2.0 / (1 + std::pow(a, 2)));
+  for (const auto& module : model->children()) {
+    auto* linear = module->as<torch::nn::Linear>();
+    if (!linear) continue;
+    const int64_t fan_in = linear->weight.size(1);
+    const double weight_bound = std::sqrt(3.0) * (gain / std::sqrt(fan_in));
+    linear->weight.uniform_(-weight_bound, weight_bound, generator);
+    const double bias_bound = 1 / std::sqrt(fan_in);
+    linear->bias.uniform_(-bias_bound, bias_bound, generator);
+  }
+}
+
+}  // namespace
+#endif
 
 void NeuralNetworkOptions::validate() const {
   for (int h : hidden)
@@ -83,7 +113,6 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
   const Eigen::MatrixXd Ys = ((Y.rowwise() - net.y_mean_).array().rowwise() / net.y_scale_.array()).matrix();
 
   const auto t0 = std::chrono::steady_clock::now();
-  torch::manual_seed(options.seed);
   torch::set_num_threads(options.threads);
   // libtorch's products run in the OpenBLAS gipdyn links, whose default thread
   // count is the machine's: the trained weights then differed in the last
@@ -99,6 +128,7 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
     width = h;
   }
   model->push_back(torch::nn::Linear(width, n));
+  draw_initial_weights(model, options.seed);
   model->to(torch::kDouble);
 
   // Row-major copies so that a batch is a contiguous block of rows.
