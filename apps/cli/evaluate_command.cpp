@@ -208,7 +208,7 @@ Command add_evaluate(CLI::App& app) {
                  "in --json, and with --plots as physics.csv and physics.png (estimated against true)");
   app.add_option("--plot-window", a->plot_window, "Rows shown in the torque-over-time plot")->capture_default_str();
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--json", a->json}});
+    refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--json", a->json}});
     std::unique_ptr<PhysicsComparison> physics;
     if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);

@@ -179,7 +179,7 @@ Command add_experiment(CLI::App& app) {
       if (!ctl->models.empty()) ctl->config.models = split_list(ctl->models);
       std::vector<std::pair<std::string, std::string>> inputs;
       for (const auto& m : ctl->config.models) inputs.emplace_back("--models", m);
-      refuse_overwriting_inputs(inputs, {{"--out", ctl->config.out}});
+      refuse_overwrites(inputs, {{"--out", ctl->config.out}});
       return report(run_control_experiment(ctl->config, printer(*quiet)), *quiet);
     }
     if (a->parsed()) {

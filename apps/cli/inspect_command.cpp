@@ -89,7 +89,7 @@ int run_inspect(const InspectArgs& a) {
   std::vector<std::pair<std::string, std::string>> outputs;
   if (!a.out.empty()) outputs.push_back({"--out", a.out});
   if (!a.plot.empty()) outputs.push_back({"--plot", a.plot});
-  refuse_overwriting_inputs(inputs, outputs);
+  refuse_overwrites(inputs, outputs);
   a.options.validate();
 
   const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable);

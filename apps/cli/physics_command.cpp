@@ -43,7 +43,7 @@ Command add_physics(CLI::App& app) {
                  "M_asymmetry, M_min_eigenvalue; lip: potential_energy [, kinetic_energy]")
       ->required();
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
+    refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     require_physics(*model);
     const int n = model->joints().size();

@@ -26,7 +26,7 @@ Command add_predict(CLI::App& app) {
                  "Output CSV: tau1_hat..taun_hat, and tau1_std..taun_std for GP and lip models")->required();
   app.add_flag("--no-std", a->no_std, "Skip the standard deviations (much faster for large models)");
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
+    refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
     const Dataset data = read_robot_log(a->data, a->mat_variable, estimator->joints(), false, "the model '" + a->model + "'");
     const int n = estimator->joints().size();

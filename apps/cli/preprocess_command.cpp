@@ -53,7 +53,7 @@ Command add_preprocess(CLI::App& app) {
       ->capture_default_str();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--data", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
+    refuse_overwrites({{"--data", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
     const PreprocessedLog log = preprocess_log(a->in, a->options);
     write_csv_with_sidecar(a->out, log.column_names(), log.table(), log.report);
     for (const auto& s : log.report["steps"])

@@ -51,7 +51,7 @@ Command add_simulate(CLI::App& app) {
   app.add_option("--out", a->out, "Output CSV (a sidecar OUT.json records how to regenerate it)")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--robot", a->robot}, {"--model", a->model}},
+    refuse_overwrites({{"--robot", a->robot}, {"--model", a->model}},
                               {{"--out", a->out}, {"--out (its .json sidecar)", a->out + ".json"}, {"--plot", a->plot}});
     if (a->model.empty() && !a->plot.empty()) throw Error("--plot draws the learned motion: give --model too");
     if (a->integrator != "rk4" && a->integrator != "euler")

@@ -1,7 +1,6 @@
 // `gipdyn train`: fit any estimator on a CSV and write its model file.
 #include <algorithm>
 #include <cstdio>
-#include <filesystem>
 #include <memory>
 #include <mutex>
 #include <optional>
@@ -105,11 +104,8 @@ Command add_train(CLI::App& app) {
     Eigen::Index total = 0;
     std::string setup_error;
     try {
-      refuse_overwriting_inputs({{"--data", a->data}, {"--robot", a->estimator.robot}},
+      refuse_overwrites({{"--data", a->data}, {"--robot", a->estimator.robot}},
                                 {{"--out", a->out}, {"--teacher-out", a->teacher_out}});
-      if (!a->teacher_out.empty() && std::filesystem::absolute(a->teacher_out).lexically_normal() ==
-                                         std::filesystem::absolute(a->out).lexically_normal())
-        throw Error("--teacher-out and --out name the same file '" + a->out + "': give the teacher's model its own");
       o = a->preset.empty()
               ? a->estimator.build(a->kernel)
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);

@@ -48,7 +48,7 @@ Command add_update(CLI::App& app) {
   app.add_option("--out", a->out, "Updated model file")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
-    refuse_overwriting_inputs({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
+    refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     if (a->window < 0) throw Error("--window must be >= 0 (0: keep every row)");
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
     const InverseDynamicsModel* model = estimator->gp_model();

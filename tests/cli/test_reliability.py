@@ -44,6 +44,25 @@ def test_an_output_never_overwrites_an_input(folder, gipdyn_bin, args, flags):
     assert snapshot(folder) == before
 
 
+@pytest.mark.parametrize("args, flags", [
+    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--teacher", "lip", "--out", "{d}/s.gipdyn",
+      "--teacher-out", "{d}/./s.gipdyn"], ["--teacher-out and --out"]),
+    (["simulate", "--robot", "scara", "--model", "{d}/m.gipdyn", "--out", "{d}/s.csv", "--plot", "{d}/s.csv"],
+     ["--plot and --out"]),
+    (["inspect", "--data", "{d}/d.csv", "--joints", "RR", "--out", "{d}/r.json", "--plot", "{d}/r.json"],
+     ["--plot and --out"]),
+    # Another name of an existing file: a symbolic link to it.
+    (["inspect", "--data", "{d}/d.csv", "--joints", "RR", "--out", "{d}/old.json", "--plot", "{d}/link.png"],
+     ["--plot and --out"]),
+])
+def test_two_outputs_never_share_a_file(folder, gipdyn_bin, args, flags):
+    (folder / "old.json").write_text("{}")
+    (folder / "link.png").symlink_to(folder / "old.json")
+    before = snapshot(folder)
+    fails_with(run(gipdyn_bin, *[a.format(d=folder) for a in args]), "name the same file", *flags)
+    assert snapshot(folder) == before
+
+
 def test_preprocess_refuses_to_overwrite_its_log(tmp_path, gipdyn_bin):
     log = tmp_path / "log.csv"
     log.write_text("t,q1,tau1\n" + "".join(f"{k * 0.01},{k * 0.001},{k}\n" for k in range(50)))
