@@ -212,6 +212,29 @@ TEST(Teacher, AStudentThatMissesTheLogItsTeacherFitsIsWarnedAbout) {
   EXPECT_NE(describe(fallback.teaching, "lip").find("learned from the log"), std::string::npos);
 }
 
+TEST(Teacher, AStudentThatCannotStartLeavesTheAutomaticFitOnTheLog) {
+  // An exact GP on this many drawn states needs terabytes: the student's memory
+  // check refuses it. Asked for, that is the fit's error; automatic, the estimator
+  // learns from the log, as when the teacher cannot start.
+  const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
+  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  EstimatorOptions o;
+  o.teacher = TeacherOptions{};
+  o.teacher->states = 400000;
+  EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("needs about"), std::string::npos);
+  o.teacher->mode = TeachingMode::Automatic;
+  const FitResult fallback = fit_estimator(o, X, Y, kTwoLink);
+  ASSERT_TRUE(fallback.report.ok()) << fallback.report.message;
+  EXPECT_EQ(fallback.teaching, TeachingOutcome::StudentFailed);
+  EXPECT_NE(fallback.student_failure.find("needs about"), std::string::npos) << fallback.student_failure;
+  ASSERT_TRUE(fallback.teacher_report && fallback.teacher);  // the teacher's fit stays the user's to keep
+  EXPECT_TRUE(fallback.teacher_report->ok());
+  EXPECT_FALSE(fallback.teaching_check);
+  const FitResult on_log = fit_estimator(EstimatorOptions{}, X, Y, kTwoLink);
+  ASSERT_TRUE(on_log.report.ok()) << on_log.report.message;
+  EXPECT_TRUE(fallback.estimator->predict(X).isApprox(on_log.estimator->predict(X), 1e-12));
+}
+
 TEST(Teacher, TheWarningNamesOnlyTheJointsPastTheGap) {
   TeachingCheck check;
   check.teacher_nmse = Eigen::Vector4d(0.01, 0.2, 0.01, std::nan(""));

@@ -265,6 +265,9 @@ Command add_train(CLI::App& app) {
         for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
         if (r.teaching == TeachingOutcome::Taught)
           std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
+        else if (r.teaching == TeachingOutcome::StudentFailed)
+          std::printf("\n%s %s (%s); its time includes the teacher's:", o.name.c_str(),
+                      describe(r.teaching, o.teacher->name).c_str(), r.student_failure.c_str());
         else
           std::printf("\n%s %s; its time includes the teacher's:", o.name.c_str(),
                       describe(r.teaching, o.teacher->name).c_str());

@@ -163,7 +163,21 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
       EstimatorOptions student = on_log;
       student.gp = options.teacher->student_train_options(options.gp);
       student.gp.noise_std_floor = lesson.student_noise_std_floor;
-      result = fit(student, lesson.X, lesson.Y, joints, progress);
+      // As for the teacher: a student that cannot start on the drawn states
+      // (more of them than the memory left allows) must not stop the fit on the log.
+      const auto student_could_not_start = [&](const std::exception& e) {
+        if (!automatic) throw;
+        result = FitResult{};
+        result.report.status = FitStatus::Failed;
+        result.report.message = e.what();
+      };
+      try {
+        result = fit(student, lesson.X, lesson.Y, joints, progress);
+      } catch (const Error& e) {
+        student_could_not_start(e);
+      } catch (const std::bad_alloc& e) {
+        student_could_not_start(e);
+      }
       result.teaching = TeachingOutcome::Taught;
       result.label_noise_std = std::move(lesson.label_noise_std);
       if (result.report.ok())
@@ -173,6 +187,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
         own.label_noise_std = std::move(result.label_noise_std);
         own.teaching_check = std::move(result.teaching_check);
         own.teaching = result.report.ok() ? TeachingOutcome::StudentMissedLog : TeachingOutcome::StudentFailed;
+        if (!result.report.ok()) own.student_failure = result.report.message;
         result = std::move(own);
       }
     }

@@ -65,6 +65,8 @@ struct FitResult {
   // With a teacher and a fitted student: the two's nMSE on the logged rows (its
   // warning() says when the student misses the log its teacher fits).
   std::optional<TeachingCheck> teaching_check;
+  // TeachingOutcome::StudentFailed: why the fit on the teacher's torques failed.
+  std::string student_failure;
   // Taught or not; with an outcome other than Taught and NoTeacher, estimator
   // learned from the log and teacher_report / teaching_check say what the
   // teaching that was not kept did.
@@ -72,9 +74,9 @@ struct FitResult {
 };
 
 // Fits the named estimator (with a teacher: the teacher, then the estimator on
-// its labelled states; a teacher that fails fails the fit, unless
-// TeachingMode::Automatic, which then learns from the log, as it does for
-// options automatic_teaching_applies refuses). Bad options or data throw gipdyn::Error before any
+// its labelled states; a teacher or student that fails, or cannot start for
+// want of memory, fails the fit, unless TeachingMode::Automatic, which then
+// learns from the log, as it does for options automatic_teaching_applies refuses). Bad options or data throw gipdyn::Error before any
 // work; a numerical failure is reported in FitResult::report. progress may be
 // called from worker threads; it ends with one finished event for the whole fit.
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
