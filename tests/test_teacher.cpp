@@ -20,6 +20,17 @@ using test::two_link_trajectory;
 
 const JointTypes kTwoLink = JointTypes::parse("RR");
 
+// The 2R arm's 15 s motion at dt 0.1 s with torque noise 0.01: a short log.
+struct Log {
+  Eigen::MatrixXd X, Y;
+};
+Log short_two_link_log() {
+  Log log;
+  log.X = two_link_trajectory(150, 0.1, 11);
+  log.Y = test::with_noise(two_link_torques(log.X), 0.01, 12);
+  return log;
+}
+
 double mean_nmse(const Eigen::MatrixXd& truth, const Eigen::MatrixXd& predicted) {
   return compute_accuracy(truth, predicted).nmse.mean();
 }
@@ -111,8 +122,8 @@ TEST(Teacher, AJointWhoseTorqueTheTeacherCallsNoiseIsLabelledWithItsLoggedMean) 
 
 TEST(Teacher, GipTaughtByLipOnAShortMotionPredictsANewMotionLikeLip) {
   // One short motion of the 2R arm, a new motion to predict.
-  const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
-  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  const Log log = short_two_link_log();
+  const Eigen::MatrixXd &X = log.X, &Y = log.Y;
   const Eigen::MatrixXd Xtest = two_link_trajectory(300, 0.1, 13);
   const Eigen::MatrixXd truth = two_link_torques(Xtest);
 
@@ -177,8 +188,8 @@ TEST(Teacher, AStudentThatMissesTheLogItsTeacherFitsIsWarnedAbout) {
   // Ten drawn states cannot tell the student the 2R arm's torque over a
   // six-dimensional box: it then fits the log far worse than LIP does, the
   // way a real robot's log, whose states fill little of their box, makes it.
-  const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
-  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  const Log log = short_two_link_log();
+  const Eigen::MatrixXd &X = log.X, &Y = log.Y;
   EstimatorOptions taught;
   taught.teacher = TeacherOptions{};
   taught.teacher->states = 10;
@@ -216,8 +227,8 @@ TEST(Teacher, AStudentThatCannotStartLeavesTheAutomaticFitOnTheLog) {
   // An exact GP on this many drawn states needs terabytes: the student's memory
   // check refuses it. Asked for, that is the fit's error; automatic, the estimator
   // learns from the log, as when the teacher cannot start.
-  const Eigen::MatrixXd X = two_link_trajectory(150, 0.1, 11);
-  const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
+  const Log log = short_two_link_log();
+  const Eigen::MatrixXd &X = log.X, &Y = log.Y;
   EstimatorOptions o;
   o.teacher = TeacherOptions{};
   o.teacher->states = 400000;
