@@ -155,7 +155,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     kernel's exact GP without mean, robot, warm start or distributed; after
     fit, teaching_ says which: "taught", "student missed the log", "log too
     long", "teacher failed", "student failed", "not applicable" or "no
-    teacher"), teacher_states, teacher_hyperparameter_rows (the
+    teacher", and teaching_failure_ why the teacher or student failed), teacher_states, teacher_hyperparameter_rows (the
     teacher learns its hyperparameters on that many rows, 0: all),
     student_hyperparameter_rows (with a teacher, the student learns its
     hyperparameters on that many of the drawn states, 0: all; a
@@ -334,6 +334,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             self.teacher_report_ = fit["teacher_report"]
             self.label_noise_std_ = fit["label_noise_std"]
             self.teaching_check_ = fit["teaching_check"]  # None unless a taught model was checked
+            self.teaching_failure_ = fit["teaching_failure"]  # why, where teaching_ is "teacher failed" or "student failed"
             if self.teaching_ == "taught":  # a teaching not kept has no say in the model
                 if fit["teacher"] is not None:
                     _warn_unconverged_joints(fit["teacher"], f"teacher {teacher.name}: ")

@@ -222,7 +222,9 @@ py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teach
 // InverseDynamicsGP.fit: the library's fit_estimator for a GP kernel, taught or
 // not: {model, teaching, teacher (a LagrangianModel when the teacher is lip or
 // lip+friction and fitted, else None), teacher_report, label_noise_std,
-// teaching_check (None unless a taught model was checked)}.
+// teaching_check (None unless a taught model was checked), teaching_failure
+// (why the teacher or the student failed, where teaching is "teacher failed"
+// or "student failed"; else empty)}.
 py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
                 const std::optional<TeacherOptions>& teacher, bool verbose) {
   require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
@@ -252,6 +254,9 @@ py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOp
   }
   d["teaching_check"] = py::none();
   if (r.teaching_check) d["teaching_check"] = teaching_check_to_dict(*r.teaching_check, teacher->name);
+  d["teaching_failure"] = r.teaching == TeachingOutcome::StudentFailed ? r.student_failure
+                          : r.teaching == TeachingOutcome::TeacherFailed && r.teacher_report ? r.teacher_report->message
+                                                                                              : std::string();
   return d;
 }
 

@@ -739,7 +739,14 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     np.testing.assert_allclose(auto.predict(X_box), taught.predict(X_box), rtol=1e-10, atol=1e-12)
     assert auto_few.teaching_ == "student missed the log" and auto_few.model_.num_training_samples == 120
     np.testing.assert_allclose(auto_few.predict(X_box), own.predict(X_box), rtol=1e-10, atol=1e-12)
-    assert own.teaching_ == "no teacher"
+    assert own.teaching_ == "no teacher" and auto.teaching_failure_ == "" and auto_few.teaching_failure_ == ""
+    # A student that cannot start (an exact GP on more drawn states than any machine's memory): the log's fit, and why.
+    with warnings.catch_warnings():
+        warnings.simplefilter("ignore", gipdyn.ConvergenceWarning)
+        huge = gipdyn.InverseDynamicsGP(**dict(kwargs, teacher="auto", teacher_states=400000)).fit(train["X"][:60],
+                                                                                                   train["tau"][:60])
+    assert huge.teaching_ == "student failed" and "needs about" in huge.teaching_failure_, huge.teaching_failure_
+    assert huge.model_.num_training_samples == 60 and huge.teacher_ is not None
     with pytest.raises(ValueError, match="teacher_states must be at least"):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="lip", teacher_states=2).fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="student_hyperparameter_rows must be >= 0"):
