@@ -52,7 +52,7 @@ Command add_simulate(CLI::App& app) {
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
     refuse_overwrites({{"--robot", a->robot}, {"--model", a->model}},
-                              {{"--out", a->out}, {"--out (its .json sidecar)", a->out + ".json"}, {"--plot", a->plot}});
+                      {{"--out", a->out}, {"--out (its .json sidecar)", a->out + ".json"}, {"--plot", a->plot}});
     if (a->model.empty() && !a->plot.empty()) throw Error("--plot draws the learned motion: give --model too");
     if (a->integrator != "rk4" && a->integrator != "euler")
       throw Error("--integrator '" + a->integrator + "' is unknown; choose rk4 or euler");

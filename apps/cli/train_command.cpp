@@ -105,7 +105,7 @@ Command add_train(CLI::App& app) {
     std::string setup_error;
     try {
       refuse_overwrites({{"--data", a->data}, {"--robot", a->estimator.robot}},
-                                {{"--out", a->out}, {"--teacher-out", a->teacher_out}});
+                        {{"--out", a->out}, {"--teacher-out", a->teacher_out}});
       o = a->preset.empty()
               ? a->estimator.build(a->kernel)
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);

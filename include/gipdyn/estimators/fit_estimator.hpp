@@ -76,8 +76,9 @@ struct FitResult {
 // Fits the named estimator (with a teacher: the teacher, then the estimator on
 // its labelled states; a teacher or student that fails, or cannot start for
 // want of memory, fails the fit, unless TeachingMode::Automatic, which then
-// learns from the log, as it does for options automatic_teaching_applies refuses). Bad options or data throw gipdyn::Error before any
-// work; a numerical failure is reported in FitResult::report. progress may be
+// learns from the log, as it does for options automatic_teaching_applies
+// refuses). Bad options or data throw gipdyn::Error before any work; a
+// numerical failure is reported in FitResult::report. progress may be
 // called from worker threads; it ends with one finished event for the whole fit.
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                         const JointTypes& joints, const ProgressCallback& progress = {});
