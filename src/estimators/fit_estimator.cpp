@@ -3,6 +3,8 @@
 #include <chrono>
 #include <cmath>
 #include <new>
+#include <optional>
+#include <string>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
@@ -79,6 +81,27 @@ Fit fit_function(EstimatorFamily family) {
   return fit_gp;
 }
 
+// Automatic teaching is an option the user did not ask for: a teacher or
+// student that cannot start (e.g. LIP's (N n)^2 system, or an exact GP on the
+// drawn states, beyond the memory left: refused by its memory check or, where
+// that check underestimates, std::bad_alloc) must not stop a fit that the
+// estimator alone can make. Runs start(); with automatic teaching such a
+// failure is returned as its message, otherwise it propagates. Bad data or
+// options throw again from the fit on the log.
+template <class Start>
+std::optional<std::string> could_not_start(bool automatic, Start&& start) {
+  try {
+    start();
+  } catch (const Error& e) {
+    if (!automatic) throw;
+    return std::string(e.what());
+  } catch (const std::bad_alloc& e) {
+    if (!automatic) throw;
+    return std::string(e.what());
+  }
+  return std::nullopt;
+}
+
 }  // namespace
 
 bool automatic_teaching_applies(const EstimatorOptions& options) {
@@ -135,22 +158,11 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
     result.teaching = TeachingOutcome::NotApplicable;
   } else if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
     TeachingSet lesson;
-    // Automatic teaching is an option the user did not ask for: a teacher
-    // that cannot start (e.g. LIP's (N n)^2 system beyond the memory left,
-    // refused by its memory check or, where that check underestimates,
-    // std::bad_alloc) must not stop a fit that the estimator alone can make.
-    // Bad data or options throw again from that fit.
-    const auto teacher_could_not_start = [&](const std::exception& e) {
-      if (!automatic) throw;
+    if (const auto why = could_not_start(automatic, [&] {
+          lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
+        })) {
       lesson.teacher_report.status = FitStatus::Failed;
-      lesson.teacher_report.message = "the teacher " + options.teacher->name + " failed: " + e.what();
-    };
-    try {
-      lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
-    } catch (const Error& e) {
-      teacher_could_not_start(e);
-    } catch (const std::bad_alloc& e) {
-      teacher_could_not_start(e);
+      lesson.teacher_report.message = "the teacher " + options.teacher->name + " failed: " + *why;
     }
     if (!lesson.teacher_report.ok()) {
       if (automatic) {
@@ -163,21 +175,8 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
       EstimatorOptions student = on_log;
       student.gp = options.teacher->student_train_options(options.gp);
       student.gp.noise_std_floor = lesson.student_noise_std_floor;
-      // As for the teacher: a student that cannot start on the drawn states
-      // (more of them than the memory left allows) must not stop the fit on the log.
-      const auto student_could_not_start = [&](const std::exception& e) {
-        if (!automatic) throw;
-        result = FitResult{};
-        result.report.status = FitStatus::Failed;
-        result.report.message = e.what();
-      };
-      try {
-        result = fit(student, lesson.X, lesson.Y, joints, progress);
-      } catch (const Error& e) {
-        student_could_not_start(e);
-      } catch (const std::bad_alloc& e) {
-        student_could_not_start(e);
-      }
+      if (const auto why = could_not_start(automatic, [&] { result = fit(student, lesson.X, lesson.Y, joints, progress); }))
+        result.report.message = *why;  // result is still a default FitResult, whose status is Failed
       result.teaching = TeachingOutcome::Taught;
       result.label_noise_std = std::move(lesson.label_noise_std);
       if (result.report.ok())
