@@ -525,6 +525,36 @@ TEST(LagrangianEstimator, StartsRunSideBySideWithTheSequentialResult) {
   EXPECT_EQ(four.estimator->predict(test.X), one.estimator->predict(test.X));
 }
 
+// LIP learns every joint in one optimisation: its report and warnings speak
+// of that fit once, with each joint's own noise, not once per joint.
+TEST(LagrangianEstimator, ReportsItsOneCoupledFitOnce) {
+  const SimulationResult train = small_scara(5, 40);
+  TrainOptions o;
+  o.optimizer.max_iterations = 5;
+  const auto fit = LagrangianEstimator::fit(train.X, train.tau, JointTypes::parse("RRPR"), o);
+  ASSERT_TRUE(fit.report.ok()) << fit.report.message;
+  ASSERT_EQ(fit.report.joints.size(), 4u);
+  EXPECT_TRUE(one_coupled_fit(fit.report.joints));
+  const std::string brief = fit.report.brief_report();
+  EXPECT_NE(brief.find("\n   all  max-iter"), std::string::npos) << brief;
+  for (const char* joint_row : {"\n     1  ", "\n     2  ", " joint 2 NLL over starts"})
+    EXPECT_EQ(brief.find(joint_row), std::string::npos) << joint_row << "\n" << brief;
+  ASSERT_EQ(fit.report.joints.front().restart_nlls.size(), 3u);
+  const size_t starts = brief.find("NLL over starts");
+  EXPECT_TRUE(starts != std::string::npos && brief.find("NLL over starts", starts + 1) == std::string::npos) << brief;
+  char noise[32];
+  std::snprintf(noise, sizeof noise, " %.2e\n", fit.report.joints.back().noise_variance);
+  EXPECT_NE(brief.find(noise), std::string::npos) << brief;
+  const std::vector<std::string> warnings = fit.report.warnings();
+  ASSERT_FALSE(warnings.empty());
+  EXPECT_EQ(warnings.front().find("the one fit of every joint stopped at the evaluation limit"), 0u) << warnings.front();
+  // Per-joint fits keep their per-joint rows and warnings.
+  std::vector<JointReport> separate = fit.report.joints;
+  for (JointReport& j : separate) j.coupled = false;
+  EXPECT_EQ(convergence_warnings(separate).front().find("joint(s) 1, 2, 3, 4 stopped"), 0u)
+      << convergence_warnings(separate).front();
+}
+
 // Screening: every start runs start_screening_evaluations; then only the one
 // with the lowest NLL so far goes on, on its own undisturbed path (the same
 // L-BFGS run as without screening), and the others stop there. The choice

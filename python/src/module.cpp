@@ -187,6 +187,7 @@ py::list report_to_list(const std::vector<JointReport>& reports) {
     d["noise_share"] = r.noise_share;
     d["jitter"] = r.jitter;
     d["restart_nlls"] = r.restart_nlls;
+    d["coupled"] = r.coupled;
     out.append(d);
   }
   return out;

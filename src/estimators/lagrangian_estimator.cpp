@@ -326,6 +326,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
 
   FitOutcome out;
   JointReport shared;
+  shared.coupled = true;
   // The coupled likelihood has optima that explain whole joints as noise
   // (UR10, 150 rows: NLL -2406 against -4600, test nMSE 100-1000x worse), and
   // which start reaches the better one depends on the starting noise. So the

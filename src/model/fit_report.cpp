@@ -26,6 +26,29 @@ FitStatus combine_joint_statuses(const std::vector<JointReport>& joints) {
   return s;
 }
 
+bool one_coupled_fit(const std::vector<JointReport>& joints) {
+  return !joints.empty() &&
+         std::all_of(joints.begin(), joints.end(), [](const JointReport& j) { return j.coupled; });
+}
+
+namespace {
+
+std::string starts_line(const JointReport& j) {
+  std::string out = j.warm_start_evaluations > 0 ? " NLL over starts (warm-start subsample):"
+                    : j.screening_evaluations > 0
+                        ? " NLL over starts (those behind the leader stopped after " +
+                              std::to_string(j.screening_evaluations) + " evaluations):"
+                        : " NLL over starts:";
+  char buf[32];
+  for (double v : j.restart_nlls) {
+    std::snprintf(buf, sizeof buf, " %.6g", v);
+    out += buf;
+  }
+  return out + "\n";
+}
+
+}  // namespace
+
 std::string FitReport::brief_report() const {
   char buf[200];
   std::snprintf(buf, sizeof buf, "fit %s in %.1f s", to_string(status).c_str(), seconds);
@@ -33,29 +56,38 @@ std::string FitReport::brief_report() const {
   if (!message.empty()) out += ": " + message;
   out += "\n";
   if (joints.empty()) return out;
+  const bool coupled = one_coupled_fit(joints);
   out += " joint  status     NLL            evals  (warm)  |grad|     noise var  jitter   seconds\n";
-  for (const auto& j : joints) {
-    std::snprintf(buf, sizeof buf, " %5d  %-9s  %-13.6g  %5d  %6d  %-9.2e  %-9.2e  %-7.1e  %7.1f\n", j.joint + 1,
+  // A coupled fit's reports differ only in their noise: one row, the noise below it.
+  const size_t rows = coupled ? 1 : joints.size();
+  for (size_t k = 0; k < rows; ++k) {
+    const JointReport& j = joints[k];
+    std::string joint = "all", noise = "below";
+    if (!coupled) {
+      joint = std::to_string(j.joint + 1);
+      std::snprintf(buf, sizeof buf, "%.2e", j.noise_variance);
+      noise = buf;
+    }
+    std::snprintf(buf, sizeof buf, " %5s  %-9s  %-13.6g  %5d  %6d  %-9.2e  %-9s  %-7.1e  %7.1f\n", joint.c_str(),
                   to_string(j.status).c_str(), j.nll, j.evaluations, j.warm_start_evaluations, j.grad_norm,
-                  j.noise_variance, j.jitter, j.seconds);
+                  noise.c_str(), j.jitter, j.seconds);
     out += buf;
+  }
+  if (coupled) {
+    out += " one fit learned every joint together; noise var per joint:";
+    for (const auto& j : joints) {
+      std::snprintf(buf, sizeof buf, " %.2e", j.noise_variance);
+      out += buf;
+    }
+    out += "\n";
   }
   if (joints.front().hyperparameter_rows > 0)
     out += " hyperparameters learned on " + std::to_string(joints.front().hyperparameter_rows) +
            " rows (a constant-step subsample), the model conditioned on every row\n";
-  for (const auto& j : joints) {
-    if (j.restart_nlls.size() < 2) continue;
-    out += " joint " + std::to_string(j.joint + 1) +
-           (j.warm_start_evaluations > 0 ? " NLL over starts (warm-start subsample):"
-            : j.screening_evaluations > 0
-                ? " NLL over starts (those behind the leader stopped after " + std::to_string(j.screening_evaluations) +
-                      " evaluations):"
-                : " NLL over starts:");
-    for (double v : j.restart_nlls) {
-      std::snprintf(buf, sizeof buf, " %.6g", v);
-      out += buf;
-    }
-    out += "\n";
+  for (size_t k = 0; k < rows; ++k) {
+    const JointReport& j = joints[k];
+    if (j.restart_nlls.size() >= 2)
+      out += (coupled ? std::string() : " joint " + std::to_string(j.joint + 1)) + starts_line(j);
   }
   return out;
 }
@@ -63,16 +95,20 @@ std::string FitReport::brief_report() const {
 std::vector<std::string> convergence_warnings(const std::vector<JointReport>& joints) {
   std::vector<std::string> out;
   std::vector<std::ptrdiff_t> capped_joints, stalled_joints;
+  const bool coupled = one_coupled_fit(joints);
   for (const auto& j : joints) {
     if (j.status == OptimizerResult::Status::MaxIterations) capped_joints.push_back(j.joint);
     if (j.status == OptimizerResult::Status::Stalled) stalled_joints.push_back(j.joint);
   }
-  const std::string capped = joint_numbers(capped_joints), stalled = joint_numbers(stalled_joints);
+  const auto who = [&](const std::vector<std::ptrdiff_t>& numbers) {
+    if (numbers.empty()) return std::string();
+    return coupled ? std::string("the one fit of every joint") : "joint(s) " + joint_numbers(numbers);
+  };
+  const std::string capped = who(capped_joints), stalled = who(stalled_joints);
   if (!capped.empty())
-    out.push_back("joint(s) " + capped +
-                  " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");
+    out.push_back(capped + " stopped at the evaluation limit before converging; raise OptimizerOptions::max_iterations");
   if (!stalled.empty())
-    out.push_back("joint(s) " + stalled +
+    out.push_back(stalled +
                   " stalled (the line search broke down with more decrease left along the gradient than the NLL's "
                   "rounding hides) before converging; more starts (TrainOptions::restarts) may find a lower NLL");
   return out;
@@ -80,9 +116,11 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
 
 std::vector<std::string> FitReport::warnings() const {
   std::vector<std::string> out = convergence_warnings(joints);
-  for (const auto& j : joints)
-    if (j.jitter > 0.0)
-      out.push_back("joint " + std::to_string(j.joint + 1) + " needed a jitter of " + std::to_string(j.jitter) +
+  const bool coupled = one_coupled_fit(joints);
+  for (size_t k = 0; k < (coupled ? 1 : joints.size()); ++k)
+    if (joints[k].jitter > 0.0)
+      out.push_back((coupled ? std::string("the one fit of every joint") : "joint " + std::to_string(joints[k].joint + 1)) +
+                    " needed a jitter of " + std::to_string(joints[k].jitter) +
                     " on the kernel diagonal; raise TrainOptions::min_noise_fraction or remove duplicate rows");
   if (std::string noisy = noise_share_warning(joints); !noisy.empty()) out.push_back(std::move(noisy));
   return out;

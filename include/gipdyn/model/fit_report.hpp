@@ -44,7 +44,15 @@ struct JointReport {
   double jitter = 0.0;
   OptimizerResult::Status status = OptimizerResult::Status::Failed;  // of the kept start
   std::string message;
+  // Learned in one optimisation with every other joint (lip, whose energies
+  // couple the joints): status, NLL, evaluations, gradient, starts, jitter and
+  // seconds are that one fit's, the same in every joint's report; only the
+  // noise differs. Reports and warnings then speak of the fit once.
+  bool coupled = false;
 };
+
+// True when every joint's report is that of one coupled fit (JointReport::coupled).
+bool one_coupled_fit(const std::vector<JointReport>& joints);
 
 // A joint whose fit calls at least this share of the torque noise is warned about.
 inline constexpr double kNoiseShareWarning = 0.5;
@@ -55,7 +63,7 @@ std::string noise_share_warning(const std::vector<JointReport>& joints);
 
 // The warnings about joints that stopped before converging: one line for those
 // at OptimizerOptions::max_iterations, one for those whose line search stalled;
-// empty when every joint converged.
+// empty when every joint converged. A coupled fit is named once, not joint by joint.
 std::vector<std::string> convergence_warnings(const std::vector<JointReport>& joints);
 
 struct FitReport {
@@ -67,7 +75,8 @@ struct FitReport {
   bool ok() const { return status != FitStatus::Failed; }
   // A few lines for people: status, then a table of the joints (status, NLL,
   // evaluations, gradient, noise, jitter, seconds) and the NLL of every start
-  // when there were restarts.
+  // when there were restarts; a coupled fit (one_coupled_fit) gets one row and
+  // its joints' noise on a line of its own.
   std::string brief_report() const;
   // One line per problem a user should act on: joints that did not converge
   // (naming OptimizerOptions::max_iterations), joints that needed jitter, joints
