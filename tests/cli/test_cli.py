@@ -77,6 +77,23 @@ def test_evaluate_prints_table_and_json(trained, gipdyn_bin):
     assert np.allclose(report["nmse"], nmse, rtol=1e-9)
 
 
+def test_evaluate_warns_about_joints_predicted_worse_than_their_mean(trained, tmp_path, gipdyn_bin):
+    d, test, _ = trained
+    r = run(gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"))
+    assert r.returncode == 0 and "worse than their own mean" not in r.stderr, r.stderr
+    # Joint 1's torque turned over: the model's predictions are now worse than that torque's own mean.
+    flipped = test.copy()
+    flipped[:, [6, 8]] *= -1
+    names = ["q1", "q2", "qd1", "qd2", "qdd1", "qdd2", "tau1", "tau2", "tau1_true", "tau2_true"]
+    path = tmp_path / "flipped.csv"
+    np.savetxt(path, flipped, delimiter=",", header=",".join(names), comments="")
+    r = run(gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", str(path))
+    assert r.returncode == 0, r.stderr
+    warning = [line for line in r.stderr.splitlines() if "worse than their own mean" in line]
+    assert len(warning) == 1 and re.search(r"joint\(s\) 1 \(nMSE [3-5](\.\d+)?\)", warning[0]), r.stderr
+    assert "2 (nMSE" not in warning[0] and f"--test {path}" in warning[0], warning[0]
+
+
 def test_quiet_and_subsample(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "t.csv", 100, seed=3)
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--out",
