@@ -71,9 +71,11 @@ std::string joints_below_noise(const Dataset& data) {
 
 // Joints whose nMSE is above 1, where the torque is neither constant nor below
 // the noise (warned about on their own): the model predicts them worse than
-// their own mean over the test rows would. On logs of one robot the usual
-// cause is coverage: the test motion reaches states the training motion never
-// visited (a 20 s 7R log: nMSE 2.6 on the last joint for GIP, LIP and RBF alike).
+// their own mean over the test rows would. On simulated logs the usual cause
+// is coverage: the test motion reaches states the training motion never
+// visited (a 20 s 7R log: nMSE 2.6 on the last joint for GIP, LIP and RBF
+// alike); on real logs also torques that differ at the same state (the UR10's
+// two recordings, docs/real-robots.md).
 std::string joints_worse_than_their_mean(const Accuracy& acc, const Dataset& data, const std::string& path) {
   std::string out;
   for (Eigen::Index j = 0; j < acc.nmse.size(); ++j) {
@@ -84,9 +86,9 @@ std::string joints_worse_than_their_mean(const Accuracy& acc, const Dataset& dat
   }
   if (out.empty()) return out;
   return "joint(s) " + out + ": the model predicts these torques worse than their own mean over " + path +
-         " would; usually the test motion reaches states the training motion never visited (gipdyn inspect --data "
-         "TRAIN --test " + path + " counts the test rows with no training neighbour): train on a motion that covers "
-         "them";
+         " would. Usual causes: the test motion reaches states the training motion never visited (train on a motion "
+         "that covers them), or where both visit the same state the torque differs (another payload, friction, "
+         "drift); gipdyn inspect --data TRAIN --test " + path + " tells them apart";
 }
 
 // The model's rigid-body terms against a robot's (KDL) at the test states.
