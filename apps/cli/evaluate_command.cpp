@@ -88,7 +88,8 @@ std::string joints_worse_than_their_mean(const Accuracy& acc, const Dataset& dat
   return "joint(s) " + out + ": the model predicts these torques worse than their own mean over " + path +
          " would. Usual causes: the test motion reaches states the training motion never visited (train on a motion "
          "that covers them), or where both visit the same state the torque differs (another payload, friction, "
-         "drift); gipdyn inspect --data TRAIN --test " + path + " tells them apart";
+         "drift); gipdyn inspect --data TRAIN --test " + path + " counts the test rows outside the training box and "
+         "compares the torques where both visit the same state";
 }
 
 // The model's rigid-body terms against a robot's (KDL) at the test states.
