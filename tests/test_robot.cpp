@@ -32,6 +32,7 @@ std::vector<RobotModel> test_robots() {
   return {scara_robot(), ur10_robot(), load_robot_urdf(kData + "/rpr_arm.urdf"),
           load_robot_json(kData + "/two_link.json"), load_robot_json(kData + "/../../examples/robots/puma560.json"),
           load_robot_json(kData + "/../../examples/robots/arm7.json"),
+          load_robot_json(kData + "/../../examples/robots/cylindrical_rpr.json"),
           load_robot_urdf(kData + "/../../examples/robots/panda_like.urdf")};
 }
 
