@@ -553,6 +553,11 @@ TEST(LagrangianEstimator, ReportsItsOneCoupledFitOnce) {
   for (JointReport& j : separate) j.coupled = false;
   EXPECT_EQ(convergence_warnings(separate).front().find("joint(s) 1, 2, 3, 4 stopped"), 0u)
       << convergence_warnings(separate).front();
+  // One joint's report stays a joint's row.
+  FitReport single = fit.report;
+  single.joints.resize(1);
+  EXPECT_FALSE(one_coupled_fit(single.joints));
+  EXPECT_NE(single.brief_report().find("\n     1  max-iter"), std::string::npos) << single.brief_report();
 }
 
 // Screening: every start runs start_screening_evaluations; then only the one

@@ -27,7 +27,7 @@ FitStatus combine_joint_statuses(const std::vector<JointReport>& joints) {
 }
 
 bool one_coupled_fit(const std::vector<JointReport>& joints) {
-  return !joints.empty() &&
+  return joints.size() > 1 &&  // one joint's report reads better as a joint's
          std::all_of(joints.begin(), joints.end(), [](const JointReport& j) { return j.coupled; });
 }
 

@@ -51,7 +51,8 @@ struct JointReport {
   bool coupled = false;
 };
 
-// True when every joint's report is that of one coupled fit (JointReport::coupled).
+// True when there are several joints and every joint's report is that of one
+// coupled fit (JointReport::coupled).
 bool one_coupled_fit(const std::vector<JointReport>& joints);
 
 // A joint whose fit calls at least this share of the torque noise is warned about.
