@@ -46,21 +46,32 @@ std::vector<double> noise_ratios(const InverseDynamicsModel& m) {
 
 double standard_deviation(const Eigen::VectorXd& v) { return std::sqrt((v.array() - v.mean()).square().mean()); }
 
-// A simulated file's joint whose noise-free torque varies less than the noise
-// added to it: no model learns such a torque from data this noisy, and its
-// nMSE against the noise-free torque is large whatever the model.
+// A simulated file's joint: how much its noise-free torque varies (signal) and
+// how much the noise added to it does (both standard deviations).
+struct TorqueSpread {
+  double signal = 0.0, noise = 0.0;
+};
+
+TorqueSpread torque_spread(const Dataset& data, Eigen::Index j) {
+  return {standard_deviation(data.tau_true.col(j)), standard_deviation(data.tau.col(j) - data.tau_true.col(j))};
+}
+
+// A joint whose noise-free torque varies less than the noise added to it: no
+// model learns such a torque from data this noisy, and its nMSE against the
+// noise-free torque is large whatever the model.
 bool below_noise(const Dataset& data, Eigen::Index j) {
   if (data.tau_true.size() == 0 || data.tau.size() == 0) return false;
-  return standard_deviation(data.tau.col(j) - data.tau_true.col(j)) > standard_deviation(data.tau_true.col(j));
+  const TorqueSpread spread = torque_spread(data, j);
+  return spread.noise > spread.signal;
 }
 
 std::string joints_below_noise(const Dataset& data) {
   std::string out, sds;
   for (Eigen::Index j = 0; j < data.tau_true.cols(); ++j) {
     if (!below_noise(data, j)) continue;
+    const TorqueSpread spread = torque_spread(data, j);
     char buf[64];
-    std::snprintf(buf, sizeof buf, "%.2g against %.2g", standard_deviation(data.tau_true.col(j)),
-                  standard_deviation(data.tau.col(j) - data.tau_true.col(j)));
+    std::snprintf(buf, sizeof buf, "%.2g against %.2g", spread.signal, spread.noise);
     out += (out.empty() ? "" : ", ") + std::to_string(j + 1);
     sds += (sds.empty() ? "" : "; ") + std::string(buf);
   }
