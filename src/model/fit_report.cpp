@@ -33,6 +33,12 @@ bool one_coupled_fit(const std::vector<JointReport>& joints) {
 
 namespace {
 
+const char* const kOneCoupledFit = "the one fit of every joint";
+
+// Reports that are told apart: a coupled fit's reports differ only in their
+// noise, so its first stands for all of them.
+size_t distinct_reports(const std::vector<JointReport>& joints) { return one_coupled_fit(joints) ? 1 : joints.size(); }
+
 std::string starts_line(const JointReport& j) {
   std::string out = j.warm_start_evaluations > 0 ? " NLL over starts (warm-start subsample):"
                     : j.screening_evaluations > 0
@@ -58,8 +64,8 @@ std::string FitReport::brief_report() const {
   if (joints.empty()) return out;
   const bool coupled = one_coupled_fit(joints);
   out += " joint  status     NLL            evals  (warm)  |grad|     noise var  jitter   seconds\n";
-  // A coupled fit's reports differ only in their noise: one row, the noise below it.
-  const size_t rows = coupled ? 1 : joints.size();
+  // A coupled fit gets one row and its noise per joint below it.
+  const size_t rows = distinct_reports(joints);
   for (size_t k = 0; k < rows; ++k) {
     const JointReport& j = joints[k];
     std::string joint = "all", noise = "below";
@@ -102,7 +108,7 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
   }
   const auto who = [&](const std::vector<std::ptrdiff_t>& numbers) {
     if (numbers.empty()) return std::string();
-    return coupled ? std::string("the one fit of every joint") : "joint(s) " + joint_numbers(numbers);
+    return coupled ? std::string(kOneCoupledFit) : "joint(s) " + joint_numbers(numbers);
   };
   const std::string capped = who(capped_joints), stalled = who(stalled_joints);
   if (!capped.empty())
@@ -117,9 +123,9 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
 std::vector<std::string> FitReport::warnings() const {
   std::vector<std::string> out = convergence_warnings(joints);
   const bool coupled = one_coupled_fit(joints);
-  for (size_t k = 0; k < (coupled ? 1 : joints.size()); ++k)
+  for (size_t k = 0; k < distinct_reports(joints); ++k)
     if (joints[k].jitter > 0.0)
-      out.push_back((coupled ? std::string("the one fit of every joint") : "joint " + std::to_string(joints[k].joint + 1)) +
+      out.push_back((coupled ? std::string(kOneCoupledFit) : "joint " + std::to_string(joints[k].joint + 1)) +
                     " needed a jitter of " + std::to_string(joints[k].jitter) +
                     " on the kernel diagonal; raise TrainOptions::min_noise_fraction or remove duplicate rows");
   if (std::string noisy = noise_share_warning(joints); !noisy.empty()) out.push_back(std::move(noisy));
