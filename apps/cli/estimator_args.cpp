@@ -11,74 +11,97 @@ std::string estimator_list() {
 }
 
 void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
-  app.add_option("--optimizer", optimizer, "GP hyperparameter optimiser: lbfgs or adam")->capture_default_str();
+  app.add_option("--optimizer", optimizer, "GP hyperparameter optimiser: lbfgs or adam")->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--max-iter", max_iter,
                  "GP: safety cap on NLL evaluations (L-BFGS) or steps (Adam) per joint, start and stage")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--lbfgs-memory", lbfgs_memory,
                  "GP: correction pairs L-BFGS keeps (docs/training.md: 40 reach the optimum in 2-3x fewer "
                  "evaluations than NLopt's 10)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--gradient-tolerance", gradient_tolerance,
                  "GP: converged when the projected NLL gradient (max over log-hyperparameters) per training row "
                  "is at most this")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--warm-start-rows", warm_start_rows,
                  "GP: optimise first (every start and restart) on a constant-step subsample of this many rows, "
                  "then on all rows; 0: off")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--inducing", inducing,
                  "GP: sparse GP with this many inducing rows chosen among the training rows (variational bound, "
                  "O(N M^2) per evaluation: for logs too long for the exact GP); 0: exact")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--hyperparameter-rows", hyperparameter_rows,
                  "GP: learn the hyperparameters on a constant-step subsample of this many rows, then condition "
                  "the model on every row (with --inducing: 10^6 rows in minutes); 0: all rows")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--hyperparameter-objective", hyperparameter_objective,
                  "GP with --inducing and --hyperparameter-rows: what the hyperparameters minimise on the "
                  "subsample, bound (the sparse GP's variational bound) or exact (the subsample's exact NLL, "
                  "O(rows^3) per evaluation; docs/method.md section 14)")
-      ->capture_default_str();
-  app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
+  app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--restarts", restarts, "GP: extra optimiser runs from perturbed starts; the best NLL is kept")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   if (with_seed)
     app.add_option("--seed", seed, "Seed for GP restarts and the network's initialisation and batches")
         ->capture_default_str();
   app.add_option("--scaling", scaling, "GP: output scaling before the GP: none, center or standardize")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--mean", mean,
                  "GP: prior mean of each joint's GP, trained with the kernel: zero (as the paper), constant, or "
                  "linear in (q, qd, qdd)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--min-noise", min_noise, "GP: noise-variance floor, as a fraction of the scaled output variance")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--prior", prior,
                  "GP: none (maximum likelihood) or lognormal (MAP: each log-hyperparameter ~ N(its data-driven "
                  "start, width^2))")
-      ->capture_default_str();
-  app.add_option("--prior-width", prior_width, "GP: standard deviation of the log-normal priors")->capture_default_str();
+      ->capture_default_str()
+      ->group(kGpOptions);
+  app.add_option("--prior-width", prior_width, "GP: standard deviation of the log-normal priors")->capture_default_str()
+      ->group(kGpOptions);
   app.add_option("--threads", threads, "GP: joints trained at once; lip: starts run at once (0: all, sharing the cores; results do not depend on it)")->capture_default_str();
   if (with_robot) {
     app.add_option("--robot", robot,
-                   "Nominal robot for the model-based estimators fe, pp, sp: scara, ur10, a URDF or a JSON DH file");
+                   "Nominal robot for the model-based estimators fe, pp, sp: scara, ur10, a URDF or a JSON DH file")
+      ->group(kRobotOptions);
     app.add_flag("--robot-friction", robot_friction,
-                 "fe, pp, sp: add viscous and Coulomb friction parameters to the rigid-body regressor");
+                 "fe, pp, sp: add viscous and Coulomb friction parameters to the rigid-body regressor")
+      ->group(kRobotOptions);
   }
   app.add_flag("--no-serial-chain", no_serial_chain,
                "lip (and the lip teacher): the joints are not ordered from the base to the tip of one serial "
                "chain, so let every entry of the inertia matrix depend on every joint (the LIP paper's kernel; "
-               "by default entry ab depends only on the joints after min(a, b), docs/method.md section 11)");
+               "by default entry ab depends only on the joints after min(a, b), docs/method.md section 11)")
+      ->group(kLipOptions);
   app.add_option("--start-screening", start_screening,
                  "lip (and the lip teacher), and a GP's --restarts: every start first runs at most this many NLL "
                  "evaluations, then only the one with the lowest NLL continues to convergence (0: every start runs "
                  "to convergence; docs/training.md)")
-      ->capture_default_str();
-  app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)");
-  app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str();
-  app.add_option("--nn-batch", nn.batch_size, "nn: minibatch size")->capture_default_str();
-  app.add_option("--nn-lr", nn.learning_rate, "nn: Adam learning rate")->capture_default_str();
+      ->capture_default_str()
+      ->group(kLipOptions);
+  app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)")
+      ->group(kNetworkOptions);
+  app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str()
+      ->group(kNetworkOptions);
+  app.add_option("--nn-batch", nn.batch_size, "nn: minibatch size")->capture_default_str()
+      ->group(kNetworkOptions);
+  app.add_option("--nn-lr", nn.learning_rate, "nn: Adam learning rate")->capture_default_str()
+      ->group(kNetworkOptions);
 }
 
 RobotPrior EstimatorArgs::robot_prior() const {

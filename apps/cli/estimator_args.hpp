@@ -43,4 +43,11 @@ struct EstimatorArgs {
 
 std::string estimator_list();  // "gip, gip-friction, ..., fe, nn"
 
+// Headings of --help: each estimator's options under its own, so that the
+// options a user needs first (data, kernel, output) are not lost among forty.
+inline const char* const kGpOptions = "GP hyperparameter learning (gip, rbf and the other GP kernels)";
+inline const char* const kRobotOptions = "Model-based estimators (fe, pp, sp)";
+inline const char* const kLipOptions = "LIP (lip, and the lip teacher)";
+inline const char* const kNetworkOptions = "Neural network (nn)";
+
 }  // namespace gipdyn::cli

@@ -120,7 +120,8 @@ Command add_experiment(CLI::App& app) {
                 "Split the whole log into blocks of ROWS rows instead: odd blocks train, even blocks test");
   r->add_option("--nn-max-train", real->config.nn_max_train,
                 "nn: at most this many training rows, a constant-step subsample (0: every training row)")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kNetworkOptions);
   r->add_option("--max-train", real->config.max_train,
                 "GP estimators: at most this many training rows, a constant-step subsample")
       ->capture_default_str();

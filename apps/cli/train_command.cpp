@@ -39,6 +39,9 @@ struct TrainArgs {
 
 }  // namespace
 
+// train's own heading of --help, beside the estimators' (estimator_args.hpp).
+const char* const kTeacherOptions = "Teacher (GIP taught by LIP: train's default where it fits the log)";
+
 Command add_train(CLI::App& app) {
   auto a = std::make_shared<TrainArgs>();
   add_data_option(app, a->data, a->mat_variable, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
@@ -56,7 +59,6 @@ Command add_train(CLI::App& app) {
   app.add_option("--preset", a->preset,
                  "Start from a named set of options; options given explicitly override it. default, or real: for "
                  "logs of real robots (kernel gip-envelope+friction, at most 1000 rows; docs/real-robots.md)");
-  a->estimator.add_to(app, true);
   app.add_option(
       "--teacher", a->teacher,
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
@@ -65,27 +67,33 @@ Command add_train(CLI::App& app) {
       "LIP\"). auto: for --kernel gip without --preset real, --inducing, --warm-start-rows, --mean or --robot, lip on a "
       "log of at most 14000 values (rows x joints), kept only if the taught model fits the log as LIP does (on a "
       "real robot's log it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kTeacherOptions);
   app.add_option("--teacher-states", a->teacher_states,
                  "Where a teacher teaches (--teacher; auto by default): states drawn from the log's box (each of "
                  "q, qd, qdd between its smallest and largest logged value), the student's training rows; --seed "
                  "draws them")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kTeacherOptions);
   app.add_option("--teacher-hyperparameter-rows", a->teacher_hyperparameter_rows,
                  "Where a teacher teaches (--teacher; auto by default): the teacher learns its hyperparameters on "
                  "a constant-step subsample of this many logged rows, then is conditioned on every row; 0: all rows")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kTeacherOptions);
   app.add_option("--student-hyperparameter-rows", a->student_hyperparameter_rows,
                  "Where a teacher teaches (--teacher; auto by default): the student learns its hyperparameters on "
                  "a constant-step subsample of this many drawn states (independent draws over the box: a few "
                  "hundred inform the NLL as well as thousands), then is conditioned on every state; 0: all states. "
                  "--hyperparameter-rows, if given, wins")
-      ->capture_default_str();
+      ->capture_default_str()
+      ->group(kTeacherOptions);
   app.add_option("--teacher-out", a->teacher_out,
                  "Where a teacher teaches (--teacher; auto by default): also write the teacher's model (e.g. lip) "
                  "to this file, whatever became of the taught one. train notes the joints on which the teacher "
                  "fits the log ten times better than its student: there it is likely the more accurate model, "
-                 "with a slower query (docs/training.md)");
+                 "with a slower query (docs/training.md)")
+      ->group(kTeacherOptions);
+  a->estimator.add_to(app, true);
   app.add_option("--out", a->out, "Model file to write")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   app.add_flag("--distributed", a->distributed,

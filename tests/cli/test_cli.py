@@ -120,6 +120,27 @@ def test_help(gipdyn_bin, command, flags):
     assert not missing, f"{command} --help lacks {missing}"
 
 
+def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin):
+    # Forty options in one list hide the few a newcomer needs: those come first,
+    # each estimator's own under its heading.
+    out = run(gipdyn_bin, "train", "--help").stdout
+    headings = [line for line in out.splitlines() if line and not line.startswith(" ")][2:]
+    assert [h.split(" (")[0] for h in headings] == [
+        "Options:", "Teacher", "GP hyperparameter learning", "Model-based estimators", "LIP", "Neural network"], headings
+
+    def section_of(flag):
+        before = out[:out.index("  " + flag + " ")]
+        return [h for h in headings if h in before][-1]
+
+    for flag in ("--data", "--joints", "--kernel", "--preset", "--out", "--seed"):
+        assert section_of(flag) == "Options:", flag
+    assert section_of("--teacher-states").startswith("Teacher")
+    assert section_of("--max-iter").startswith("GP hyperparameter learning")
+    assert section_of("--robot").startswith("Model-based")
+    assert section_of("--no-serial-chain").startswith("LIP")
+    assert section_of("--nn-epochs").startswith("Neural network")
+
+
 def write_text(path, text):
     path.write_text(text)
     return str(path)
