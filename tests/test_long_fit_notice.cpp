@@ -65,4 +65,24 @@ TEST(LongFitNotice, IgnoresEventsThatAreNotAJointsFirstEvaluations) {
   EXPECT_NE(notice.observe(evaluation(1, 10000, 2), later), "");
 }
 
+TEST(LongFitNotice, SpeaksAfterAJointsFirstEvaluationWhenThatAloneTookLong) {
+  // On 30000 rows one evaluation takes minutes: the note must not wait for a second.
+  const auto first_evaluation = [](int joint, long rows, int restart, double seconds_since_start) {
+    ProgressEvent e = evaluation(joint, rows, 1);
+    e.restart = restart;
+    e.seconds = seconds_since_start;
+    return e;
+  };
+  LongFitNotice notice(4, 0);
+  EXPECT_EQ(notice.observe(first_evaluation(0, 2000, 0, 0.5)), "");
+  // Not a joint's first work: a later stage or restart, whose time since the joint's start includes the earlier ones.
+  EXPECT_EQ(notice.observe(first_evaluation(0, 10000, 0, 3600.0)), "");
+  EXPECT_EQ(notice.observe(first_evaluation(1, 10000, 1, 3600.0)), "");
+  LongFitNotice fresh(4, 0);
+  const std::string note = fresh.observe(first_evaluation(2, 10000, 0, 13.6));
+  EXPECT_NE(note.find("13.6 s per NLL evaluation on 10000 rows"), std::string::npos) << note;
+  EXPECT_NE(note.find("18m08s to 1h08m"), std::string::npos) << note;
+  EXPECT_EQ(fresh.observe(first_evaluation(3, 10000, 0, 13.6)), "") << "said twice";
+}
+
 }  // namespace
