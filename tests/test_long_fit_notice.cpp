@@ -30,7 +30,7 @@ std::string note_after(LongFitNotice& notice, int joint, long rows, double secon
 }
 
 TEST(LongFitNotice, SpeaksOnceWhenAFitWillTakeTenMinutesOrMore) {
-  LongFitNotice notice(4, 0);  // every joint at once: one wave
+  LongFitNotice notice(4, 4);  // every joint at once: one wave
   EXPECT_EQ(note_after(notice, 0, 2000, 0.2), "");
   const std::string note = note_after(notice, 1, 10000, 13.6);
   EXPECT_NE(note.find("13.6 s per NLL evaluation on 10000 rows"), std::string::npos) << note;
@@ -42,13 +42,13 @@ TEST(LongFitNotice, SpeaksOnceWhenAFitWillTakeTenMinutesOrMore) {
 
 TEST(LongFitNotice, CountsTheWavesOfJointsThatCannotTrainAtOnce) {
   // 4 s an evaluation: 80 of them take 5m20s in one wave, 10m40s in two.
-  LongFitNotice at_once(4, 0), two_at_a_time(4, 2);
+  LongFitNotice at_once(4, 4), two_at_a_time(4, 2);
   EXPECT_EQ(note_after(at_once, 0, 8000, 4.0), "");
   EXPECT_NE(note_after(two_at_a_time, 0, 8000, 4.0).find("10m40s"), std::string::npos);
 }
 
 TEST(LongFitNotice, IgnoresEventsThatAreNotAJointsFirstEvaluations) {
-  LongFitNotice notice(2, 0);
+  LongFitNotice notice(2, 2);
   const Clock::time_point t0{}, later = t0 + std::chrono::hours(1);
   // A second evaluation without a first on the same joint and rows (a warm start's subsample, then all rows).
   notice.observe(evaluation(0, 500, 1), t0);
@@ -73,12 +73,12 @@ TEST(LongFitNotice, SpeaksAfterAJointsFirstEvaluationWhenThatAloneTookLong) {
     e.seconds = seconds_since_start;
     return e;
   };
-  LongFitNotice notice(4, 0);
+  LongFitNotice notice(4, 4);
   EXPECT_EQ(notice.observe(first_evaluation(0, 2000, 0, 0.5)), "");
   // Not a joint's first work: a later stage or restart, whose time since the joint's start includes the earlier ones.
   EXPECT_EQ(notice.observe(first_evaluation(0, 10000, 0, 3600.0)), "");
   EXPECT_EQ(notice.observe(first_evaluation(1, 10000, 1, 3600.0)), "");
-  LongFitNotice fresh(4, 0);
+  LongFitNotice fresh(4, 4);
   const std::string note = fresh.observe(first_evaluation(2, 10000, 0, 13.6));
   EXPECT_NE(note.find("13.6 s per NLL evaluation on 10000 rows"), std::string::npos) << note;
   EXPECT_NE(note.find("18m08s to 1h08m"), std::string::npos) << note;

@@ -145,6 +145,22 @@ TEST(Training, EveryJointTrainsAtOnceByDefault) {
     EXPECT_EQ(a.model.joint_gp(j).kernel().log_params(), b.model.joint_gp(j).kernel().log_params());
 }
 
+// What a front end is told about the joints in flight (for its time estimates)
+// is what training does: every joint at once by default, the threads asked
+// for, and one at a time where two joints' N x N matrices would not fit.
+TEST(Training, SaysHowManyJointsTrainAtOnce) {
+  TrainOptions o;
+  EXPECT_EQ(joints_trained_at_once(o, 300, 3), 3);
+  o.threads = 2;
+  EXPECT_EQ(joints_trained_at_once(o, 300, 3), 2);
+  o.threads = 0;
+  // Two N x N matrices a joint: at this N one joint takes two thirds of the memory.
+  const double available = static_cast<double>(gipdyn::available_memory_bytes());
+  const auto rows = static_cast<Eigen::Index>(std::sqrt(available / 1.5 / 16.0));
+  EXPECT_EQ(joints_trained_at_once(o, rows, 3), 1);
+  EXPECT_EQ(joints_trained_at_once(o, rows / 4, 3), 3);  // a sixteenth of it each
+}
+
 #if defined(__x86_64__) || defined(__SSE2__)
 // Training flushes subnormal numbers to zero on its threads (they made NLL
 // evaluations with tiny lengthscales 16x slower) and must hand the caller's

@@ -1,14 +1,14 @@
 #include "long_fit_notice.hpp"
 
+#include <algorithm>
 #include <cstdio>
 
-#include "gipdyn/parallel_tasks.hpp"
 #include "reports/text_format.hpp"
 
 namespace gipdyn::cli {
 
-LongFitNotice::LongFitNotice(int joints, int threads) {
-  const int parallel = worker_threads(sharing_threads(threads, joints), joints);
+LongFitNotice::LongFitNotice(int joints, int joints_at_once) {
+  const int parallel = std::max(1, joints_at_once);
   waves_ = (joints + parallel - 1) / parallel;
 }
 

@@ -16,8 +16,9 @@ namespace gipdyn::cli {
 class LongFitNotice {
  public:
   using Clock = std::chrono::steady_clock;
-  // Where the joints outnumber the ones that train at once, they train in waves.
-  LongFitNotice(int joints, int threads);
+  // Where the joints outnumber the ones that train at once
+  // (joints_trained_at_once), they train in waves.
+  LongFitNotice(int joints, int joints_at_once);
   // The note to print, once per fit, when a joint's first evaluation (timed
   // from the start of its work) or the gap between its first two shows that
   // its fit will take ten minutes or more; "" otherwise.

@@ -211,7 +211,7 @@ Command add_train(CLI::App& app) {
     }
     std::mutex mu;
     ProgressCallback progress;
-    LongFitNotice notice(joints.size(), o.gp.threads);
+    LongFitNotice notice(joints.size(), joints_trained_at_once(o.gp, data.rows(), joints.size()));
     if (!a->quiet) {
       progress = [&mu, &notice, sparse = o.gp.inducing_points > 0](const ProgressEvent& e) {
         std::lock_guard<std::mutex> lock(mu);

@@ -300,7 +300,33 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   return out;
 }
 
+// Every joint in flight holds two N x N matrices (the kernel, reused for its
+// inverse, and the gradient's scratch); kept factors add one per joint. A
+// sparse joint holds about ten M x M matrices and three row blocks, and keeps
+// two factors. Train fewer joints at once when memory is short, refuse when
+// even one cannot fit.
+struct TrainingMemory {
+  double per_joint = 0.0, kept = 0.0;
+};
+
+TrainingMemory training_memory(const TrainOptions& options, Eigen::Index rows, int joints) {
+  const bool sparse = options.inducing_points > 0;
+  const double side = static_cast<double>(sparse ? std::min<Eigen::Index>(options.inducing_points, rows) : rows);
+  const double square = 8.0 * side * side;
+  TrainingMemory m;
+  m.per_joint = sparse ? 10.0 * square + 8.0 * 3.0 * 1024.0 * side : 2.0 * square;
+  m.kept = sparse ? 2.0 * joints * square : options.keep_factor ? joints * square : 0.0;
+  return m;
+}
+
 }  // namespace
+
+int joints_trained_at_once(const TrainOptions& options, Eigen::Index rows, int joints) {
+  // A backend's evaluations are collective: one joint at a time, in the same order everywhere.
+  if (options.nll_backend) return 1;
+  const TrainingMemory memory = training_memory(options, rows, joints);
+  return worker_threads(sharing_threads(options.threads, joints), joints, memory.per_joint, memory.kept);
+}
 
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
                         const TrainOptions& options, const ProgressCallback& progress) {
@@ -352,30 +378,20 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   }
 
   std::vector<JointOutcome> outcomes(static_cast<size_t>(n));
-  // Every joint in flight holds two N x N matrices (the kernel, reused for its
-  // inverse, and the gradient's scratch); kept factors add one per joint. A
-  // sparse joint holds about ten M x M matrices and three row blocks, and keeps
-  // two factors. Train fewer joints at once when memory is short, refuse when
-  // even one cannot fit.
-  const double side = static_cast<double>(sparse ? Zm.rows() : X.rows());
-  const double square = 8.0 * side * side;
-  const double per_joint = sparse ? 10.0 * square + 8.0 * 3.0 * 1024.0 * side : 2.0 * square;
-  const double kept = sparse ? 2.0 * n * square : options.keep_factor ? n * square : 0.0;
   // A backend plans the memory of its own processes.
   if (options.nll_backend) {
     options.nll_backend->plan(Z, Y);
   } else {
+    const TrainingMemory memory = training_memory(options, X.rows(), n);
     require_memory(
-        kept + per_joint, "training on " + std::to_string(X.rows()) + " rows",
+        memory.kept + memory.per_joint, "training on " + std::to_string(X.rows()) + " rows",
         std::string(kFewerRowsAdvice) +
             std::string(options.keep_factor && !sparse ? " or without kept factors (TrainOptions::keep_factor)" : "") +
             std::string(sparse ? " or with fewer inducing points"
                                : ", or a sparse GP (TrainOptions::inducing_points), or distributed over processes "
                                  "(TrainOptions::nll_backend)"));
   }
-  // A backend's evaluations are collective: one joint at a time, in the same order everywhere.
-  const int threads =
-      options.nll_backend ? 1 : worker_threads(sharing_threads(options.threads, n), n, per_joint, kept);
+  const int threads = joints_trained_at_once(options, X.rows(), n);
   run_tasks(n, threads, [&](int j) {
     const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
     const double noise_floor = options.noise_std_floor.size() > 0 ? options.noise_std_floor(j) / scale(j) : 0.0;

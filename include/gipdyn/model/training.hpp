@@ -143,6 +143,12 @@ struct TrainResult {
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
                         const TrainOptions& options, const ProgressCallback& progress = {});
 
+// How many joints train_model trains at once on `rows` training rows: the
+// threads TrainOptions::threads asks for (one per joint for 0), fewer where
+// memory is short (docs/training.md), one with a backend (its evaluations are
+// collective). Front ends use it to estimate a fit's time.
+int joints_trained_at_once(const TrainOptions& options, Eigen::Index rows, int joints);
+
 // Per joint, a model's [kernel log-parameters, log noise variance]: the
 // TrainOptions::initial_log_params that start a training where this model's
 // ended (refit_model; warm starts between similar data sets).
