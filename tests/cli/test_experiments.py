@@ -235,6 +235,22 @@ def test_real_on_a_csv_log_with_row_ranges(tmp_path, gipdyn_bin):
     assert bad.returncode != 0 and "has 300 data rows" in bad.stderr
 
 
+def test_real_reads_the_joint_types_a_simulated_log_records(tmp_path, gipdyn_bin):
+    # As train does: a log simulate wrote needs no --joints; one without its sidecar gets an error naming its joints.
+    log = tmp_path / "log.csv"
+    simulated_log(gipdyn_bin, log, 200)
+    out = tmp_path / "real"
+    r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--train-rows", "1-150", "--test-rows", "151-200",
+            "--estimators", "rbf", "--out", str(out), *FAST)
+    assert r.returncode == 0, r.stderr
+    assert json.loads((out / "config.json").read_text())["joints"] == "RRPR"
+    (tmp_path / "log.csv.json").unlink()
+    bad = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--train-rows", "1-150", "--test-rows",
+              "151-200", "--estimators", "rbf", "--out", str(tmp_path / "bad"))
+    assert bad.returncode != 0 and "--joints is required" in bad.stderr and "4 joint(s)" in bad.stderr, bad.stderr
+    assert not (tmp_path / "bad").exists()
+
+
 def test_real_warns_about_a_joint_whose_test_torque_is_constant(tmp_path, gipdyn_bin):
     # A dead torque sensor (a column of zeros) leaves its joint's nMSE undefined; the warning says so, and the other
     # joints' results stand.
