@@ -85,4 +85,13 @@ TEST(LongFitNotice, SpeaksAfterAJointsFirstEvaluationWhenThatAloneTookLong) {
   EXPECT_EQ(fresh.observe(first_evaluation(3, 10000, 0, 13.6)), "") << "said twice";
 }
 
+TEST(LongFitNotice, SaysBeforeAnExactFitOnManyRowsThatItWillTakeLong) {
+  // On 30000 rows the first evaluation alone takes about ten minutes: say so before it.
+  EXPECT_EQ(gipdyn::cli::long_exact_fit_note(gipdyn::cli::kLongExactFitRows - 1), "");
+  const std::string note = gipdyn::cli::long_exact_fit_note(30000);
+  EXPECT_NE(note.find("30000 x 30000 matrix"), std::string::npos) << note;
+  EXPECT_NE(note.find("--hyperparameter-rows"), std::string::npos) << note;
+  EXPECT_NE(note.find("--inducing"), std::string::npos) << note;
+}
+
 }  // namespace

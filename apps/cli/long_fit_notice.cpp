@@ -7,6 +7,22 @@
 
 namespace gipdyn::cli {
 
+namespace {
+
+const char* const kFasterOptions =
+    "For a log this long, --hyperparameter-rows 2000 learns the hyperparameters on a subsample and conditions the "
+    "model on every row, and --inducing 500 makes every evaluation O(N M^2) (docs/training.md)";
+
+}  // namespace
+
+std::string long_exact_fit_note(long rows) {
+  if (rows < kLongExactFitRows) return "";
+  return "note: the exact GP learns its hyperparameters on " + std::to_string(rows) + " rows: every NLL evaluation "
+         "factorises a " + std::to_string(rows) + " x " + std::to_string(rows) + " matrix, at a cost growing as "
+         "rows^3 (13 s at 8000 rows, 3 min at 20000, on one core of bench/RESULTS.md's machine), and a joint usually "
+         "needs 80-300. An estimate follows the first evaluation. " + kFasterOptions;
+}
+
 LongFitNotice::LongFitNotice(int joints, int joints_at_once) {
   const int parallel = std::max(1, joints_at_once);
   waves_ = (joints + parallel - 1) / parallel;
@@ -35,10 +51,8 @@ std::string LongFitNotice::note(double per_evaluation, long rows) {
   char buf[512];
   std::snprintf(buf, sizeof(buf),
                 "note: %.1f s per NLL evaluation on %ld rows, and a joint usually needs 80-300, so this fit may take "
-                "%s to %s. For a log this long, --hyperparameter-rows 2000 learns the hyperparameters on a subsample "
-                "and conditions the model on every row, and --inducing 500 makes every evaluation O(N M^2) "
-                "(docs/training.md)",
-                per_evaluation, rows, duration(low).c_str(), duration(high).c_str());
+                "%s to %s. %s",
+                per_evaluation, rows, duration(low).c_str(), duration(high).c_str(), kFasterOptions);
   return buf;
 }
 
