@@ -1,9 +1,11 @@
 // gipdyn: learn robot inverse dynamics with Gaussian processes and the GIP kernel.
 #include <malloc.h>
 
+#include <algorithm>
 #include <iostream>
 #include <map>
 #include <string>
+#include <vector>
 
 #include "commands.hpp"
 #include "distributed_run.hpp"
@@ -26,6 +28,58 @@ std::string out_of_memory_advice(const std::string& command) {
   if (command == "inspect") return "look up fewer rows (--max-queries) or split --data";
   if (command == "preprocess") return "split --data into smaller logs, or resample it with a longer period (--dt)";
   return "give it smaller inputs";
+}
+
+// Edits (insertions, deletions, substitutions) that turn a into b.
+size_t edit_distance(const std::string& a, const std::string& b) {
+  std::vector<size_t> row(b.size() + 1);
+  for (size_t j = 0; j <= b.size(); ++j) row[j] = j;
+  for (size_t i = 1; i <= a.size(); ++i) {
+    size_t diagonal = row[0];
+    row[0] = i;
+    for (size_t j = 1; j <= b.size(); ++j) {
+      const size_t above = row[j];
+      row[j] = std::min({row[j] + 1, row[j - 1] + 1, diagonal + (a[i - 1] == b[j - 1] ? 0 : 1)});
+      diagonal = above;
+    }
+  }
+  return row[b.size()];
+}
+
+// CLI11 answers a mistyped or missing command with "A subcommand is required".
+// Name the word it did not know, the closest command and the commands there
+// are; "" where CLI11's own message is the right one (options, a known command).
+std::string command_error(const CLI::App& app, int argc, char** argv) {
+  const CLI::App* level = &app;
+  std::string path = "gipdyn";
+  const auto commands_of = [](const CLI::App* a) {
+    return a->get_subcommands([](const CLI::App*) { return true; });
+  };
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-' || commands_of(level).empty()) return "";
+    const CLI::App* next = nullptr;
+    std::string names, closest;
+    size_t best = 3;  // suggest only a command within two edits
+    for (const CLI::App* sub : commands_of(level)) {
+      if (sub->get_name() == word) next = sub;
+      names += (names.empty() ? "" : ", ") + sub->get_name();
+      if (const size_t d = edit_distance(word, sub->get_name()); d < best) {
+        best = d;
+        closest = sub->get_name();
+      }
+    }
+    if (!next)
+      return "unknown command '" + word + "' for " + path +
+             (closest.empty() ? "" : " (did you mean '" + closest + "'?)") + "; commands: " + names + " (" + path +
+             " --help)";
+    level = next;
+    path += " " + word;
+  }
+  if (level->get_require_subcommand_min() == 0) return "";
+  std::string names;
+  for (const CLI::App* sub : commands_of(level)) names += (names.empty() ? "" : ", ") + sub->get_name();
+  return path + " needs a command: " + names + " (" + path + " --help)";
 }
 
 }  // namespace
@@ -70,6 +124,14 @@ int main(int argc, char** argv) {
       gipdyn::cli::add_physics);
   add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",
       gipdyn::cli::add_experiment);
+  if (argc == 1) {
+    std::cout << app.help();
+    return 1;
+  }
+  if (const std::string error = command_error(app, argc, argv); !error.empty()) {
+    std::cerr << "gipdyn: error: " << error << "\n";
+    return 2;
+  }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {

@@ -120,6 +120,22 @@ def test_help(gipdyn_bin, command, flags):
     assert not missing, f"{command} --help lacks {missing}"
 
 
+def test_a_mistyped_or_missing_command_is_named_with_the_closest_one(gipdyn_bin):
+    r = run(gipdyn_bin, "trian", "--data", "x.csv")
+    assert r.returncode != 0
+    assert "unknown command 'trian' for gipdyn (did you mean 'train'?)" in r.stderr, r.stderr
+    assert "commands: simulate, preprocess, train" in r.stderr
+    r = run(gipdyn_bin, "experiment", "acuracy")
+    assert r.returncode != 0 and "did you mean 'accuracy'?" in r.stderr, r.stderr
+    r = run(gipdyn_bin, "frobnicate")
+    assert r.returncode != 0 and "did you mean" not in r.stderr and "unknown command 'frobnicate'" in r.stderr
+    r = run(gipdyn_bin, "experiment")
+    assert r.returncode != 0 and "gipdyn experiment needs a command: accuracy, data-efficiency, real, control" in r.stderr
+    r = run(gipdyn_bin)  # no command at all: the overview of the commands
+    assert r.returncode != 0 and "Subcommands:" in r.stdout and "train" in r.stdout
+    assert run(gipdyn_bin, "experiment", "real", "--help").returncode == 0
+
+
 def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin):
     # Forty options in one list hide the few a newcomer needs: those come first,
     # each estimator's own under its heading.
