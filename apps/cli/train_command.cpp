@@ -201,7 +201,8 @@ Command add_train(CLI::App& app) {
       }
       std::printf("\n");
       const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
-      if (is_kernel_estimator(o.name) && o.gp.inducing_points == 0 && !taught && !mpi) {
+      // pp fits in weight space, without the O(rows^3) factorisation.
+      if (is_kernel_estimator(o.name) && o.name != "pp" && o.gp.inducing_points == 0 && !taught && !mpi) {
         const long hyperparameter_rows = o.gp.hyperparameter_rows > 0 && o.gp.hyperparameter_rows < data.rows()
                                              ? o.gp.hyperparameter_rows
                                              : static_cast<long>(data.rows());

@@ -18,7 +18,7 @@ from ._core import __version__
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
                     SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -63,6 +63,15 @@ class NoiseWarning(UserWarning):
 
 class DataWarning(UserWarning):
     """The training data look wrong in a way a fit cannot fix (e.g. positions in degrees)."""
+
+
+class LongFitWarning(UserWarning):
+    """An exact GP is about to learn its hyperparameters on so many rows that the fit will take long."""
+
+
+# As `gipdyn train`'s note: from this many rows an exact fit takes tens of minutes a joint
+# (13 s an evaluation at 8000 rows on one core, bench/RESULTS.md; 80-300 evaluations a joint).
+_LONG_EXACT_FIT_ROWS = 8000
 
 
 class TeachingWarning(UserWarning):
@@ -322,7 +331,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         if teacher is not None and self.distributed and teacher.mode == _core.TeachingMode.always:
             # teacher="auto" steps aside for a distributed fit (automatic_teaching_applies), as train's default does.
             raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
-        fit = _core.fit(X, Y, str(self.joints), self.train_options(), teacher, bool(self.verbose))
+        options = self.train_options()
+        self._warn_about_a_long_exact_fit(options, teacher, X.shape[0])
+        fit = _core.fit(X, Y, str(self.joints), options, teacher, bool(self.verbose))
         self.model_ = fit["model"]
         self.teaching_ = fit["teaching"]
         if teacher is not None:
@@ -344,6 +355,22 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)
         return self
+
+    def _warn_about_a_long_exact_fit(self, options, teacher, rows):
+        # pp fits in weight space, without the O(rows^3) factorisation; a taught
+        # model learns on the teacher's states, a sparse or distributed one is fast.
+        if options.kernel == "pp" or options.inducing_points > 0 or self.distributed:
+            return
+        if teacher is not None and teacher.teaches(rows, self.n_joints):
+            return
+        hyperparameter_rows = rows if not 0 < options.hyperparameter_rows < rows else options.hyperparameter_rows
+        if hyperparameter_rows >= _LONG_EXACT_FIT_ROWS:
+            warnings.warn(
+                f"an exact GP learns its hyperparameters on {hyperparameter_rows} rows: every NLL evaluation "
+                f"factorises a {hyperparameter_rows} x {hyperparameter_rows} matrix, at a cost growing as rows^3 "
+                "(13 s at 8000 rows on one core of bench/RESULTS.md's machine), and a joint usually needs 80-300, so "
+                "this fit may take hours. hyperparameter_rows=2000 learns them on a subsample and conditions the "
+                "model on every row; inducing=500 makes every evaluation O(N M^2)", LongFitWarning, stacklevel=3)
 
     def partial_fit(self, X, Y, window=0, refit=False):
         """Online learning: add the rows of (X, Y) to the fitted model with its

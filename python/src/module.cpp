@@ -578,7 +578,9 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("hyperparameter_rows", &TeacherOptions::hyperparameter_rows)
       .def_readwrite("student_hyperparameter_rows", &TeacherOptions::student_hyperparameter_rows)
       .def_readwrite("seed", &TeacherOptions::seed)
-      .def("validate", &TeacherOptions::validate);
+      .def("validate", &TeacherOptions::validate)
+      .def("teaches", &TeacherOptions::teaches, py::arg("rows"), py::arg("joints"),
+           "Whether a fit on a log of this many rows and joints is taught (always, or automatic on a short log)");
   m.def("fit", &fit_gp, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
         py::arg("verbose") = false,
         "Fits a GP estimator (options.kernel), taught by `teacher` unless None (gipdyn/estimators/fit_estimator.hpp): "

@@ -788,3 +788,25 @@ def test_positions_that_look_like_degrees_are_warned_about():
         gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
     data = [str(w.message) for w in caught if issubclass(w.category, gipdyn.DataWarning)]
     assert len(data) == 2 and data[0].startswith("joint(s) 2 never move in X"), data
+
+
+def test_a_long_exact_fit_is_warned_about_before_it_starts():
+    # The rule behind the warning fit() gives before the first evaluation (a fit on 8000 rows takes too long to
+    # run here): exact GPs on 8000 or more rows; not a sparse one, a subsampled one, pp or a taught one.
+    def warned(rows, **params):
+        model = gipdyn.InverseDynamicsGP(joints="RR", **params)
+        with warnings.catch_warnings(record=True) as caught:
+            warnings.simplefilter("always")
+            model._warn_about_a_long_exact_fit(model.train_options(), model.teacher_options(), rows)
+        return [w for w in caught if issubclass(w.category, gipdyn.LongFitWarning)]
+
+    long = warned(8000)
+    assert len(long) == 1 and "8000 x 8000 matrix" in str(long[0].message)
+    assert "hyperparameter_rows=2000" in str(long[0].message) and "inducing=500" in str(long[0].message)
+    assert warned(7999) == []
+    assert warned(20000, inducing=300) == []
+    assert warned(20000, hyperparameter_rows=2000) == []
+    assert len(warned(20000, hyperparameter_rows=9000)) == 1
+    assert warned(8000, teacher="lip") == []  # the student learns on the teacher's 2000 states
+    assert len(warned(8000, teacher="auto")) == 1  # 16000 torque values: too long for the automatic teacher
+    assert warned(4000, teacher="auto") == []
