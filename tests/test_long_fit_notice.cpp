@@ -5,6 +5,7 @@
 #include <chrono>
 #include <string>
 
+#include "gipdyn/estimators/fit_estimator.hpp"
 #include "long_fit_notice.hpp"
 
 namespace {
@@ -87,7 +88,7 @@ TEST(LongFitNotice, SpeaksAfterAJointsFirstEvaluationWhenThatAloneTookLong) {
 
 TEST(LongFitNotice, SaysBeforeAnExactFitOnManyRowsThatItWillTakeLong) {
   // On 30000 rows the first evaluation alone takes about ten minutes: say so before it.
-  EXPECT_EQ(gipdyn::cli::long_exact_fit_note(gipdyn::cli::kLongExactFitRows - 1), "");
+  EXPECT_EQ(gipdyn::cli::long_exact_fit_note(gipdyn::kLongExactFitRows - 1), "");
   const std::string note = gipdyn::cli::long_exact_fit_note(30000);
   EXPECT_NE(note.find("30000 x 30000 matrix"), std::string::npos) << note;
   EXPECT_NE(note.find("--hyperparameter-rows"), std::string::npos) << note;

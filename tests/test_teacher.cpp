@@ -35,6 +35,35 @@ double mean_nmse(const Eigen::MatrixXd& truth, const Eigen::MatrixXd& predicted)
   return compute_accuracy(truth, predicted).nmse.mean();
 }
 
+// Which fits the factorisation of an exact GP sets the time of (the long-fit
+// notes of train and Python): one rule with fit_estimator's own about teaching.
+TEST(Teacher, SaysWhichFitsLearnOnTheLogWithAnExactGp) {
+  EstimatorOptions o;
+  o.name = "gip";
+  TeacherOptions automatic;
+  automatic.mode = TeachingMode::Automatic;
+  o.teacher = automatic;
+  EXPECT_TRUE(teaches(o, 3000, 4));  // 12000 torque values: short enough
+  EXPECT_EQ(exact_hyperparameter_rows(o, 3000, 4), 0);
+  EXPECT_FALSE(teaches(o, 8000, 2));  // too long to teach: GIP learns from all of it
+  EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 2), 8000);
+  o.name = "rbf";  // short, but automatic teaching is for gip only: rbf learns from the log
+  EXPECT_FALSE(teaches(o, 8000, 1));
+  EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 8000);
+  o.gp.hyperparameter_rows = 2000;
+  EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 2000);
+  o.gp.hyperparameter_rows = 0;
+  o.gp.inducing_points = 300;
+  EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 0);
+  o.gp.inducing_points = 0;
+  for (const char* other : {"pp", "lip", "nn", "fe"}) {
+    o.name = other;
+    EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 0) << other;
+  }
+  EXPECT_EQ(long_exact_fit_warning(kLongExactFitRows - 1), "");
+  EXPECT_NE(long_exact_fit_warning(kLongExactFitRows).find("8000 x 8000 matrix"), std::string::npos);
+}
+
 TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledWithTheTeachersTorques) {
   const Eigen::MatrixXd X = two_link_trajectory(80, 0.15, 1);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 2);

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cstdio>
 
+#include "gipdyn/estimators/fit_estimator.hpp"
 #include "reports/text_format.hpp"
 
 namespace gipdyn::cli {
@@ -16,11 +17,9 @@ const char* const kFasterOptions =
 }  // namespace
 
 std::string long_exact_fit_note(long rows) {
-  if (rows < kLongExactFitRows) return "";
-  return "note: the exact GP learns its hyperparameters on " + std::to_string(rows) + " rows: every NLL evaluation "
-         "factorises a " + std::to_string(rows) + " x " + std::to_string(rows) + " matrix, at a cost growing as "
-         "rows^3 (13 s at 8000 rows, 3 min at 20000, on one core of bench/RESULTS.md's machine), and a joint usually "
-         "needs 80-300. An estimate follows the first evaluation. " + kFasterOptions;
+  const std::string warning = long_exact_fit_warning(rows);
+  if (warning.empty()) return "";
+  return "note: " + warning + ". An estimate follows the first evaluation. " + kFasterOptions;
 }
 
 LongFitNotice::LongFitNotice(int joints, int joints_at_once) {
@@ -31,10 +30,10 @@ LongFitNotice::LongFitNotice(int joints, int joints_at_once) {
 std::string LongFitNotice::observe(const ProgressEvent& e, Clock::time_point now) {
   if (said_ || e.finished || e.joint < 0 || e.rows <= 0) return "";
   if (e.iteration == 1) {
-    first_[{e.joint, e.rows}] = now;
     // A joint's very first evaluation, timed from the start of its work (which
     // adds only O(N) setup to the O(N^3) evaluation): on a long log that is
     // minutes sooner than waiting for the second.
+    first_[{e.joint, e.rows}] = now;
     const bool first_of_joint = joints_seen_.insert(e.joint).second;
     return first_of_joint && e.restart == 0 ? note(e.seconds, e.rows) : "";
   }

@@ -13,13 +13,9 @@
 
 namespace gipdyn::cli {
 
-// Before a fit: from this many rows an exact GP's hyperparameter fit takes
-// tens of minutes a joint on any machine we know (13 s an evaluation at 8000
-// rows on one core here, bench/RESULTS.md, and 80-300 evaluations a joint).
-inline constexpr long kLongExactFitRows = 8000;
-
 // The note to print before an exact GP learns its hyperparameters on `rows`
-// rows; "" below kLongExactFitRows. The timed estimate follows (LongFitNotice).
+// rows (exact_hyperparameter_rows); "" below kLongExactFitRows. The timed
+// estimate follows (LongFitNotice).
 std::string long_exact_fit_note(long rows);
 
 class LongFitNotice {

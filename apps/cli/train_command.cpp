@@ -200,15 +200,9 @@ Command add_train(CLI::App& app) {
                       o.teacher->name.c_str(), o.name.c_str());
       }
       std::printf("\n");
-      const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
-      // pp fits in weight space, without the O(rows^3) factorisation.
-      if (is_kernel_estimator(o.name) && o.name != "pp" && o.gp.inducing_points == 0 && !taught && !mpi) {
-        const long hyperparameter_rows = o.gp.hyperparameter_rows > 0 && o.gp.hyperparameter_rows < data.rows()
-                                             ? o.gp.hyperparameter_rows
-                                             : static_cast<long>(data.rows());
-        if (const std::string note = long_exact_fit_note(hyperparameter_rows); !note.empty())
-          std::printf("  %s\n", note.c_str());
-      }
+      if (const std::string note = long_exact_fit_note(exact_hyperparameter_rows(o, data.rows(), joints.size()));
+          !note.empty())
+        std::printf("  %s\n", note.c_str());
       // On a robot's log the taught model is usually thrown away, after the teacher's minutes
       // (docs/training.md): say so before they are spent, where the log is not a simulated one.
       if (o.teacher && o.teacher->mode == TeachingMode::Automatic && o.teacher->teaches(data.rows(), joints.size()) &&

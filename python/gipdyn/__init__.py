@@ -69,11 +69,6 @@ class LongFitWarning(UserWarning):
     """An exact GP is about to learn its hyperparameters on so many rows that the fit will take long."""
 
 
-# As `gipdyn train`'s note: from this many rows an exact fit takes tens of minutes a joint
-# (13 s an evaluation at 8000 rows on one core, bench/RESULTS.md; 80-300 evaluations a joint).
-_LONG_EXACT_FIT_ROWS = 8000
-
-
 class TeachingWarning(UserWarning):
     """A model taught by a teacher fits the logged rows far worse than its teacher did (teaching_check_)."""
 
@@ -357,20 +352,13 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         return self
 
     def _warn_about_a_long_exact_fit(self, options, teacher, rows):
-        # pp fits in weight space, without the O(rows^3) factorisation; a taught
-        # model learns on the teacher's states, a sparse or distributed one is fast.
-        if options.kernel == "pp" or options.inducing_points > 0 or self.distributed:
-            return
-        if teacher is not None and teacher.teaches(rows, self.n_joints):
-            return
-        hyperparameter_rows = rows if not 0 < options.hyperparameter_rows < rows else options.hyperparameter_rows
-        if hyperparameter_rows >= _LONG_EXACT_FIT_ROWS:
+        # The library's rule, as `gipdyn train`'s note; the fix in this class's keywords.
+        warning = _core.long_exact_fit_warning(_core.exact_hyperparameter_rows(options, teacher, rows, self.n_joints))
+        if warning:
             warnings.warn(
-                f"an exact GP learns its hyperparameters on {hyperparameter_rows} rows: every NLL evaluation "
-                f"factorises a {hyperparameter_rows} x {hyperparameter_rows} matrix, at a cost growing as rows^3 "
-                "(13 s at 8000 rows on one core of bench/RESULTS.md's machine), and a joint usually needs 80-300, so "
-                "this fit may take hours. hyperparameter_rows=2000 learns them on a subsample and conditions the "
-                "model on every row; inducing=500 makes every evaluation O(N M^2)", LongFitWarning, stacklevel=3)
+                warning + ", so this fit may take hours. hyperparameter_rows=2000 learns them on a subsample and "
+                "conditions the model on every row; inducing=500 makes every evaluation O(N M^2)", LongFitWarning,
+                stacklevel=3)
 
     def partial_fit(self, X, Y, window=0, refit=False):
         """Online learning: add the rows of (X, Y) to the fitted model with its

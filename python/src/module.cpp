@@ -226,15 +226,21 @@ py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teach
 // teaching_check (None unless a taught model was checked), teaching_failure
 // (why the teacher or the student failed, where teaching is "teacher failed"
 // or "student failed"; else empty)}.
-py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
-                const std::optional<TeacherOptions>& teacher, bool verbose) {
-  require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
-  const JointTypes jt = JointTypes::parse(joints);
+// What InverseDynamicsGP's fit asks of fit_estimator: its kernel's GP, taught by `teacher` unless none.
+EstimatorOptions gp_estimator_options(const TrainOptions& options, const std::optional<TeacherOptions>& teacher) {
   EstimatorOptions o;
   o.name = options.kernel;
   o.gp = options;
   o.robot_prior = options.robot_prior;
   o.teacher = teacher;
+  return o;
+}
+
+py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
+                const std::optional<TeacherOptions>& teacher, bool verbose) {
+  require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
+  const JointTypes jt = JointTypes::parse(joints);
+  const EstimatorOptions o = gp_estimator_options(options, teacher);
   const Eigen::MatrixXd Xm = X, Ym = Y;
   FitResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return fit_estimator(o, Xm, Ym, jt, cb); });
   auto* gp = dynamic_cast<GpEstimator*>(r.estimator.get());
@@ -578,9 +584,17 @@ PYBIND11_MODULE(_core, m) {
       .def_readwrite("hyperparameter_rows", &TeacherOptions::hyperparameter_rows)
       .def_readwrite("student_hyperparameter_rows", &TeacherOptions::student_hyperparameter_rows)
       .def_readwrite("seed", &TeacherOptions::seed)
-      .def("validate", &TeacherOptions::validate)
-      .def("teaches", &TeacherOptions::teaches, py::arg("rows"), py::arg("joints"),
-           "Whether a fit on a log of this many rows and joints is taught (always, or automatic on a short log)");
+      .def("validate", &TeacherOptions::validate);
+  m.def(
+      "exact_hyperparameter_rows",
+      [](const TrainOptions& options, const std::optional<TeacherOptions>& teacher, Eigen::Index rows, int joints) {
+        return exact_hyperparameter_rows(gp_estimator_options(options, teacher), rows, joints);
+      },
+      py::arg("options"), py::arg("teacher"), py::arg("rows"), py::arg("joints"),
+      "The rows fit's exact GP learns its hyperparameters on, or 0 where no O(rows^3) factorisation sets the time "
+      "(gipdyn/estimators/fit_estimator.hpp)");
+  m.def("long_exact_fit_warning", &long_exact_fit_warning, py::arg("rows"),
+        "What an exact GP's hyperparameter fit on this many rows costs; \"\" below 8000 rows");
   m.def("fit", &fit_gp, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
         py::arg("verbose") = false,
         "Fits a GP estimator (options.kernel), taught by `teacher` unless None (gipdyn/estimators/fit_estimator.hpp): "

@@ -110,6 +110,28 @@ bool automatic_teaching_applies(const EstimatorOptions& options) {
          !options.robot_prior.robot && !gp.nll_backend;
 }
 
+bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints) {
+  if (!options.teacher) return false;
+  if (options.teacher->mode == TeachingMode::Automatic && !automatic_teaching_applies(options)) return false;
+  return options.teacher->teaches(rows, joints);
+}
+
+Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints) {
+  const TrainOptions& gp = options.gp;
+  if (!is_gp_estimator(options.name) || options.name == "pp" || gp.inducing_points > 0 || gp.nll_backend ||
+      teaches(options, rows, joints))
+    return 0;
+  return gp.hyperparameter_rows > 0 && gp.hyperparameter_rows < rows ? gp.hyperparameter_rows : rows;
+}
+
+std::string long_exact_fit_warning(Eigen::Index rows) {
+  if (rows < kLongExactFitRows) return "";
+  const std::string n = std::to_string(rows);
+  return "an exact GP learns its hyperparameters on " + n + " rows: every NLL evaluation factorises a " + n + " x " +
+         n + " matrix, at a cost growing as rows^3 (13 s at 8000 rows, 3 min at 20000, on one core of "
+         "bench/RESULTS.md's machine), and a joint usually needs 80-300";
+}
+
 std::string to_string(TeachingOutcome outcome) {
   switch (outcome) {
     case TeachingOutcome::NoTeacher: return "no teacher";
@@ -156,7 +178,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
   if (automatic && !automatic_teaching_applies(options)) {
     result = fit(on_log, X, Y, joints, progress);
     result.teaching = TeachingOutcome::NotApplicable;
-  } else if (options.teacher && options.teacher->teaches(X.rows(), joints.size())) {
+  } else if (teaches(options, X.rows(), joints.size())) {
     TeachingSet lesson;
     if (const auto why = could_not_start(automatic, [&] {
           lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);

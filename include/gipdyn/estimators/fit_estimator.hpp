@@ -50,6 +50,28 @@ enum class TeachingOutcome {
 // sparse or distributed fit, and the automatic teacher is not measured there.
 bool automatic_teaching_applies(const EstimatorOptions& options);
 
+// Whether fit_estimator fits a teacher on a log of `rows` rows and trains the
+// estimator on its states: TeachingMode::Always, or Automatic where
+// automatic_teaching_applies and the log is short enough (TeacherOptions::teaches);
+// the taught model may still be thrown away afterwards (TeachingCheck).
+bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints);
+
+// From this many rows an exact GP's hyperparameter fit takes tens of minutes a
+// joint on any machine we know: 13 s an evaluation at 8000 rows on one core
+// (bench/RESULTS.md), and 80-300 evaluations a joint.
+inline constexpr Eigen::Index kLongExactFitRows = 8000;
+
+// The rows on which fit_estimator's exact GP learns its hyperparameters from
+// a log of `rows` rows (all, or TrainOptions::hyperparameter_rows), or 0 where
+// no O(rows^3) factorisation sets the time: not a per-joint GP, pp (it fits in
+// weight space), a sparse or distributed fit, or one that is taught.
+Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints);
+
+// Said before an exact GP learns its hyperparameters on `rows` rows; "" below
+// kLongExactFitRows. Front ends add what makes it fast in their own names
+// (TrainOptions::hyperparameter_rows, TrainOptions::inducing_points).
+std::string long_exact_fit_warning(Eigen::Index rows);
+
 // "taught", "log too long", ...; and one line saying what it means for the model.
 std::string to_string(TeachingOutcome outcome);
 std::string describe(TeachingOutcome outcome, const std::string& teacher_name);
