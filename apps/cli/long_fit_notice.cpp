@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cstdio>
+#include <limits>
 
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "reports/text_format.hpp"
@@ -33,8 +34,9 @@ std::string LongFitNotice::observe(const ProgressEvent& e, Clock::time_point now
     // A joint's very first evaluation, timed from the start of its work (which
     // adds only O(N) setup to the O(N^3) evaluation): on a long log that is
     // minutes sooner than waiting for the second.
+    const auto earlier = first_.lower_bound({e.joint, std::numeric_limits<long>::min()});
+    const bool first_of_joint = earlier == first_.end() || earlier->first.first != e.joint;
     first_[{e.joint, e.rows}] = now;
-    const bool first_of_joint = joints_seen_.insert(e.joint).second;
     return first_of_joint && e.restart == 0 ? note(e.seconds, e.rows) : "";
   }
   const auto it = first_.find({e.joint, e.rows});

@@ -5,7 +5,6 @@
 // the progress lines.
 #include <chrono>
 #include <map>
-#include <set>
 #include <string>
 #include <utility>
 
@@ -34,8 +33,8 @@ class LongFitNotice {
 
   int waves_ = 1;
   bool said_ = false;
+  // When each (joint, rows) stage's first evaluation came.
   std::map<std::pair<int, long>, Clock::time_point> first_;
-  std::set<int> joints_seen_;
 };
 
 }  // namespace gipdyn::cli
