@@ -97,6 +97,18 @@ void ParametricKernel::initialize(const Eigen::MatrixXd& Z, double target_varian
   for (Eigen::Index k = 0; k < mean_sq.size(); ++k)
     log_params_(k) = mean_sq(k) > floor ? std::log(target_variance / (active * mean_sq(k))) : 0.0;
   variances_ = log_params_.array().exp().matrix();
+  target_variance_ = target_variance;
+}
+
+void ParametricKernel::restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
+                                           Eigen::Ref<Eigen::VectorXd> upper) const {
+  if (!(target_variance_ > 0.0) || Z.rows() == 0) return;
+  const Eigen::VectorXd mean_sq = features(Z).array().square().colwise().mean().transpose();
+  for (Eigen::Index k = 0; k < mean_sq.size(); ++k) {
+    if (!(mean_sq(k) > 0.0)) continue;  // the joint's torque does not depend on it
+    upper(k) = std::min(upper(k), std::log(kMaxParameterShare * target_variance_ / mean_sq(k)));
+    lower(k) = std::min(lower(k), upper(k));
+  }
 }
 
 }  // namespace gipdyn

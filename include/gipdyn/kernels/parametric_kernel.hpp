@@ -36,6 +36,17 @@ class ParametricKernel final : public Kernel {
   // joint's torque depends on, so that k(x, x) starts near target on average.
   void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
 
+  // Caps each s_k so that the parameter's prior share of k(x, x) on the rows Z,
+  // s_k mean phi_k^2, stays below kMaxParameterShare times the target variance
+  // of initialize(). The regressor's columns are linearly dependent (the base
+  // parameters are fewer than the standard ones), and without a cap the
+  // likelihood can send a few variances to 1e9 times the torque's, where the
+  // N x N kernel matrix of the final fit is no longer positive definite in
+  // double precision.
+  void restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
+                           Eigen::Ref<Eigen::VectorXd> upper) const override;
+  static constexpr double kMaxParameterShare = 100.0;
+
   // Regressor rows of the kernel's joint for every row of Z (reads the first 3n columns).
   Eigen::MatrixXd features(const Eigen::MatrixXd& Z) const;
   bool weight_space_features(const Eigen::MatrixXd& Z, Eigen::MatrixXd& Phi) const override {
@@ -48,6 +59,7 @@ class ParametricKernel final : public Kernel {
   int joint_;
   bool with_friction_;
   Eigen::VectorXd log_params_, variances_;
+  double target_variance_ = 0.0;  // of initialize(); 0 before it
 };
 
 // Names of the dynamic parameters in regressor order: "link2.mcx", "joint3.coulomb".
