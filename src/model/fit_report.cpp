@@ -120,14 +120,32 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
   return out;
 }
 
+namespace {
+
+// Jitter acts as extra noise on the rows the model is conditioned on: beside
+// the noise the fit learned it says whether the model still fits its data.
+std::string jitter_warning(const JointReport& j, bool coupled) {
+  char amount[96];
+  std::snprintf(amount, sizeof amount, " needed a jitter of %.3g on the kernel diagonal", j.jitter);
+  std::string out = (coupled ? std::string(kOneCoupledFit) : "joint " + std::to_string(j.joint + 1)) + amount;
+  if (j.noise_variance > 0.0 && j.jitter > j.noise_variance) {
+    char times[160];
+    std::snprintf(times, sizeof times,
+                  ", %.2g times the noise variance it learned, so the model is smoothed far more than its data ask "
+                  "and may predict badly (check it on held-out rows)",
+                  j.jitter / j.noise_variance);
+    out += times;
+  }
+  return out + "; raise TrainOptions::min_noise_fraction or remove duplicate rows";
+}
+
+}  // namespace
+
 std::vector<std::string> FitReport::warnings() const {
   std::vector<std::string> out = convergence_warnings(joints);
   const bool coupled = one_coupled_fit(joints);
   for (size_t k = 0; k < distinct_reports(joints); ++k)
-    if (joints[k].jitter > 0.0)
-      out.push_back((coupled ? std::string(kOneCoupledFit) : "joint " + std::to_string(joints[k].joint + 1)) +
-                    " needed a jitter of " + std::to_string(joints[k].jitter) +
-                    " on the kernel diagonal; raise TrainOptions::min_noise_fraction or remove duplicate rows");
+    if (joints[k].jitter > 0.0) out.push_back(jitter_warning(joints[k], coupled));
   if (std::string noisy = noise_share_warning(joints); !noisy.empty()) out.push_back(std::move(noisy));
   return out;
 }
