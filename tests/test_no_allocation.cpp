@@ -143,6 +143,39 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
   }
 }
 
+// pp and sp fold alpha into the regressor's weights (ParametricKernel::
+// plan_mean): a query evaluates one regressor, not one per training row (50 ms
+// a query on 2000 UR10 rows before), allocates nothing, and answers as the
+// batch prediction does.
+TEST(NoAllocation, ModelBasedKernelQueriesUseOneRegressorAndDoNotAllocate) {
+  for (const char* kernel : {"pp", "sp"}) {
+    const JointTypes joints = JointTypes::parse("RRPR");
+    const Eigen::MatrixXd X = test::random_inputs(joints, 60, 63);
+    const Eigen::MatrixXd Y = test::random_matrix(60, 4, -1.0, 1.0, 913);
+    TrainOptions o;
+    o.kernel = kernel;
+    o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
+    o.optimizer.max_iterations = 5;
+    TrainResult r = train_model(X, Y, joints, o);
+    ASSERT_TRUE(r.report.ok()) << r.report.message;
+    PredictionWorkspace ws(r.model);
+    const Eigen::MatrixXd Xq = test::random_inputs(joints, 10, 64);
+    const Eigen::MatrixXd batch = r.model.predict(Xq);
+    Eigen::VectorXd x(12), tau(4);
+    Eigen::MatrixXd single(10, 4);
+    EXPECT_EQ(allocations_during([&] {
+                for (int k = 0; k < 10; ++k) {
+                  for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
+                  ws.predict(x.data(), tau.data());
+                  for (int j = 0; j < 4; ++j) single(k, j) = tau(j);
+                }
+              }),
+              0)
+        << kernel;
+    EXPECT_LT((single - batch).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + batch.cwiseAbs().maxCoeff())) << kernel;
+  }
+}
+
 // The C API's promise for a control loop: torque, gravity, inertia and
 // forward dynamics (and their error paths) allocate nothing once the workspace exists.
 TEST(NoAllocation, CApiQueriesDoNotAllocate) {

@@ -55,6 +55,25 @@ Eigen::MatrixXd ParametricKernel::features(const Eigen::MatrixXd& Z) const {
   return Phi;
 }
 
+void ParametricKernel::plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const {
+  plan = MeanPlan{};
+  plan.weights = variances_.cwiseProduct(features(Z).transpose() * alpha);
+}
+
+double ParametricKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha,
+                                  const MeanPlan& plan, Eigen::Ref<Eigen::VectorXd> krow,
+                                  KernelScratch& scratch) const {
+  if (plan.weights.size() != log_params_.size()) return Kernel::mean_one(z, Z, alpha, plan, krow, scratch);
+  const int n = robot_->num_joints();
+  if (!scratch.regressor || scratch.regressor_robot != robot_.get()) {
+    scratch.regressor = std::make_shared<RegressorWorkspace>(*robot_);
+    scratch.regressor_robot = robot_.get();
+  }
+  scratch.regressor_rows.resize(n, log_params_.size());
+  regressor_into(*robot_, z, z + n, z + 2 * n, with_friction_, *scratch.regressor, scratch.regressor_rows);
+  return scratch.regressor_rows.row(joint_).dot(plan.weights);
+}
+
 void ParametricKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
   const Eigen::MatrixXd P1 = features(Z1);
   if (&Z1 == &Z2) {

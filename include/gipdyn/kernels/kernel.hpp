@@ -13,6 +13,8 @@
 
 namespace gipdyn {
 
+class RegressorWorkspace;  // robot/dynamics.hpp
+
 // The predictive mean of one query, k(z, Z) alpha, prepared once for a fixed
 // (Z, alpha) by Kernel::plan_mean. A finite feature expansion folds alpha into
 // its feature weights, so a query costs O(features) instead of N kernel values;
@@ -43,6 +45,11 @@ struct KernelScratch {
   // level likewise: an NLL evaluation then allocates no N x N matrix.
   std::deque<Eigen::MatrixXd> child_grams;
   size_t gram_level = 0;
+  // The parametric kernel's rigid-body regressor of one query (every joint's
+  // row) and the buffers that compute it, made on first use for regressor_robot.
+  std::shared_ptr<RegressorWorkspace> regressor;
+  const void* regressor_robot = nullptr;
+  Eigen::MatrixXd regressor_rows;
 };
 
 class Kernel {

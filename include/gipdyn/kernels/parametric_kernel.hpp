@@ -47,6 +47,13 @@ class ParametricKernel final : public Kernel {
                            Eigen::Ref<Eigen::VectorXd> upper) const override;
   static constexpr double kMaxParameterShare = 100.0;
 
+  // One query's mean in weight space: the plan holds diag(s) Phi(Z)^T alpha, so
+  // a query costs one regressor instead of N (50 ms a query on 2000 UR10 rows
+  // before); no allocation once the scratch has its buffers.
+  void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
+  double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,
+                  Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const override;
+
   // Regressor rows of the kernel's joint for every row of Z (reads the first 3n columns).
   Eigen::MatrixXd features(const Eigen::MatrixXd& Z) const;
   bool weight_space_features(const Eigen::MatrixXd& Z, Eigen::MatrixXd& Phi) const override {
