@@ -131,8 +131,8 @@ std::string jitter_warning(const JointReport& j, bool coupled) {
   if (j.noise_variance > 0.0 && j.jitter > j.noise_variance) {
     char times[160];
     std::snprintf(times, sizeof times,
-                  ", %.2g times the noise variance it learned, so the model is smoothed far more than its data ask "
-                  "and may predict badly (check it on held-out rows)",
+                  ", %.2g times the noise variance it learned, so the model is smoothed more than its data ask and "
+                  "may predict badly (check it on held-out rows)",
                   j.jitter / j.noise_variance);
     out += times;
   }
