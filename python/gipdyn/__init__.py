@@ -304,10 +304,26 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     def n_joints(self):
         return len(self.joints)
 
+    def _inputs(self, X):
+        """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix."""
+        n = self.n_joints
+        X = _as_matrix("X", X, 3 * n if np.ndim(X) == 1 else None)  # a 1-D X of 3n values is one row
+        if X.shape[1] != 3 * n:
+            got = X.shape[1]
+            if hasattr(self, "model_"):
+                fix = "the model was trained on these joints; give it rows of their q, qd, qdd"
+            elif got % 3 == 0 and got > 0:
+                fix = (f"set joints= to one R (revolute) or P (prismatic) per joint of your robot: {got} columns "
+                       f"are {got // 3} joints, e.g. joints={'R' * (got // 3)!r}")
+            else:
+                fix = "X needs q, qd and qdd of every joint, in that order"
+            raise ValueError(f"X must have {3 * n} columns (q, qd, qdd of joints={str(self.joints)!r}), got {got}: {fix}")
+        return X
+
     def _training_arrays(self, X, Y):
         """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
         n = self.n_joints
-        X = _as_matrix("X", X, 3 * n)
+        X = self._inputs(X)
         Y = _as_matrix("Y", Y, n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
@@ -374,7 +390,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         if not hasattr(self, "model_"):
             return self.fit(X, Y)
         n = self.n_joints
-        X = _as_matrix("X", X, 3 * n)
+        X = self._inputs(X)
         Y = _as_matrix("Y", Y, n)
         self.model_ = self.model_.updated(np.asfortranarray(X), np.asfortranarray(Y), int(window))
         if refit:
@@ -404,7 +420,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     def predict(self, X, return_std=False):
         """Torques (N, n); with return_std also the latent standard deviations."""
         self._check_fitted()
-        X = np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints))
+        X = np.asfortranarray(self._inputs(X))
         if return_std:
             if not self.model_.has_variance:  # a loaded model: build the factors once, in a new model
                 self.model_ = self.model_.with_variance()
@@ -570,7 +586,7 @@ class LagrangianGP(InverseDynamicsGP):
         """Torques (N, n); with return_std also the latent standard deviations
         (the first such call factorises the (N n)^2 training covariance once)."""
         self._check_fitted()
-        X = np.asfortranarray(_as_matrix("X", X, 3 * self.n_joints))
+        X = np.asfortranarray(self._inputs(X))
         mean = self.model_.predict(X)
         if not return_std:
             return mean

@@ -196,6 +196,20 @@ def test_bad_input_raises_value_error(X, Y, message):
         assert message in str(err.value)
 
 
+def test_inputs_of_another_joint_count_name_the_joints_and_the_fix():
+    # joints defaults to the SCARA's RRPR: a 6R arm's 18 columns must say so and how to fix it.
+    X, Y = np.zeros((10, 18)), np.zeros((10, 6))
+    with pytest.raises(ValueError) as err:
+        gipdyn.InverseDynamicsGP(max_iter=2).fit(X, Y)
+    assert "X must have 12 columns (q, qd, qdd of joints='RRPR'), got 18" in str(err.value)
+    assert "18 columns are 6 joints, e.g. joints='RRRRRR'" in str(err.value)
+    d = gipdyn.simulate("scara", samples=40, seed=3)
+    m = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=2).fit(d["X"], d["tau"])
+    with pytest.raises(ValueError, match="the model was trained on these joints"):
+        m.predict(X)
+    assert m.predict(d["X"][0]).shape == (1, 4)  # one state as a 1-D row
+
+
 def test_one_joint_takes_a_1d_target_like_scikit_learn():
     # A pendulum's torque as a 1-D y: one value per row, the same model as with a column.
     rng = np.random.default_rng(3)
