@@ -40,7 +40,7 @@ class ParametricKernel final : public Kernel {
   // s_k mean phi_k^2, stays below kMaxParameterShare times the target variance
   // of initialize(). The regressor's columns are linearly dependent (the base
   // parameters are fewer than the standard ones), and without a cap the
-  // likelihood can send a few variances to 1e9 times the torque's, where the
+  // likelihood can send a few variances to 1e9 (link 2's mass on a UR10), where the
   // N x N kernel matrix of the final fit is no longer positive definite in
   // double precision.
   void restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
