@@ -87,8 +87,8 @@ TEST(Estimators, FeAndPpRecoverNoiseFreeTorquesWithoutModelBias) {
 
 // The UR10's regressor with friction has 72 columns; on joint 2, 52 are not
 // zero and their rank is 37. Without a cap on each parameter's prior variance (ParametricKernel::
-// restrict_log_params) the likelihood sent a few of them to 1e9 times the
-// torque's, the final N x N fit needed a jitter of 1e-4 of its diagonal, and on
+// restrict_log_params) the likelihood sent a few of them far up (to 3.5e9), the
+// final N x N fit needed a jitter of 1e-4 of its diagonal, and on
 // 500 rows of seeds 1-3 joints 1-3 tested at nMSE 0.39-1.15 where least squares
 // on the same regressor reaches 1e-6.
 TEST(Estimators, PpOnTheUr10WithFrictionMatchesTheExactRegressor) {
