@@ -55,15 +55,19 @@ std::string command_error(const CLI::App& app, int argc, char** argv) {
   const auto commands_of = [](const CLI::App* a) {
     return a->get_subcommands([](const CLI::App*) { return true; });
   };
+  const auto names_of = [&](const CLI::App* a) {
+    std::string names;
+    for (const CLI::App* sub : commands_of(a)) names += (names.empty() ? "" : ", ") + sub->get_name();
+    return names;
+  };
   for (int i = 1; i < argc; ++i) {
     const std::string word = argv[i];
     if (word.empty() || word[0] == '-' || commands_of(level).empty()) return "";
     const CLI::App* next = nullptr;
-    std::string names, closest;
+    std::string closest;
     size_t best = 3;  // suggest only a command within two edits
     for (const CLI::App* sub : commands_of(level)) {
       if (sub->get_name() == word) next = sub;
-      names += (names.empty() ? "" : ", ") + sub->get_name();
       if (const size_t d = edit_distance(word, sub->get_name()); d < best) {
         best = d;
         closest = sub->get_name();
@@ -71,15 +75,13 @@ std::string command_error(const CLI::App& app, int argc, char** argv) {
     }
     if (!next)
       return "unknown command '" + word + "' for " + path +
-             (closest.empty() ? "" : " (did you mean '" + closest + "'?)") + "; commands: " + names + " (" + path +
+             (closest.empty() ? "" : " (did you mean '" + closest + "'?)") + "; commands: " + names_of(level) + " (" + path +
              " --help)";
     level = next;
     path += " " + word;
   }
   if (level->get_require_subcommand_min() == 0) return "";
-  std::string names;
-  for (const CLI::App* sub : commands_of(level)) names += (names.empty() ? "" : ", ") + sub->get_name();
-  return path + " needs a command: " + names + " (" + path + " --help)";
+  return path + " needs a command: " + names_of(level) + " (" + path + " --help)";
 }
 
 }  // namespace
