@@ -109,8 +109,12 @@ void ParametricKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::Ma
   grad += (variances_.array() * (scratch.features.array() * scratch.weighted_features.array()).colwise().sum().transpose()).matrix();
 }
 
+Eigen::VectorXd ParametricKernel::mean_square_features(const Eigen::MatrixXd& Z) const {
+  return features(Z).array().square().colwise().mean().transpose();
+}
+
 void ParametricKernel::initialize(const Eigen::MatrixXd& Z, double target_variance) {
-  const Eigen::VectorXd mean_sq = features(Z).array().square().colwise().mean().transpose();
+  const Eigen::VectorXd mean_sq = mean_square_features(Z);
   const double floor = 1e-12 * std::max(mean_sq.maxCoeff(), 1e-300);
   const int active = std::max(1, static_cast<int>((mean_sq.array() > floor).count()));
   for (Eigen::Index k = 0; k < mean_sq.size(); ++k)
@@ -122,7 +126,7 @@ void ParametricKernel::initialize(const Eigen::MatrixXd& Z, double target_varian
 void ParametricKernel::restrict_log_params(const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> lower,
                                            Eigen::Ref<Eigen::VectorXd> upper) const {
   if (!(target_variance_ > 0.0) || Z.rows() == 0) return;
-  const Eigen::VectorXd mean_sq = features(Z).array().square().colwise().mean().transpose();
+  const Eigen::VectorXd mean_sq = mean_square_features(Z);
   for (Eigen::Index k = 0; k < mean_sq.size(); ++k) {
     if (!(mean_sq(k) > 0.0)) continue;  // the joint's torque does not depend on it
     upper(k) = std::min(upper(k), std::log(kMaxParameterShare * target_variance_ / mean_sq(k)));

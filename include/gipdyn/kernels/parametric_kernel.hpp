@@ -62,6 +62,10 @@ class ParametricKernel final : public Kernel {
   }
 
  private:
+  // The mean over the rows of Z of each regressor column's square: what initialize
+  // scales the variances by and restrict_log_params caps them by.
+  Eigen::VectorXd mean_square_features(const Eigen::MatrixXd& Z) const;
+
   std::shared_ptr<const RobotModel> robot_;
   int joint_;
   bool with_friction_;
