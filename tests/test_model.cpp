@@ -893,6 +893,19 @@ TEST(Metrics, NmseUsesPopulationVariance) {
   EXPECT_DOUBLE_EQ(a.gmse, 0.25);
 }
 
+TEST(Metrics, AConstantTargetHasNoNmseEvenWhereItsMeanRounds) {
+  // 0.1 summed 37 times is not 3.7 in double, so a variance from the rounded mean
+  // is about 1e-33, and the nMSE of a tiny error would read 1e27 "worse than the mean".
+  Eigen::MatrixXd t = Eigen::MatrixXd::Constant(37, 2, 0.1), p = t;
+  t.col(1).setLinSpaced(37, 0.0, 1.0);
+  p.array() += 1e-6;
+  const Accuracy a = compute_accuracy(t, p);
+  EXPECT_TRUE(std::isinf(a.nmse(0)));
+  EXPECT_EQ(column_variance(t)(0), 0.0);
+  EXPECT_GT(column_variance(t)(1), 0.0);
+  EXPECT_NEAR(a.mse(0), 1e-12, 1e-20);
+}
+
 }  // namespace
 }  // namespace gipdyn
 

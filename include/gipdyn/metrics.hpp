@@ -10,7 +10,12 @@ struct Accuracy {
   double gmse = 0.0;     // sum of the per-joint MSEs
 };
 
-// target and prediction: N x n.
+// Population variance of each column of target. A column whose values are all
+// equal gets exactly 0: the rounding of its mean would otherwise leave a variance
+// of 1e-32 and an nMSE of 1e26 where the nMSE is undefined.
+Eigen::VectorXd column_variance(const Eigen::MatrixXd& target);
+
+// target and prediction: N x n. A constant target column has an nMSE of inf.
 Accuracy compute_accuracy(const Eigen::MatrixXd& target, const Eigen::MatrixXd& prediction);
 
 }  // namespace gipdyn

@@ -67,7 +67,7 @@ namespace {
 // The teacher's MSE on joint j's logged torques over their variance; NaN where
 // the logged torque is constant.
 double teacher_log_nmse(const Eigen::MatrixXd& Y, const Eigen::VectorXd& teacher_residual_rms, Eigen::Index j) {
-  const double variance = (Y.col(j).array() - Y.col(j).mean()).square().mean();
+  const double variance = column_variance(Y.col(j))(0);
   if (!(variance > 0.0)) return std::numeric_limits<double>::quiet_NaN();
   return teacher_residual_rms(j) * teacher_residual_rms(j) / variance;
 }
