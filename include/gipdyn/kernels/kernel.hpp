@@ -47,9 +47,13 @@ struct KernelScratch {
   size_t gram_level = 0;
   // The parametric kernel's rigid-body regressor of one query (every joint's
   // row) and the buffers that compute it, made on first use for regressor_robot.
+  // Every joint's model of a query asks for the same regressor in turn: the first
+  // computes it for regressor_query (and regressor_friction), the others read it.
   std::shared_ptr<RegressorWorkspace> regressor;
   const void* regressor_robot = nullptr;
   Eigen::MatrixXd regressor_rows;
+  Eigen::VectorXd regressor_query;
+  bool regressor_friction = false;
 };
 
 class Kernel {
