@@ -6,6 +6,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/training_data.hpp"
 
 namespace gipdyn::cli {
@@ -19,7 +20,8 @@ void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable
                  "every joint, in that order");
 }
 
-JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable) {
+JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable,
+                              const std::string& robot) {
   if (!joints.empty()) {
     const JointTypes given = JointTypes::parse(joints);
     if (mat_variable.empty()) {
@@ -35,8 +37,9 @@ JointTypes joint_types_option(const std::string& joints, const std::string& path
     return given;
   }
   std::string found;
+  int n = 0;  // joints the CSV's columns name; 0 for a .mat file, whose columns name none
   if (mat_variable.empty()) {
-    const int n = joint_column_count(read_csv_header(path));
+    n = joint_column_count(read_csv_header(path));
     if (const std::optional<JointTypes> recorded = sidecar_joint_types(path)) {
       if (static_cast<int>(recorded->size()) != n)
         throw Error("'" + path + ".json' records " + std::to_string(recorded->size()) + " joint types (" +
@@ -47,6 +50,14 @@ JointTypes joint_types_option(const std::string& joints, const std::string& path
     if (n > 0)
       found = "; '" + path + "' has " + std::to_string(n) + " joint(s) (q1..q" + std::to_string(n) + "), e.g. --joints " +
               std::string(static_cast<size_t>(n), 'R') + " if every joint is revolute";
+  }
+  if (!robot.empty()) {
+    const JointTypes of_robot = load_robot(robot).joint_types();
+    if (n > 0 && static_cast<int>(of_robot.size()) != n)
+      throw Error("--robot " + robot + " has " + std::to_string(of_robot.size()) + " joints (" + of_robot.str() +
+                  ") but '" + path + "' has " + std::to_string(n) + " (q1..q" + std::to_string(n) +
+                  "): give the robot that made this log, or --joints");
+    return of_robot;
   }
   throw Error("--joints is required: the joint types, one letter per joint, R (revolute) or P (prismatic), which a "
               "log cannot tell apart (a log written by gipdyn simulate records them in its .json sidecar)" + found);

@@ -16,10 +16,12 @@ namespace gipdyn::cli {
 void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, const std::string& csv_help);
 
 // The joint types given with --joints (warned about where the log's .json sidecar records others),
-// else those the sidecar records (sidecar_joint_types: simulate writes them). Without either, an
-// error that says how many joints the CSV's columns name and how to write their types: the file
-// cannot tell revolute from prismatic.
-JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable);
+// else those the sidecar records (sidecar_joint_types: simulate writes them), else those of the
+// --robot a model-based estimator is given (`robot`, empty if none), which must have as many joints
+// as the CSV's columns name. Without any, an error that says how many joints the CSV's columns name
+// and how to write their types: the file cannot tell revolute from prismatic.
+JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable,
+                              const std::string& robot = "");
 
 // Warns, on stderr, when states of the log at `path` lie well outside the inputs an exact GP model
 // was trained on (extrapolation_warning, gipdyn/training_data.hpp); silent for other models.

@@ -113,7 +113,7 @@ Command add_experiment(CLI::App& app) {
   r->add_option("--mat-variable", real->config.mat_variable,
                 "Read this variable of a .mat file (columns q, qd, qdd, tau by position)");
   r->add_option("--joints", real->config.joints, "Joint types, e.g. RRRRRR (default: those the log's .json sidecar records, as simulate writes them; "
-                "ur10 protocol: RRRRRR; else required)");
+                "ur10 protocol: RRRRRR; else those of --robot; else required)");
   r->add_option("--protocol", real->protocol,
                 "Reference split: ur10 (train rows 1-6340, test 6341-12349, nominal robot ur10 with friction)");
   r->add_option("--train-rows", real->train_rows, "Training rows FIRST-LAST (1-based data rows)");
@@ -202,8 +202,8 @@ Command add_experiment(CLI::App& app) {
     c.robot = real->est.robot;
     c.robot_friction = real->est.robot_friction;
     apply_protocol(real->protocol, c);
-    // As train reads them: without --joints, the joint types the log's sidecar records.
-    c.joints = joint_types_option(c.joints, c.data, c.mat_variable).str();
+    // As train reads them: without --joints, the joint types the log's sidecar records, else --robot's.
+    c.joints = joint_types_option(c.joints, c.data, c.mat_variable, c.robot).str();
     if (!real->estimators.empty()) {
       c.estimators = split_list(real->estimators);
     } else if (!c.robot.empty()) {

@@ -45,7 +45,7 @@ const char* const kTeacherOptions = "Teacher (GIP taught by LIP: train's default
 Command add_train(CLI::App& app) {
   auto a = std::make_shared<TrainArgs>();
   add_data_option(app, a->data, a->mat_variable, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
-  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else required)");
+  app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else those of --robot; else required)");
   app.add_option("--kernel", a->kernel,
                  "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp), lip (one GP "
                  "over all joints with priors on the energies; train it on a few hundred rows, or learn its hyperparameters "
@@ -104,7 +104,7 @@ Command add_train(CLI::App& app) {
     std::unique_ptr<DistributedRun> mpi;
     if (a->distributed) mpi = std::make_unique<DistributedRun>();
     if (mpi && !mpi->is_root()) a->quiet = true;
-    const JointTypes joints = joint_types_option(a->joints, a->data, a->mat_variable);
+    const JointTypes joints = joint_types_option(a->joints, a->data, a->mat_variable, a->estimator.robot);
     EstimatorOptions o;
     Dataset data;
     // Printed after training, so that an error stays the only line on stderr when the fit cannot start.

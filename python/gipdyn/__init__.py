@@ -130,7 +130,8 @@ _TEACHER_DEFAULTS = TeacherOptions()
 class InverseDynamicsGP(*_ESTIMATOR_BASES):
     """One exact GP per joint, hyperparameters by maximum marginal likelihood.
 
-    Parameters mirror `gipdyn train`: joints ("RRPR"), kernel ("gip",
+    Parameters mirror `gipdyn train`: joints (one "R" or "P" per joint; None,
+    the default: those of robot where it is given, else the SCARA's "RRPR"), kernel ("gip",
     "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", "gip+friction",
     "gip+friction+rbf", "gip-envelope", "gip-envelope+friction", and the model-based
     "pp", "sp" that need robot), optimizer ("lbfgs", "adam"), max_iter, restarts,
@@ -192,7 +193,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
     """
 
-    def __init__(self, joints="RRPR", kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
+    def __init__(self, joints=None, kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
                  restarts=_DEFAULTS.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
@@ -302,34 +303,50 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     # fitting ---------------------------------------------------------------
     @property
     def n_joints(self):
-        return len(self.joints)
+        return len(self._joint_types())
 
-    def _inputs(self, X):
+    def _joint_types(self, fitted=True):
+        """The joint types X is read against: the fitted model's (fitted=False: as fit reads them, from the
+        parameters), else joints, else robot's, else "RRPR"."""
+        if fitted and hasattr(self, "model_"):
+            return self.model_.joints
+        if self.joints is not None:
+            return str(self.joints)
+        if getattr(self, "robot", None) is not None:
+            return (self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))).joint_types
+        return "RRPR"  # the SCARA's, the default before robot= could tell
+
+    def _inputs(self, X, fitting=False):
         """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix."""
-        n = self.n_joints
+        joints = self._joint_types(fitted=not fitting)
+        n = len(joints)
         X = _as_matrix("X", X, 3 * n if np.ndim(X) == 1 else None)  # a 1-D X of 3n values is one row
         if X.shape[1] != 3 * n:
             got = X.shape[1]
-            if hasattr(self, "model_"):
+            if hasattr(self, "model_") and not fitting:
                 fix = "the model was trained on these joints; give it rows of their q, qd, qdd"
+            elif self.joints is None and getattr(self, "robot", None) is not None and got % 3 == 0 and got > 0:
+                fix = (f"they are the joints of robot={self.robot!r}, and {got} columns are {got // 3} joints: give the "
+                       f"robot that made these rows")
             elif got % 3 == 0 and got > 0:
                 fix = (f"set joints= to one R (revolute) or P (prismatic) per joint of your robot: {got} columns "
                        f"are {got // 3} joints, e.g. joints={'R' * (got // 3)!r}")
             else:
                 fix = "X needs q, qd and qdd of every joint, in that order"
-            raise ValueError(f"X must have {3 * n} columns (q, qd, qdd of joints={str(self.joints)!r}), got {got}: {fix}")
+            raise ValueError(f"X must have {3 * n} columns (q, qd, qdd of joints={joints!r}), got {got}: {fix}")
         return X
 
     def _training_arrays(self, X, Y):
         """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
-        n = self.n_joints
-        X = self._inputs(X)
+        joints = self._joint_types(fitted=False)
+        n = len(joints)
+        X = self._inputs(X, fitting=True)
         Y = _as_matrix("Y", Y, n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
         X, Y = np.asfortranarray(X), np.asfortranarray(Y)
         if np.isfinite(X).all():
-            for message in _core.training_input_warnings(X, str(self.joints), "X"):
+            for message in _core.training_input_warnings(X, joints, "X"):
                 warnings.warn(message, DataWarning, stacklevel=3)
         return X, Y
 
@@ -344,13 +361,14 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
         options = self.train_options()
         self._warn_about_a_long_exact_fit(options, teacher, X.shape[0])
-        fit = _core.fit(X, Y, str(self.joints), options, teacher, bool(self.verbose))
+        joints = self._joint_types(fitted=False)
+        fit = _core.fit(X, Y, joints, options, teacher, bool(self.verbose))
         self.model_ = fit["model"]
         self.teaching_ = fit["teaching"]
         if teacher is not None:
             self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
             if fit["teacher"] is not None:
-                self.teacher_ = LagrangianGP(joints=self.joints, friction=teacher.name == "lip+friction")
+                self.teacher_ = LagrangianGP(joints=joints, friction=teacher.name == "lip+friction")
                 self.teacher_.model_ = fit["teacher"]
                 self.teacher_._set_fitted_attributes()
             self.teacher_report_ = fit["teacher_report"]
@@ -369,7 +387,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     def _warn_about_a_long_exact_fit(self, options, teacher, rows):
         # The library's rule, as `gipdyn train`'s note; the fix in this class's keywords.
-        warning = _core.long_exact_fit_warning(_core.exact_hyperparameter_rows(options, teacher, rows, self.n_joints))
+        warning = _core.long_exact_fit_warning(_core.exact_hyperparameter_rows(options, teacher, rows, len(self._joint_types(fitted=False))))
         if warning:
             warnings.warn(
                 warning + ", so this fit may take hours. hyperparameter_rows=2000 learns them on a subsample and "
@@ -399,7 +417,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         return self
 
     def fit_trajectory(self, q, qd, qdd, tau):
-        n = self.n_joints
+        n = len(self._joint_types(fitted=False))
         q, qd, qdd = (_as_matrix(name, a, n) for name, a in (("q", q), ("qd", qd), ("qdd", qdd)))
         if not (q.shape == qd.shape == qdd.shape):
             raise ValueError("q, qd and qdd must have the same shape")
@@ -561,7 +579,7 @@ class LagrangianGP(InverseDynamicsGP):
 
     def fit(self, X, Y):
         X, Y = self._training_arrays(X, Y)
-        self.model_ = _core.train_lagrangian(X, Y, str(self.joints), self.train_options(), bool(self.verbose),
+        self.model_ = _core.train_lagrangian(X, Y, self._joint_types(fitted=False), self.train_options(), bool(self.verbose),
                                              bool(self.friction))
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)

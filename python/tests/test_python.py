@@ -210,6 +210,22 @@ def test_inputs_of_another_joint_count_name_the_joints_and_the_fix():
     assert m.predict(d["X"][0]).shape == (1, 4)  # one state as a 1-D row
 
 
+def test_a_robot_gives_the_joint_types_when_joints_is_not_given():
+    # pp on a UR10 log with robot="ur10" alone: the robot's RRRRRR, not the SCARA's default.
+    d = gipdyn.simulate("ur10", samples=60, seed=3)
+    m = gipdyn.InverseDynamicsGP(kernel="pp", robot="ur10", max_iter=5).fit(d["X"], d["tau"])
+    assert m.model_.joints == "RRRRRR" and m.predict_one(d["X"][0]).shape == (6,)
+    # A robot of another joint count than X: the message names the robot.
+    with pytest.raises(ValueError) as err:
+        gipdyn.InverseDynamicsGP(kernel="pp", robot="scara", max_iter=5).fit(d["X"], d["tau"])
+    assert "X must have 12 columns (q, qd, qdd of joints='RRPR'), got 18" in str(err.value)
+    assert "they are the joints of robot='scara'" in str(err.value)
+    # joints, when given, wins; a refit after set_params reads X against the new joints, not the fitted model's.
+    s = gipdyn.simulate("scara", samples=40, seed=3)
+    m.set_params(kernel="rbf", robot=None, joints="RRPR")
+    assert m.fit(s["X"], s["tau"]).model_.joints == "RRPR"
+
+
 def test_one_joint_takes_a_1d_target_like_scikit_learn():
     # A pendulum's torque as a 1-D y: one value per row, the same model as with a column.
     rng = np.random.default_rng(3)

@@ -871,6 +871,24 @@ def test_train_and_inspect_take_the_joint_types_a_simulated_logs_sidecar_records
         assert r.returncode == 0, r.stderr
 
 
+def test_a_model_based_estimator_takes_the_joint_types_of_its_robot(gipdyn_bin, tmp_path):
+    # A log without a sidecar: --robot knows the joint types (the SCARA's third is prismatic).
+    log = tmp_path / "scara.csv"
+    r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "80", "--seed", "1", "--out", str(log), "--quiet")
+    assert r.returncode == 0, r.stderr
+    (tmp_path / "scara.csv.json").unlink()
+    r = run(gipdyn_bin, "train", "--data", str(log), "--kernel", "fe", "--robot", "scara", "--out",
+            str(tmp_path / "fe.gipdyn"))
+    assert r.returncode == 0, r.stderr
+    assert model_header(tmp_path / "fe.gipdyn")["joints"] == "RRPR"
+    # A robot of another joint count than the log's columns: one line naming both, and no model.
+    r = run(gipdyn_bin, "train", "--data", str(log), "--kernel", "fe", "--robot", "ur10", "--out",
+            str(tmp_path / "bad.gipdyn"))
+    assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
+    assert "--robot ur10 has 6 joints (RRRRRR) but" in r.stderr and "has 4 (q1..q4)" in r.stderr, r.stderr
+    assert not (tmp_path / "bad.gipdyn").exists()
+
+
 def test_train_and_inspect_without_joints_say_how_many_the_log_has(trained, gipdyn_bin, tmp_path):
     d, _, _ = trained
     for command in (["train", "--out", str(tmp_path / "m.gipdyn")], ["inspect"]):
