@@ -326,7 +326,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             if hasattr(self, "model_") and not fitting:
                 fix = "the model was trained on these joints; give it rows of their q, qd, qdd"
             elif self.joints is None and getattr(self, "robot", None) is not None and got % 3 == 0 and got > 0:
-                fix = (f"they are the joints of robot={self.robot!r}, and {got} columns are {got // 3} joints: give the "
+                robot = self.robot.name if isinstance(self.robot, Robot) else self.robot
+                fix = (f"they are the joints of robot={robot!r}, and {got} columns are {got // 3} joints: give the "
                        f"robot that made these rows")
             elif got % 3 == 0 and got > 0:
                 fix = (f"set joints= to one R (revolute) or P (prismatic) per joint of your robot: {got} columns "

@@ -220,6 +220,8 @@ def test_a_robot_gives_the_joint_types_when_joints_is_not_given():
         gipdyn.InverseDynamicsGP(kernel="pp", robot="scara", max_iter=5).fit(d["X"], d["tau"])
     assert "X must have 12 columns (q, qd, qdd of joints='RRPR'), got 18" in str(err.value)
     assert "they are the joints of robot='scara'" in str(err.value)
+    with pytest.raises(ValueError, match="they are the joints of robot='scara'"):  # a Robot object, by its name
+        gipdyn.InverseDynamicsGP(kernel="pp", robot=gipdyn.Robot.load("scara"), max_iter=5).fit(d["X"], d["tau"])
     # joints, when given, wins; a refit after set_params reads X against the new joints, not the fitted model's.
     s = gipdyn.simulate("scara", samples=40, seed=3)
     m.set_params(kernel="rbf", robot=None, joints="RRPR")
