@@ -10,7 +10,9 @@
 #include "gipdyn/kernels/gip_kernel.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
+#include "gipdyn/kernels/parametric_kernel.hpp"
 #include "gipdyn/kernels/rbf_kernel.hpp"
+#include "gipdyn/robot/robot_loader.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -175,6 +177,35 @@ TEST(MeanPlan, PlannedMeanEqualsTheRowDottedWithAlpha) {
       const double expected = row.dot(alpha), scale = row.cwiseProduct(alpha).cwiseAbs().sum();
       EXPECT_NEAR(k->mean_one(z.data(), Z, alpha, plan, krow, scratch), expected, 1e-13 * scale) << name;
       EXPECT_NEAR(k->mean_one(z.data(), Z, alpha, empty, krow, scratch), expected, 1e-13 * scale) << name;
+    }
+  }
+}
+
+// pp's k(z, Z) for one query (a predictive variance's) reads the regressor of Z
+// that the scratch keeps: it must equal cross() for every joint sharing one
+// scratch, with and without friction, also after Z's rows change in place.
+TEST(ParametricKernel, RowFromTheKeptRegressorEqualsCrossAndFollowsZ) {
+  const auto robot = std::make_shared<const RobotModel>(load_robot("ur10"));
+  const JointTypes joints = robot->joint_types();
+  const Eigen::MatrixXd Zq = random_inputs(joints, 3, 92);
+  KernelScratch scratch;
+  for (bool friction : {false, true}) {
+    Eigen::MatrixXd Z = random_inputs(joints, 25, 91);
+    for (int round = 0; round < 2; ++round) {
+      if (round == 1) Z.row(7) = Zq.row(0);  // the same matrix, another row 7
+      for (int j = 0; j < robot->num_joints(); ++j) {
+        ParametricKernel k(robot, j, friction);
+        k.set_log_params(random_vector(k.num_params(), -1.0, 1.0, 93 + j));
+        Eigen::MatrixXd K;
+        k.cross(Zq, Z, K);
+        Eigen::VectorXd row(Z.rows());
+        for (int q = 0; q < Zq.rows(); ++q) {
+          const Eigen::VectorXd z = Zq.row(q).transpose();
+          k.row(z.data(), Z, row, scratch);
+          EXPECT_LT((row.transpose() - K.row(q)).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + K.row(q).cwiseAbs().maxCoeff()))
+              << "round " << round << " friction " << friction << " joint " << j + 1 << " query " << q;
+        }
+      }
     }
   }
 }

@@ -173,6 +173,21 @@ TEST(NoAllocation, ModelBasedKernelQueriesUseOneRegressorAndDoNotAllocate) {
               0)
         << kernel;
     EXPECT_LT((single - batch).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + batch.cwiseAbs().maxCoeff())) << kernel;
+    // The standard deviation of one query (k(z, Z) from the regressor of Z the
+    // scratch keeps) answers as the batch's.
+    const InverseDynamicsModel with_variance = r.model.with_variance();
+    Eigen::MatrixXd mean, stddev;
+    with_variance.predict(Xq, mean, &stddev);
+    PredictionWorkspace variance_ws(with_variance);
+    Eigen::VectorXd sd(4);
+    for (int k = 0; k < 10; ++k) {
+      for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
+      variance_ws.predict(x.data(), tau.data(), sd.data());
+      for (int j = 0; j < 4; ++j) {
+        EXPECT_NEAR(tau(j), mean(k, j), 1e-10 * (1.0 + std::abs(mean(k, j)))) << kernel;
+        EXPECT_NEAR(sd(j), stddev(k, j), 1e-6 * stddev(k, j) + 1e-12) << kernel << " joint " << j + 1;
+      }
+    }
   }
 }
 

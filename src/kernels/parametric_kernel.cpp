@@ -65,11 +65,16 @@ double ParametricKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, con
                                   const MeanPlan& plan, Eigen::Ref<Eigen::VectorXd> krow,
                                   KernelScratch& scratch) const {
   if (plan.weights.size() != log_params_.size()) return Kernel::mean_one(z, Z, alpha, plan, krow, scratch);
+  return query_regressor(z, scratch).row(joint_).dot(plan.weights);
+}
+
+const Eigen::MatrixXd& ParametricKernel::query_regressor(const double* z, KernelScratch& scratch) const {
   const int n = robot_->num_joints();
   if (!scratch.regressor || scratch.regressor_robot != robot_.get()) {
     scratch.regressor = std::make_shared<RegressorWorkspace>(*robot_);
     scratch.regressor_robot = robot_.get();
     scratch.regressor_query.resize(0);
+    scratch.training_regressor_of.resize(0, 0);
   }
   // Byte equality, so a query that differs from the last one in anything (even
   // the sign of a zero) gets its own regressor.
@@ -84,7 +89,29 @@ double ParametricKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, con
     std::memcpy(scratch.regressor_query.data(), z, query_bytes);
     scratch.regressor_friction = with_friction_;
   }
-  return scratch.regressor_rows.row(joint_).dot(plan.weights);
+  return scratch.regressor_rows;
+}
+
+void ParametricKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+                           KernelScratch& scratch) const {
+  const int n = robot_->num_joints();
+  const Eigen::Index N = Z.rows(), P = log_params_.size();
+  if (Z.cols() < 3 * n) throw Error("parametric kernel: inputs have fewer than 3n columns");
+  const Eigen::MatrixXd& phi = query_regressor(z, scratch);  // first: a new robot clears the cache below
+  // Compared by content, not by address: a scratch may outlive the Z it was given.
+  // (P tells friction columns apart.)
+  const Eigen::MatrixXd& cached = scratch.training_regressor_of;
+  const bool same_rows = cached.rows() == N && cached.cols() == 3 * n && scratch.training_regressor.cols() == P &&
+                         cached == Z.leftCols(3 * n);
+  if (!same_rows) {
+    scratch.training_regressor_of = Z.leftCols(3 * n);
+    scratch.training_regressor = stacked_regressor(*robot_, scratch.training_regressor_of, with_friction_);
+  }
+  scratch.regressor_weights = variances_.cwiseProduct(phi.row(joint_).transpose());
+  // Joint joint_'s rows of the stacked regressor: every n-th row from joint_ on.
+  const Eigen::Map<const Eigen::MatrixXd, 0, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>> rows(
+      scratch.training_regressor.data() + joint_, N, P, Eigen::Stride<Eigen::Dynamic, Eigen::Dynamic>(N * n, n));
+  out.noalias() = rows * scratch.regressor_weights;
 }
 
 void ParametricKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {

@@ -54,6 +54,11 @@ struct KernelScratch {
   Eigen::MatrixXd regressor_rows;
   Eigen::VectorXd regressor_query;
   bool regressor_friction = false;
+  // The parametric kernel's row(): the stacked regressor (row r n + i: joint i of
+  // training row r) of the rows in training_regressor_of, which row() compares
+  // with the Z it is given, so that a query's k(z, Z) costs one regressor, not N.
+  Eigen::MatrixXd training_regressor, training_regressor_of;
+  Eigen::VectorXd regressor_weights;
 };
 
 class Kernel {

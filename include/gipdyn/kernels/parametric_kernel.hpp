@@ -53,6 +53,10 @@ class ParametricKernel final : public Kernel {
   void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
   double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,
                   Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const override;
+  // k(z, Z) = Phi(Z) diag(s) phi(z) from the regressor of Z, computed once per
+  // scratch and Z (a predictive variance's query: one regressor, not N).
+  void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
+           KernelScratch& scratch) const override;
 
   // Regressor rows of the kernel's joint for every row of Z (reads the first 3n columns).
   Eigen::MatrixXd features(const Eigen::MatrixXd& Z) const;
@@ -69,6 +73,10 @@ class ParametricKernel final : public Kernel {
   std::shared_ptr<const RobotModel> robot_;
   int joint_;
   bool with_friction_;
+  // Every joint's regressor rows of the query z (n x P), computed once for the
+  // joints of one query that share the scratch.
+  const Eigen::MatrixXd& query_regressor(const double* z, KernelScratch& scratch) const;
+
   Eigen::VectorXd log_params_, variances_;
   double target_variance_ = 0.0;  // of initialize(); 0 before it
 };
