@@ -79,15 +79,13 @@ const Eigen::MatrixXd& ParametricKernel::query_regressor(const double* z, Kernel
   // Byte equality, so a query that differs from the last one in anything (even
   // the sign of a zero) gets its own regressor.
   const size_t query_bytes = 3 * static_cast<size_t>(n) * sizeof(double);
-  const bool same_query = scratch.regressor_query.size() == 3 * n && scratch.regressor_friction == with_friction_ &&
-                          scratch.regressor_rows.cols() == log_params_.size() &&
+  const bool same_query = scratch.regressor_query.size() == 3 * n && scratch.regressor_rows.cols() == log_params_.size() &&
                           std::memcmp(scratch.regressor_query.data(), z, query_bytes) == 0;
   if (!same_query) {
     scratch.regressor_rows.resize(n, log_params_.size());
     regressor_into(*robot_, z, z + n, z + 2 * n, with_friction_, *scratch.regressor, scratch.regressor_rows);
     scratch.regressor_query.resize(3 * n);
     std::memcpy(scratch.regressor_query.data(), z, query_bytes);
-    scratch.regressor_friction = with_friction_;
   }
   return scratch.regressor_rows;
 }

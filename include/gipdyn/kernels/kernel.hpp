@@ -48,12 +48,12 @@ struct KernelScratch {
   // The parametric kernel's rigid-body regressor of one query (every joint's
   // row) and the buffers that compute it, made on first use for regressor_robot.
   // Every joint's model of a query asks for the same regressor in turn: the first
-  // computes it for regressor_query (and regressor_friction), the others read it.
+  // computes it for regressor_query, the others read it (its column count tells
+  // friction columns apart).
   std::shared_ptr<RegressorWorkspace> regressor;
   const void* regressor_robot = nullptr;
   Eigen::MatrixXd regressor_rows;
   Eigen::VectorXd regressor_query;
-  bool regressor_friction = false;
   // The parametric kernel's row(): the stacked regressor (row r n + i: joint i of
   // training row r) of the rows in training_regressor_of, which row() compares
   // with the Z it is given, so that a query's k(z, Z) costs one regressor, not N.
