@@ -316,9 +316,12 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             return (self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))).joint_types
         return "RRPR"  # the SCARA's, the default before robot= could tell
 
-    def _inputs(self, X, fitting=False):
-        """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix."""
-        joints = self._joint_types(fitted=not fitting)
+    def _inputs(self, X, joints=None):
+        """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix.
+        joints: those a fit reads X against (_joint_types(fitted=False)); None: the fitted model's."""
+        fitting = joints is not None
+        if joints is None:
+            joints = self._joint_types()
         n = len(joints)
         X = _as_matrix("X", X, 3 * n if np.ndim(X) == 1 else None)  # a 1-D X of 3n values is one row
         if X.shape[1] != 3 * n:
@@ -337,11 +340,10 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             raise ValueError(f"X must have {3 * n} columns (q, qd, qdd of joints={joints!r}), got {got}: {fix}")
         return X
 
-    def _training_arrays(self, X, Y):
+    def _training_arrays(self, X, Y, joints):
         """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
-        joints = self._joint_types(fitted=False)
         n = len(joints)
-        X = self._inputs(X, fitting=True)
+        X = self._inputs(X, joints)
         Y = _as_matrix("Y", Y, n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
@@ -352,7 +354,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         return X, Y
 
     def fit(self, X, Y):
-        X, Y = self._training_arrays(X, Y)
+        joints = self._joint_types(fitted=False)  # once: robot= may name a file to load
+        X, Y = self._training_arrays(X, Y, joints)
         rows = self._training_rows(X.shape[0])
         if rows is not None:
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
@@ -361,8 +364,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             # teacher="auto" steps aside for a distributed fit (automatic_teaching_applies), as train's default does.
             raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
         options = self.train_options()
-        self._warn_about_a_long_exact_fit(options, teacher, X.shape[0])
-        joints = self._joint_types(fitted=False)
+        self._warn_about_a_long_exact_fit(options, teacher, X.shape[0], len(joints))
         fit = _core.fit(X, Y, joints, options, teacher, bool(self.verbose))
         self.model_ = fit["model"]
         self.teaching_ = fit["teaching"]
@@ -386,9 +388,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         _warn_noisy_joints(self.model_)
         return self
 
-    def _warn_about_a_long_exact_fit(self, options, teacher, rows):
+    def _warn_about_a_long_exact_fit(self, options, teacher, rows, n_joints):
         # The library's rule, as `gipdyn train`'s note; the fix in this class's keywords.
-        warning = _core.long_exact_fit_warning(_core.exact_hyperparameter_rows(options, teacher, rows, len(self._joint_types(fitted=False))))
+        warning = _core.long_exact_fit_warning(_core.exact_hyperparameter_rows(options, teacher, rows, n_joints))
         if warning:
             warnings.warn(
                 warning + ", so this fit may take hours. hyperparameter_rows=2000 learns them on a subsample and "
@@ -579,8 +581,9 @@ class LagrangianGP(InverseDynamicsGP):
         return o
 
     def fit(self, X, Y):
-        X, Y = self._training_arrays(X, Y)
-        self.model_ = _core.train_lagrangian(X, Y, self._joint_types(fitted=False), self.train_options(), bool(self.verbose),
+        joints = self._joint_types(fitted=False)
+        X, Y = self._training_arrays(X, Y, joints)
+        self.model_ = _core.train_lagrangian(X, Y, joints, self.train_options(), bool(self.verbose),
                                              bool(self.friction))
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)

@@ -829,7 +829,7 @@ def test_a_long_exact_fit_is_warned_about_before_it_starts():
         model = gipdyn.InverseDynamicsGP(joints="RR", **params)
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model._warn_about_a_long_exact_fit(model.train_options(), model.teacher_options(), rows)
+            model._warn_about_a_long_exact_fit(model.train_options(), model.teacher_options(), rows, model.n_joints)
         return [w for w in caught if issubclass(w.category, gipdyn.LongFitWarning)]
 
     long = warned(8000)
