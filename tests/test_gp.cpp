@@ -196,7 +196,7 @@ TEST(ExactGp, PosteriorInterpolatesWithSmallNoiseAndVarianceShrinks) {
   Eigen::VectorXd krow(30), v(30);
   const Eigen::RowVectorXd z = Z.row(4);
   EXPECT_NEAR(gp.predict_mean_one(z.data(), Z, krow, s), mean(4), 1e-9 * std::abs(mean(4)) + 1e-12);
-  EXPECT_NEAR(gp.predict_variance_one(z.data(), fm.feature_dim(), krow, v), var(4), 1e-9 * prior(4));
+  EXPECT_NEAR(gp.predict_variance_one(z.data(), fm.feature_dim(), krow, v, s), var(4), 1e-9 * prior(4));
 }
 
 }  // namespace

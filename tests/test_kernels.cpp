@@ -198,11 +198,15 @@ TEST(ParametricKernel, RowFromTheKeptRegressorEqualsCrossAndFollowsZ) {
         k.set_log_params(random_vector(k.num_params(), -1.0, 1.0, 93 + j));
         Eigen::MatrixXd K;
         k.cross(Zq, Z, K);
-        Eigen::VectorXd row(Z.rows());
+        Eigen::VectorXd row(Z.rows()), diagonal;
+        k.diagonal(Zq, diagonal);
         for (int q = 0; q < Zq.rows(); ++q) {
           const Eigen::VectorXd z = Zq.row(q).transpose();
           k.row(z.data(), Z, row, scratch);
           EXPECT_LT((row.transpose() - K.row(q)).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + K.row(q).cwiseAbs().maxCoeff()))
+              << "round " << round << " friction " << friction << " joint " << j + 1 << " query " << q;
+          // k(z, z) from the query's regressor the scratch keeps.
+          EXPECT_NEAR(k.self(z.data(), static_cast<int>(z.size()), scratch), diagonal(q), 1e-12 * (1.0 + diagonal(q)))
               << "round " << round << " friction " << friction << " joint " << j + 1 << " query " << q;
         }
       }
@@ -273,7 +277,7 @@ TEST(FrictionKernel, ValueGradientsAndFastPathsMatchTheFormula) {
   EXPECT_LT((row.transpose() - K.row(4)).cwiseAbs().maxCoeff(), 1e-12);
   k.diagonal(Z1, d);
   const Eigen::RowVectorXd z = Z1.row(2);
-  EXPECT_NEAR(k.self(z.data(), fm.feature_dim()), d(2), 1e-12);
+  EXPECT_NEAR(k.self(z.data(), fm.feature_dim(), scratch), d(2), 1e-12);
   EXPECT_NEAR(d(2), naive(z(fm.qd(2)), z(fm.qd(2))), 1e-12);
   // Only the joint's own velocity matters.
   Eigen::MatrixXd Z3 = Z1;
@@ -364,7 +368,7 @@ TEST_P(GipKernelTest, ValueMatchesNaiveFormula) {
     const Eigen::RowVectorXd z = Z1.row(2);
     k.row(z.data(), Z2, row, scratch);
     EXPECT_LT((row - K.row(2).transpose()).norm() / K.row(2).norm(), 1e-13);
-    EXPECT_NEAR(k.self(z.data(), fm.feature_dim()), K11(2, 2), 1e-12 * std::abs(K11(2, 2)));
+    EXPECT_NEAR(k.self(z.data(), fm.feature_dim(), scratch), K11(2, 2), 1e-12 * std::abs(K11(2, 2)));
     // Fused lower-triangle Gram equals cross() on the lower triangle.
     Eigen::MatrixXd G(Z1.rows(), Z1.rows());
     k.gram_lower(Z1, G, scratch);

@@ -552,8 +552,11 @@ TEST(EnvelopeKernel, KeepsInRangeAccuracyAndRevertsToThePriorFarAway) {
     const double y_mean = Ytr.col(j).mean();
     const double y_std = std::sqrt((Ytr.col(j).array() - y_mean).square().mean());
     EXPECT_LT((mean.col(j).array() - y_mean).abs().maxCoeff(), 0.05 * y_std) << "joint " << j + 1;
-    const double prior_std = env.model.output_scale()(j) * std::sqrt(env.model.joint_gp(j).kernel().self(
-                                 env.model.features().compute(far.row(0)).data(), env.model.features().feature_dim()));
+    KernelScratch scratch;
+    const double prior_std =
+        env.model.output_scale()(j) * std::sqrt(env.model.joint_gp(j).kernel().self(
+                                          env.model.features().compute(far.row(0)).data(),
+                                          env.model.features().feature_dim(), scratch));
     EXPECT_NEAR(stddev(0, j), prior_std, 0.05 * prior_std) << "joint " << j + 1;
     EXPECT_GT(gip_far.col(j).cwiseAbs().maxCoeff(), 10.0 * Ytr.col(j).cwiseAbs().maxCoeff());  // the polynomial runs away
   }

@@ -174,20 +174,32 @@ TEST(NoAllocation, ModelBasedKernelQueriesUseOneRegressorAndDoNotAllocate) {
         << kernel;
     EXPECT_LT((single - batch).cwiseAbs().maxCoeff(), 1e-10 * (1.0 + batch.cwiseAbs().maxCoeff())) << kernel;
     // The standard deviation of one query (k(z, Z) from the regressor of Z the
-    // scratch keeps) answers as the batch's.
+    // scratch keeps, k(z, z) from the query's) answers as the batch's, and
+    // allocates nothing once the first query has computed the regressor of Z.
     const InverseDynamicsModel with_variance = r.model.with_variance();
     Eigen::MatrixXd mean, stddev;
     with_variance.predict(Xq, mean, &stddev);
     PredictionWorkspace variance_ws(with_variance);
     Eigen::VectorXd sd(4);
-    for (int k = 0; k < 10; ++k) {
-      for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
-      variance_ws.predict(x.data(), tau.data(), sd.data());
+    Eigen::MatrixXd single_sd(10, 4);
+    variance_ws.predict(Xq.row(9).transpose().eval().data(), tau.data(), sd.data());  // warm-up
+    EXPECT_EQ(allocations_during([&] {
+                for (int k = 0; k < 10; ++k) {
+                  for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
+                  variance_ws.predict(x.data(), tau.data(), sd.data());
+                  for (int j = 0; j < 4; ++j) {
+                    single(k, j) = tau(j);
+                    single_sd(k, j) = sd(j);
+                  }
+                }
+              }),
+              0)
+        << kernel << " with standard deviations";
+    for (int k = 0; k < 10; ++k)
       for (int j = 0; j < 4; ++j) {
-        EXPECT_NEAR(tau(j), mean(k, j), 1e-10 * (1.0 + std::abs(mean(k, j)))) << kernel;
-        EXPECT_NEAR(sd(j), stddev(k, j), 1e-6 * stddev(k, j) + 1e-12) << kernel << " joint " << j + 1;
+        EXPECT_NEAR(single(k, j), mean(k, j), 1e-10 * (1.0 + std::abs(mean(k, j)))) << kernel;
+        EXPECT_NEAR(single_sd(k, j), stddev(k, j), 1e-6 * stddev(k, j) + 1e-12) << kernel << " joint " << j + 1;
       }
-    }
   }
 }
 

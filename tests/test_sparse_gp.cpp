@@ -161,7 +161,7 @@ TEST(SparseGp, EqualsTheExactGpWhenEveryRowIsInducing) {
   KernelScratch scratch;
   const Eigen::VectorXd z0 = Zs.row(3).transpose();
   EXPECT_NEAR(sgp.predict_mean_one(z0.data(), p.Z, krow, scratch), ms(3), 1e-12);
-  EXPECT_NEAR(sgp.predict_variance_one(z0.data(), static_cast<int>(Zs.cols()), krow, v), vs(3), 1e-10);
+  EXPECT_NEAR(sgp.predict_variance_one(z0.data(), static_cast<int>(Zs.cols()), krow, v, scratch), vs(3), 1e-10);
 }
 
 // Fewer inducing rows: F bounds the exact NLL from above, and the bound tightens as rows are added.

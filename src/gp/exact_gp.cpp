@@ -348,11 +348,11 @@ double GpRegressor::predict_mean_one(const double* z, const Eigen::MatrixXd& Z, 
 }
 
 double GpRegressor::predict_variance_one(const double* z, int feature_dim,
-                                         const Eigen::Ref<const Eigen::VectorXd>& krow,
-                                         Eigen::Ref<Eigen::VectorXd> v) const {
+                                         const Eigen::Ref<const Eigen::VectorXd>& krow, Eigen::Ref<Eigen::VectorXd> v,
+                                         KernelScratch& scratch) const {
   v = krow;
   L_.triangularView<Eigen::Lower>().solveInPlace(v);  // dtrsv
-  double var = kernel_->self(z, feature_dim) - v.squaredNorm();
+  double var = kernel_->self(z, feature_dim, scratch) - v.squaredNorm();
   if (is_sparse()) {
     v = krow;
     La_.triangularView<Eigen::Lower>().solveInPlace(v);

@@ -230,9 +230,9 @@ void ProductKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Ei
                      [](Eigen::Ref<Eigen::VectorXd> acc, const Eigen::VectorXd& part) { acc.array() *= part.array(); });
 }
 
-double ProductKernel::self(const double* z, int feature_dim) const {
+double ProductKernel::self(const double* z, int feature_dim, KernelScratch& scratch) const {
   double k = 1.0;
-  for (const auto& c : children_) k *= c->self(z, feature_dim);
+  for (const auto& c : children_) k *= c->self(z, feature_dim, scratch);
   return k;
 }
 
@@ -256,9 +256,9 @@ double SumKernel::mean_one(const double* z, const Eigen::MatrixXd& Z, const Eige
   return mean;
 }
 
-double SumKernel::self(const double* z, int feature_dim) const {
+double SumKernel::self(const double* z, int feature_dim, KernelScratch& scratch) const {
   double k = 0.0;
-  for (const auto& c : children_) k += c->self(z, feature_dim);
+  for (const auto& c : children_) k += c->self(z, feature_dim, scratch);
   return k;
 }
 

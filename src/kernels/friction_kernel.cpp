@@ -113,7 +113,7 @@ void FrictionKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) cons
   d = F.array().square().matrix() * s;
 }
 
-double FrictionKernel::self(const double* z, int /*feature_dim*/) const {
+double FrictionKernel::self(const double* z, int /*feature_dim*/, KernelScratch& /*scratch*/) const {
   const Eigen::Vector4d f = features(z[column_]);
   return f.array().square().matrix().dot(term_variances());
 }

@@ -216,11 +216,15 @@ void GipKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
   d.resize(Z.rows());
   for (Eigen::Index i = 0; i < Z.rows(); ++i) {
     const Eigen::RowVectorXd zi = Z.row(i);
-    d(i) = self(zi.data(), static_cast<int>(Z.cols()));
+    d(i) = value_at_itself(zi.data());
   }
 }
 
-double GipKernel::self(const double* z, int /*feature_dim*/) const {
+double GipKernel::self(const double* z, int /*feature_dim*/, KernelScratch& /*scratch*/) const {
+  return value_at_itself(z);
+}
+
+double GipKernel::value_at_itself(const double* z) const {
   auto factor = [&](const Factor& f) {
     double v = weights_(f.offset);
     for (size_t d = 0; d < f.columns.size(); ++d)

@@ -66,7 +66,7 @@ void Kernel::contract_diagonal(const Eigen::MatrixXd& Z, const Eigen::VectorXd& 
   }
 }
 
-double Kernel::self(const double* z, int feature_dim) const {
+double Kernel::self(const double* z, int feature_dim, KernelScratch& /*scratch*/) const {
   const Eigen::MatrixXd zq = Eigen::Map<const Eigen::RowVectorXd>(z, feature_dim);
   Eigen::VectorXd d;
   diagonal(zq, d);

@@ -82,7 +82,7 @@ void LinearKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eig
     out.noalias() += (weight(static_cast<int>(d)) * z[columns_[d]]) * Z.col(columns_[d]);
 }
 
-double LinearKernel::self(const double* z, int /*feature_dim*/) const {
+double LinearKernel::self(const double* z, int /*feature_dim*/, KernelScratch& /*scratch*/) const {
   double k = bias_value();
   for (size_t d = 0; d < columns_.size(); ++d) k += weight(static_cast<int>(d)) * z[columns_[d]] * z[columns_[d]];
   return k;

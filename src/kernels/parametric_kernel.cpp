@@ -112,6 +112,10 @@ void ParametricKernel::row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref
   out.noalias() = rows * scratch.regressor_weights;
 }
 
+double ParametricKernel::self(const double* z, int /*feature_dim*/, KernelScratch& scratch) const {
+  return query_regressor(z, scratch).row(joint_).array().square().matrix().dot(variances_);
+}
+
 void ParametricKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
   const Eigen::MatrixXd P1 = features(Z1);
   if (&Z1 == &Z2) {

@@ -70,7 +70,7 @@ void RbfKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
   d = Eigen::VectorXd::Constant(Z.rows(), std::exp(log_params_(0)));
 }
 
-double RbfKernel::self(const double* /*z*/, int /*feature_dim*/) const { return std::exp(log_params_(0)); }
+double RbfKernel::self(const double* /*z*/, int /*feature_dim*/, KernelScratch& /*scratch*/) const { return std::exp(log_params_(0)); }
 
 void RbfKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,
                                 Eigen::MatrixXd& dK) const {

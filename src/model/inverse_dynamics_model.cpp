@@ -285,7 +285,7 @@ void PredictionWorkspace::predict(const double* x, double* tau, double* stddev) 
     const GpRegressor& gp = m.joint_gp(j);
     const double f = gp.predict_mean_one(z_.data(), Z, krow_, scratch_) + m.joint_mean(j).evaluate_one(x);
     tau[j] = m.output_offset()(j) + m.output_scale()(j) * f;
-    stddev[j] = m.output_scale()(j) * std::sqrt(gp.predict_variance_one(z_.data(), dim, krow_, v_));
+    stddev[j] = m.output_scale()(j) * std::sqrt(gp.predict_variance_one(z_.data(), dim, krow_, v_, scratch_));
   }
 }
 

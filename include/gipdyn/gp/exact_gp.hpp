@@ -119,9 +119,10 @@ class GpRegressor {
   // for kernels that implement Kernel::row without it.
   double predict_mean_one(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> krow,
                           KernelScratch& scratch) const;
-  // Variance for the krow computed by predict_mean_one (v is an N-vector buffer).
+  // Variance for the krow computed by predict_mean_one with the same scratch (v
+  // is an N-vector buffer).
   double predict_variance_one(const double* z, int feature_dim, const Eigen::Ref<const Eigen::VectorXd>& krow,
-                              Eigen::Ref<Eigen::VectorXd> v) const;
+                              Eigen::Ref<Eigen::VectorXd> v, KernelScratch& scratch) const;
 
   const Kernel& kernel() const { return *kernel_; }
   Kernel& kernel() { return *kernel_; }

@@ -53,7 +53,7 @@ class ProductKernel : public CompositeKernel {
   // N-vector allocated per further child.
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
-  double self(const double* z, int feature_dim) const override;
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
 };
 
 // k = structured(x, x') * envelope(x, x') with an RBF envelope of long
@@ -95,7 +95,7 @@ class SumKernel final : public CompositeKernel {
   // As ProductKernel::row, summing.
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
-  double self(const double* z, int feature_dim) const override;
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
   // One plan per child: a finite expansion among them (friction) costs O(features) a query.
   void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
   double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,

@@ -50,7 +50,7 @@ class FrictionKernel final : public Kernel {
                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
-  double self(const double* z, int feature_dim) const override;
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
   // Rank 4: k(z, Z) alpha = (s .* f(z)) . (F^T alpha), F folded once.
   void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
   double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,

@@ -44,7 +44,7 @@ class GipKernel final : public Kernel {
   bool fuses_nll_contraction() const override { return true; }
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
-  double self(const double* z, int feature_dim) const override;
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
 
   // Data-driven start (docs/method.md section 5): every factor's diagonal is about
   // target_variance^(1/#factors); each weight is divided by the mean square of its
@@ -63,6 +63,8 @@ class GipKernel final : public Kernel {
   bool has_friction() const { return friction_joint_ >= 0; }
 
  private:
+  // k(z, z), which needs no scratch.
+  double value_at_itself(const double* z) const;
   struct Factor {
     std::vector<int> columns;  // 1 or 2 position columns, or the acceleration group
     int offset;                // index of its log s0; weights follow

@@ -124,8 +124,8 @@ class Kernel {
   // override it do not allocate once the scratch has its size.
   virtual void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
                    KernelScratch& scratch) const;
-  // k(z, z).
-  virtual double self(const double* z, int feature_dim) const;
+  // k(z, z). Kernels that override it do not allocate once the scratch has its size.
+  virtual double self(const double* z, int feature_dim, KernelScratch& scratch) const;
   // k(z, Z) alpha for one query, through a plan that plan_mean made for the same
   // Z, alpha and hyperparameters (the model's, fixed once trained). krow (size
   // N) is a buffer. The defaults: no plan, and row() dotted with alpha; they do

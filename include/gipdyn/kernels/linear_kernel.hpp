@@ -30,7 +30,7 @@ class LinearKernel final : public Kernel {
                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
-  double self(const double* z, int feature_dim) const override;
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
 
   const std::vector<int>& columns() const { return columns_; }
   bool has_bias() const { return bias_; }

@@ -57,6 +57,8 @@ class ParametricKernel final : public Kernel {
   // scratch and Z (a predictive variance's query: one regressor, not N).
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
+  // phi(z) diag(s) phi(z)^T from the query's regressor the joints share (no allocation).
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
 
   // Regressor rows of the kernel's joint for every row of Z (reads the first 3n columns).
   Eigen::MatrixXd features(const Eigen::MatrixXd& Z) const;

@@ -28,7 +28,7 @@ class RbfKernel final : public Kernel {
                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
            KernelScratch& scratch) const override;
-  double self(const double* z, int feature_dim) const override;
+  double self(const double* z, int feature_dim, KernelScratch& scratch) const override;
 
   // variance = target_variance, lengthscale_d = standard deviation of column d.
   void initialize(const Eigen::MatrixXd& Z, double target_variance) override;
