@@ -203,13 +203,22 @@ Command add_train(CLI::App& app) {
       if (const std::string note = long_exact_fit_note(exact_hyperparameter_rows(o, data.rows(), joints.size()));
           !note.empty())
         std::printf("  %s\n", note.c_str());
-      // On a robot's log the taught model is usually thrown away, after the teacher's minutes
-      // (docs/training.md): say so before they are spent, where the log is not a simulated one.
-      if (o.teacher && o.teacher->mode == TeachingMode::Automatic && o.teacher->teaches(data.rows(), joints.size()) &&
-          sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator))
-        std::printf("  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there "
-                    "the model %s teaches is usually thrown away, after %s's fit (minutes on a 6-joint arm)\n",
-                    o.teacher->name.c_str(), o.teacher->name.c_str());
+      // Where the log is not a simulated one, it may be a robot's: there the taught model is usually
+      // thrown away after the teacher's minutes, and gip alone runs away from the training motions
+      // (docs/real-robots.md). Say so before the minutes are spent.
+      if (a->preset.empty() && o.name == "gip" &&
+          sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator)) {
+        const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
+        if (taught && o.teacher->mode == TeachingMode::Automatic)
+          std::printf("  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): "
+                      "there the model %s teaches is usually thrown away, after %s's fit (minutes on a 6-joint arm)\n",
+                      o.teacher->name.c_str(), o.teacher->name.c_str());
+        else if (!taught)
+          std::printf("  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): "
+                      "there gip alone extrapolates its polynomial away from the training motions (the shared UR10 "
+                      "log, 1000 rows: mean test nMSE 2.1 and 542 on its two splits, against 0.79 and 0.57 with "
+                      "--preset real)\n");
+      }
       std::fflush(stdout);
     }
     std::mutex mu;

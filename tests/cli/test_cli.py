@@ -302,6 +302,15 @@ def test_train_by_default_keeps_lips_teaching_only_where_the_taught_model_fits_t
     r = run(gipdyn_bin, "train", "--data", log, *common, "--teacher", "none", "--out", str(none))
     assert r.returncode == 0, r.stderr
     assert "--teacher-hyperparameter-rows has no effect: --teacher none trains without a teacher" in r.stderr
+    # gip alone on a log that may be a robot's: the recommendation for those, with what gip does there.
+    assert "--preset real is the recommendation" in r.stdout and "gip alone extrapolates" in r.stdout
+    # Not on a log that simulate wrote, nor where a preset is given.
+    simulated = tmp_path / "simulated.csv"
+    assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "40", "--out", str(simulated)).returncode == 0
+    for args in (["--data", str(simulated), "--teacher", "none"], ["--data", log, "--joints", "RR", "--preset", "real"]):
+        r = run(gipdyn_bin, "train", *args, "--max-iter", "3", "--out", str(tmp_path / "quiet.gipdyn"))
+        assert r.returncode == 0, r.stderr
+        assert "--preset real is the recommendation" not in r.stdout, args
     assert "teacher" not in model_header(none)
     test = write_dataset(tmp_path / "test.csv", 30, 2)
     predictions = []
