@@ -208,16 +208,17 @@ Command add_train(CLI::App& app) {
       // (docs/real-robots.md). Say so before the minutes are spent.
       if (a->preset.empty() && o.name == "gip" &&
           sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator)) {
+        const char* const recommendation =
+            "  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there";
         const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
         if (taught && o.teacher->mode == TeachingMode::Automatic)
-          std::printf("  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): "
-                      "there the model %s teaches is usually thrown away, after %s's fit (minutes on a 6-joint arm)\n",
-                      o.teacher->name.c_str(), o.teacher->name.c_str());
+          std::printf("%s the model %s teaches is usually thrown away, after %s's fit (minutes on a 6-joint arm)\n",
+                      recommendation, o.teacher->name.c_str(), o.teacher->name.c_str());
         else if (!taught)
-          std::printf("  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): "
-                      "there gip alone extrapolates its polynomial away from the training motions (the shared UR10 "
-                      "log, 1000 rows: mean test nMSE 2.1 and 542 on its two splits, against 0.79 and 0.57 with "
-                      "--preset real)\n");
+          std::printf("%s gip alone extrapolates its polynomial away from the training motions (the shared UR10 log, "
+                      "1000 rows: mean test nMSE 2.1 and 542 on its two splits, against 0.79 and 0.57 with --preset "
+                      "real)\n",
+                      recommendation);
       }
       std::fflush(stdout);
     }
