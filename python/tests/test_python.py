@@ -448,13 +448,6 @@ def test_python_control_loop_example_runs(tmp_path, fitted):
     assert "2000 torque queries, 4 joints: p50" in r.stdout and "gravity at q = 0.3" in r.stdout
 
 
-@pytest.mark.skipif(os.environ.get("GIPDYN_QUICKSTART_BIN") is None, reason="GIPDYN_QUICKSTART_BIN not set")
-def test_cpp_quickstart_example_runs():
-    r = subprocess.run([os.environ["GIPDYN_QUICKSTART_BIN"], "200", "20"], capture_output=True, text=True, timeout=300)
-    assert r.returncode == 0, r.stderr
-    assert "joint 4  nMSE" in r.stdout and "one sample" in r.stdout
-
-
 def test_ur10_real_example_runs(tmp_path):
     data = os.path.join(ROOT, "..", "shared", "data", "ur10-pick-and-place", "urPicknPlace.csv")
     if not os.path.exists(data):
