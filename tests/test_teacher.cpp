@@ -60,6 +60,9 @@ TEST(Teacher, SaysWhichFitsLearnOnTheLogWithAnExactGp) {
     o.name = other;
     EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 0) << other;
   }
+  o.name = "pp";  // with a mean, pp's NLL is the exact GP's, not the weight-space one
+  o.gp.mean = MeanKind::Constant;
+  EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 8000);
   EXPECT_EQ(long_exact_fit_warning(kLongExactFitRows - 1), "");
   EXPECT_NE(long_exact_fit_warning(kLongExactFitRows).find("8000 x 8000 matrix"), std::string::npos);
 }

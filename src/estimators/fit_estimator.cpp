@@ -118,7 +118,9 @@ bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints) {
 
 Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints) {
   const TrainOptions& gp = options.gp;
-  if (!is_gp_estimator(options.name) || options.name == "pp" || gp.inducing_points > 0 || gp.nll_backend ||
+  // pp with a zero mean fits in weight space (train_model), O(rows P^2) with P parameters.
+  const bool weight_space = options.name == "pp" && gp.mean == MeanKind::Zero;
+  if (!is_gp_estimator(options.name) || weight_space || gp.inducing_points > 0 || gp.nll_backend ||
       teaches(options, rows, joints))
     return 0;
   return gp.hyperparameter_rows > 0 && gp.hyperparameter_rows < rows ? gp.hyperparameter_rows : rows;

@@ -63,8 +63,8 @@ inline constexpr Eigen::Index kLongExactFitRows = 8000;
 
 // The rows on which fit_estimator's exact GP learns its hyperparameters from
 // a log of `rows` rows (all, or TrainOptions::hyperparameter_rows), or 0 where
-// no O(rows^3) factorisation sets the time: not a per-joint GP, pp (it fits in
-// weight space), a sparse or distributed fit, or one that is taught.
+// no O(rows^3) factorisation sets the time: not a per-joint GP, pp with a zero
+// mean (it fits in weight space), a sparse or distributed fit, or one that is taught.
 Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints);
 
 // Said before an exact GP learns its hyperparameters on `rows` rows; "" below
