@@ -94,6 +94,20 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
                  "to convergence; docs/training.md)")
       ->capture_default_str()
       ->group(kLipOptions);
+  app.add_option("--chain-starts", chain.starts,
+                 "chain: random starts of the geometry search (DH numbers and gravity direction); the smallest "
+                 "residual is kept")
+      ->capture_default_str()
+      ->group(kChainOptions);
+  app.add_option("--chain-rows", chain.rows,
+                 "chain: the geometry is searched on a constant-step subsample of this many rows (0: all), then fe "
+                 "learns the inertial parameters on every row")
+      ->capture_default_str()
+      ->group(kChainOptions);
+  app.add_option("--chain-length-scale", chain.length_scale,
+                 "chain: starts draw the DH lengths a and d in +-this many metres (roughly the arm's link length)")
+      ->capture_default_str()
+      ->group(kChainOptions);
   app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)")
       ->group(kNetworkOptions);
   app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str()
@@ -145,11 +159,18 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--seed")) {
     o.gp.seed = seed;
     o.nn.seed = seed;
+    o.chain.seed = seed;
   }
   if (given("--scaling")) o.gp.scaling = parse_output_scaling(scaling);
   if (given("--mean")) o.gp.mean = parse_mean_kind(mean);
   if (given("--min-noise")) o.gp.min_noise_fraction = min_noise;
-  if (given("--threads")) o.gp.threads = threads;
+  if (given("--threads")) {
+    o.gp.threads = threads;
+    o.chain.threads = threads;
+  }
+  if (given("--chain-starts")) o.chain.starts = chain.starts;
+  if (given("--chain-rows")) o.chain.rows = chain.rows;
+  if (given("--chain-length-scale")) o.chain.length_scale = chain.length_scale;
   if (given("--no-serial-chain")) o.gp.serial_chain = !no_serial_chain;
   if (given("--start-screening")) o.gp.start_screening_evaluations = start_screening;
   if (given("--prior") || given("--prior-width")) o.gp.prior = parse_hyperparameter_prior(prior, prior_width);

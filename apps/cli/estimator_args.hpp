@@ -25,6 +25,7 @@ struct EstimatorArgs {
   bool no_serial_chain = false;
   int start_screening = TrainOptions{}.start_screening_evaluations;
   NeuralNetworkOptions nn;
+  ChainIdentificationOptions chain;
 
   // GP, robot and network options (not --kernel, whose help differs per command).
   void add_to(CLI::App& app, bool with_robot, bool with_seed = true);
@@ -49,5 +50,6 @@ inline const char* const kGpOptions = "GP hyperparameter learning (gip, rbf and 
 inline const char* const kRobotOptions = "Model-based estimators (fe, pp, sp)";
 inline const char* const kLipOptions = "LIP (lip, and the lip teacher)";
 inline const char* const kNetworkOptions = "Neural network (nn)";
+inline const char* const kChainOptions = "Serial chain identified from the log (chain)";
 
 }  // namespace gipdyn::cli

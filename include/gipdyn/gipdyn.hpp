@@ -55,6 +55,7 @@
 #include "gipdyn/preprocess/log_preprocessing.hpp"
 #include "gipdyn/preprocess/signal.hpp"
 #include "gipdyn/progress.hpp"
+#include "gipdyn/robot/chain_identification.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/robot/robot_model.hpp"

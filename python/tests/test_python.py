@@ -835,3 +835,20 @@ def test_a_long_exact_fit_is_warned_about_before_it_starts():
     assert warned(8000, teacher="lip") == []  # the student learns on the teacher's 2000 states
     assert len(warned(8000, teacher="auto")) == 1  # 16000 torque values: too long for the automatic teacher
     assert warned(4000, teacher="auto") == []
+
+
+def test_gip_taught_by_an_identified_chain():
+    # teacher="chain": the library's chain estimator (a serial chain's geometry identified from the log, then least
+    # squares on its regressor) labels the drawn states. On a SCARA log it is exact to the noise, so the student
+    # tracks KDL's torques on a new motion as well as it tracks its teacher.
+    train = gipdyn.simulate("scara", samples=300, seed=1, dt=0.05)
+    test = gipdyn.simulate("scara", samples=200, seed=2, dt=0.05)
+    taught = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="chain", teacher_states=600, seed=4).fit(
+        train["X"], train["tau"])
+    assert taught.teaching_ == "taught"
+    assert taught.teacher_ is None  # only a LIP teacher is kept as a Python object
+    nmse = gipdyn.nmse(test["tau_true"], taught.predict(test["X"]))
+    assert np.all(nmse[:3] < 1e-3) and nmse[3] < 5e-2, nmse
+    # The teacher misses the log by its noise alone: the chain explains everything else.
+    noise_share = ((train["tau"] - train["tau_true"]) ** 2).mean(axis=0) / train["tau"].var(axis=0)
+    assert np.all(np.asarray(taught.teaching_check_["teacher_nmse"]) < 1.2 * noise_share)

@@ -15,7 +15,7 @@ std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, con
     kind = c.header.value("estimator", "gp");  // format 1 files hold GP models only
     if (kind == "gp") return std::make_unique<GpEstimator>(model_from_container(c, what));
     if (kind == "lip" || kind == "lip+friction") return std::make_unique<LagrangianEstimator>(LagrangianEstimator::from_container(c, what));
-    if (kind == "fe") return std::make_unique<FisherianEstimator>(FisherianEstimator::from_container(c, what));
+    if (kind == "fe" || kind == "chain") return std::make_unique<FisherianEstimator>(FisherianEstimator::from_container(c, what));
     if (kind == "nn") return std::make_unique<NeuralNetworkEstimator>(NeuralNetwork::from_container(c, what));
   } catch (const nlohmann::json::exception& e) {
     throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");

@@ -13,6 +13,7 @@ const std::vector<std::string>& estimator_names() {
     n.push_back("lip");
     n.push_back("lip+friction");
     n.push_back("fe");
+    n.push_back("chain");
     n.push_back("nn");
     return n;
   }();
@@ -24,7 +25,7 @@ void require_known_estimator(const std::string& name) { require_one_of(name, est
 EstimatorFamily estimator_family(const std::string& name) {
   require_known_estimator(name);
   if (name == "lip" || name == "lip+friction") return EstimatorFamily::Lagrangian;
-  if (name == "fe") return EstimatorFamily::Fisherian;
+  if (name == "fe" || name == "chain") return EstimatorFamily::Fisherian;
   if (name == "nn") return EstimatorFamily::NeuralNetwork;
   return EstimatorFamily::Gp;
 }

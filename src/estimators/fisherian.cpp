@@ -59,6 +59,11 @@ FisherianEstimator FisherianEstimator::fit(const RobotPrior& prior, const Eigen:
   return FisherianEstimator(prior, w);
 }
 
+FisherianEstimator FisherianEstimator::identified_by(std::string report) && {
+  identification_ = report.empty() ? "identified from the log" : std::move(report);
+  return std::move(*this);
+}
+
 std::unique_ptr<QueryWorkspace> FisherianEstimator::make_query_workspace() const {
   return std::make_unique<FisherianQueryWorkspace>(prior_, weights_);
 }
@@ -80,7 +85,8 @@ Eigen::MatrixXd FisherianEstimator::predict(const Eigen::Ref<const Eigen::Matrix
 
 ModelContainer FisherianEstimator::to_container() const {
   ModelContainer c;
-  c.header["estimator"] = "fe";
+  c.header["estimator"] = name();
+  if (!identification_.empty()) c.header["chain_identification"] = identification_;
   c.header["joints"] = joints_.str();
   c.header["robot"] = robot_to_storable_json(*prior_.robot);
   c.header["robot_friction"] = prior_.friction;
@@ -89,8 +95,10 @@ ModelContainer FisherianEstimator::to_container() const {
 }
 
 nlohmann::json FisherianEstimator::summary() const {
-  return {{"estimator", "fe"}, {"robot", prior_.robot->name()}, {"friction", prior_.friction},
-          {"base_parameters", base_rank_}};
+  nlohmann::json s = {{"estimator", name()}, {"robot", prior_.robot->name()}, {"friction", prior_.friction},
+                       {"base_parameters", base_rank_}};
+  if (!identification_.empty()) s["chain_identification"] = identification_;
+  return s;
 }
 
 FisherianEstimator FisherianEstimator::from_container(const ModelContainer& c, const std::string& what) {
@@ -100,7 +108,10 @@ FisherianEstimator FisherianEstimator::from_container(const ModelContainer& c, c
   const Eigen::MatrixXd& w = c.array("weights", what);
   if (w.cols() != 1 || w.rows() != regressor_columns(prior))
     throw Error(what + " is corrupted (weights shape); re-save the model");
-  return FisherianEstimator(prior, w.col(0));
+  FisherianEstimator e(prior, w.col(0));
+  if (c.header.value("estimator", std::string("fe")) == "chain")
+    return std::move(e).identified_by(c.header.value("chain_identification", std::string()));
+  return e;
 }
 
 }  // namespace gipdyn

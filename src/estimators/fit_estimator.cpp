@@ -16,6 +16,7 @@ namespace gipdyn {
 
 void EstimatorOptions::validate() const {
   require_known_estimator(name);
+  if (name == "chain") chain.validate();
   if (teacher) teacher->validate();
 }
 
@@ -49,8 +50,28 @@ FitResult fit_lagrangian(const EstimatorOptions& o, const Eigen::MatrixXd& X, co
   return result;
 }
 
+FitResult fit_chain(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                     const JointTypes& joints, const ProgressCallback& progress) {
+  const ChainIdentification chain = identify_chain(X, Y, joints, o.chain, progress);
+  FitResult result;
+  result.report.seconds = chain.seconds;
+  if (!chain.ok()) {
+    result.report.message = chain.message;
+    return result;
+  }
+  RobotPrior prior;
+  prior.robot = std::make_shared<const RobotModel>(chain.robot);
+  result.estimator = std::make_unique<FisherianEstimator>(
+      FisherianEstimator::fit(prior, X, Y).identified_by(chain.brief_report()));
+  result.report.status =
+      chain.status == ChainIdentificationStatus::Converged ? FitStatus::Converged : FitStatus::NotConverged;
+  result.report.message = chain.brief_report();
+  return result;
+}
+
 FitResult fit_fisherian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
-                        const JointTypes& joints, const ProgressCallback&) {
+                        const JointTypes& joints, const ProgressCallback& progress) {
+  if (o.name == "chain") return fit_chain(o, X, Y, joints, progress);
   if (o.robot_prior.robot) require_matching_robot(o.robot_prior, joints);
   FitResult result;
   result.estimator = std::make_unique<FisherianEstimator>(FisherianEstimator::fit(o.robot_prior, X, Y));

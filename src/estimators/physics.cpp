@@ -10,7 +10,7 @@ namespace gipdyn {
 namespace {
 
 const std::vector<std::string>& physics_estimators() {
-  static const std::vector<std::string> names{"gip", "gip-friction", "gip+friction", "lip", "lip+friction", "pp", "fe"};
+  static const std::vector<std::string> names{"gip", "gip-friction", "gip+friction", "lip", "lip+friction", "pp", "fe", "chain"};
   return names;
 }
 

@@ -135,6 +135,8 @@ TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, co
   teacher.name = options.name;
   teacher.gp = options.teacher_train_options(student);
   teacher.nn.seed = student.seed;
+  teacher.chain.seed = student.seed;
+  teacher.chain.threads = student.threads;
   FitResult fit = fit_estimator(teacher, X, Y, joints, progress);
 
   TeachingSet set;

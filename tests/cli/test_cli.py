@@ -142,7 +142,8 @@ def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin):
     out = run(gipdyn_bin, "train", "--help").stdout
     headings = [line for line in out.splitlines() if line and not line.startswith(" ")][2:]
     assert [h.split(" (")[0] for h in headings] == [
-        "Options:", "Teacher", "GP hyperparameter learning", "Model-based estimators", "LIP", "Neural network"], headings
+        "Options:", "Teacher", "GP hyperparameter learning", "Model-based estimators", "LIP",
+        "Serial chain identified from the log", "Neural network"], headings
 
     def section_of(flag):
         before = out[:out.index("  " + flag + " ")]
@@ -154,6 +155,7 @@ def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin):
     assert section_of("--max-iter").startswith("GP hyperparameter learning")
     assert section_of("--robot").startswith("Model-based")
     assert section_of("--no-serial-chain").startswith("LIP")
+    assert section_of("--chain-starts").startswith("Serial chain")
     assert section_of("--nn-epochs").startswith("Neural network")
 
 

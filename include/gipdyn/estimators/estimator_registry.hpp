@@ -3,6 +3,7 @@
 //   GP kernels  gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp
 //   lip         one GP over all joints with the Lagrangian kernel (energies)
 //   fe          least squares on the rigid-body regressor (base parameters)
+//   chain       fe on a serial chain whose geometry is identified from the log (robot/chain_identification.hpp)
 //   nn          fully connected network (docs/method.md)
 // fe, pp and sp are model-based: they need the nominal robot.
 #include <string>

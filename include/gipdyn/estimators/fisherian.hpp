@@ -18,7 +18,11 @@ class FisherianEstimator final : public Estimator {
   // Throws gipdyn::Error if the prior has no robot or the shapes disagree.
   static FisherianEstimator fit(const RobotPrior& prior, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y);
 
-  std::string name() const override { return "fe"; }
+  // The same model named "chain": its robot is a chain identified from the log
+  // (robot/chain_identification.hpp), described by `report`.
+  FisherianEstimator identified_by(std::string report) &&;
+
+  std::string name() const override { return identification_.empty() ? "fe" : "chain"; }
   const JointTypes& joints() const override { return joints_; }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
   // Single queries make no heap allocation: the regressor is built in the workspace.
@@ -35,6 +39,7 @@ class FisherianEstimator final : public Estimator {
   JointTypes joints_;
   Eigen::VectorXd weights_;
   int base_rank_ = 0;
+  std::string identification_;  // the chain identification's brief report; empty for fe
 };
 
 }  // namespace gipdyn

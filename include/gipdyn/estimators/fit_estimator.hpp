@@ -12,6 +12,7 @@
 #include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/fit_report.hpp"
+#include "gipdyn/robot/chain_identification.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/progress.hpp"
 
@@ -21,6 +22,7 @@ struct EstimatorOptions {
   std::string name = "gip";
   TrainOptions gp;          // GP estimators (the kernel and robot prior are set from name and robot_prior)
   NeuralNetworkOptions nn;  // nn
+  ChainIdentificationOptions chain;  // chain: the geometry search before fe
   RobotPrior robot_prior;   // the nominal robot of fe, pp, sp
   // Set: the estimator learns from a teacher's torques at states drawn from
   // the data's box instead of from the data (teacher.hpp).
