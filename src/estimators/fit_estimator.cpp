@@ -61,11 +61,11 @@ FitResult fit_chain(const EstimatorOptions& o, const Eigen::MatrixXd& X, const E
   }
   RobotPrior prior;
   prior.robot = std::make_shared<const RobotModel>(chain.robot);
-  result.estimator = std::make_unique<FisherianEstimator>(
-      FisherianEstimator::fit(prior, X, Y).identified_by(chain.brief_report()));
+  result.report.message = chain.brief_report();
+  result.estimator =
+      std::make_unique<FisherianEstimator>(FisherianEstimator::fit(prior, X, Y).identified_by(result.report.message));
   result.report.status =
       chain.status == ChainIdentificationStatus::Converged ? FitStatus::Converged : FitStatus::NotConverged;
-  result.report.message = chain.brief_report();
   return result;
 }
 

@@ -60,10 +60,22 @@ LinkInertial placeholder_link() {
 
 double wrap_angle(double x) { return std::remainder(x, 2.0 * M_PI); }
 
+// Joint limits spanning the logged positions and speeds: the identified
+// chain's, which a RobotModel must have; the dynamics do not use them.
+std::vector<JointLimits> logged_limits(const Eigen::MatrixXd& X, int n) {
+  std::vector<JointLimits> limits(static_cast<size_t>(n));
+  for (int i = 0; i < n; ++i) {
+    const double lo = X.col(i).minCoeff(), hi = X.col(i).maxCoeff();
+    const double margin = 0.1 * (hi - lo) + 1e-3;
+    limits[static_cast<size_t>(i)] = JointLimits{lo - margin, hi + margin, std::max(1e-3, X.col(n + i).cwiseAbs().maxCoeff())};
+  }
+  return limits;
+}
+
 // The chain described by the geometry vector k (4 DH numbers per joint, then
-// two gravity angles), with joint limits spanning the logged positions.
-RobotModel chain_from(const Eigen::VectorXd& k, const JointTypes& joints, const Eigen::MatrixXd& X, double g,
-                      bool tidy) {
+// two gravity angles).
+RobotModel chain_from(const Eigen::VectorXd& k, const JointTypes& joints, const std::vector<JointLimits>& limits,
+                      double g, bool tidy) {
   const int n = joints.size();
   std::vector<JointSpec> specs(static_cast<size_t>(n));
   for (int i = 0; i < n; ++i) {
@@ -73,9 +85,7 @@ RobotModel chain_from(const Eigen::VectorXd& k, const JointTypes& joints, const 
     const double* p = k.data() + kDhPerJoint * i;
     s.dh = DhParameters{p[0], tidy ? wrap_angle(p[1]) : p[1], p[2], tidy ? wrap_angle(p[3]) : p[3]};
     s.link = placeholder_link();
-    const double lo = X.col(i).minCoeff(), hi = X.col(i).maxCoeff();
-    const double margin = 0.1 * (hi - lo) + 1e-3;
-    s.limits = JointLimits{lo - margin, hi + margin, std::max(1e-3, X.col(n + i).cwiseAbs().maxCoeff())};
+    s.limits = limits[static_cast<size_t>(i)];
   }
   const Eigen::Vector2d r = k.tail<kGravityParameters>();
   Eigen::Vector3d gravity = Eigen::Vector3d(0, 0, -g);
@@ -94,6 +104,7 @@ struct ProjectedResidual {
   using JacobianType = Eigen::MatrixXd;
 
   const JointTypes* joints;
+  const std::vector<JointLimits>* limits;
   const Eigen::MatrixXd* X;
   Eigen::VectorXd y;  // sample-major, as stacked_regressor orders its rows
   double gravity;
@@ -108,7 +119,7 @@ struct ProjectedResidual {
       r.setConstant(y.size(), 1e10);
       return 0;
     }
-    const RobotModel robot = chain_from(k, *joints, *X, gravity, false);
+    const RobotModel robot = chain_from(k, *joints, *limits, gravity, false);
     const Eigen::MatrixXd Phi = stacked_regressor(robot, *X, false);
     // Minimum-norm least squares: a chain has fewer base parameters than 10
     // per link, and the combinations the log cannot tell apart do not change
@@ -121,6 +132,11 @@ struct ProjectedResidual {
   }
 };
 
+// `wanted` rows with a constant step from the first row to the last (all
+// rows for 0 or more than there are). Not training_data.hpp's
+// constant_step_indices, which steps by rows / count from the first and
+// never reaches the last: the chain's documented figures were measured with
+// these rows.
 std::vector<Eigen::Index> constant_step_rows(Eigen::Index total, int wanted) {
   const Eigen::Index m = wanted <= 0 || wanted >= total ? total : wanted;
   std::vector<Eigen::Index> idx(static_cast<size_t>(m));
@@ -177,19 +193,14 @@ struct Subsample {
 
 Subsample subsample(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, int rows) {
   const std::vector<Eigen::Index> idx = constant_step_rows(X.rows(), rows);
-  const Eigen::Index m = static_cast<Eigen::Index>(idx.size()), n = Y.cols();
-  Subsample s{Eigen::MatrixXd(m, X.cols()), Eigen::VectorXd(m * n)};
-  for (Eigen::Index i = 0; i < m; ++i) {
-    s.X.row(i) = X.row(idx[static_cast<size_t>(i)]);
-    s.y.segment(i * n, n) = Y.row(idx[static_cast<size_t>(i)]).transpose();
-  }
-  return s;
+  const Eigen::MatrixXd Yt = Y(idx, Eigen::all).transpose();
+  return {X(idx, Eigen::all), Eigen::Map<const Eigen::VectorXd>(Yt.data(), Yt.size())};
 }
 
 // Levenberg-Marquardt from k on the subsample; k ends at the point reached.
-ChainStartReport search(const Subsample& data, const JointTypes& joints, double gravity, int max_evaluations,
-                        Eigen::VectorXd& k) {
-  ProjectedResidual f{&joints, &data.X, data.y, gravity};
+ChainStartReport search(const Subsample& data, const JointTypes& joints, const std::vector<JointLimits>& limits,
+                        double gravity, int max_evaluations, Eigen::VectorXd& k) {
+  ProjectedResidual f{&joints, &limits, &data.X, data.y, gravity};
   Eigen::NumericalDiff<ProjectedResidual> diff(f);
   Eigen::LevenbergMarquardt<Eigen::NumericalDiff<ProjectedResidual>, double> lm(diff);
   lm.parameters.maxfev = max_evaluations;
@@ -214,6 +225,7 @@ ChainIdentification identify_chain(const Eigen::MatrixXd& X, const Eigen::Matrix
   const auto t0 = std::chrono::steady_clock::now();
   const int n = joints.size();
   const Subsample screen = subsample(X, Y, options.screening_rows), fine = subsample(X, Y, options.rows);
+  const std::vector<JointLimits> limits = logged_limits(X, n);
   const int parameters = kDhPerJoint * n + kGravityParameters;
   if (std::min(screen.y.size(), fine.y.size()) <= parameters)
     throw Error("identify_chain: " + std::to_string(std::min(screen.X.rows(), fine.X.rows())) +
@@ -242,7 +254,7 @@ ChainIdentification identify_chain(const Eigen::MatrixXd& X, const Eigen::Matrix
   std::vector<Eigen::VectorXd> points(static_cast<size_t>(options.starts));
   run_tasks(options.starts, worker_threads(options.threads, options.starts), [&](int s) {
     Eigen::VectorXd k = random_start(n, options, s);
-    const ChainStartReport rep = search(screen, joints, options.gravity, options.max_evaluations, k);
+    const ChainStartReport rep = search(screen, joints, limits, options.gravity, options.max_evaluations, k);
     result.starts[static_cast<size_t>(s)] = rep;
     points[static_cast<size_t>(s)] = k;
     report("start", s, options.starts, rep, screen.X.rows());
@@ -266,7 +278,7 @@ ChainIdentification identify_chain(const Eigen::MatrixXd& X, const Eigen::Matrix
   const int refined = static_cast<int>(order.size());
   run_tasks(refined, worker_threads(options.threads, refined), [&](int i) {
     Eigen::VectorXd& k = points[static_cast<size_t>(order[static_cast<size_t>(i)])];
-    result.refined[static_cast<size_t>(i)] = search(fine, joints, options.gravity, options.max_evaluations, k);
+    result.refined[static_cast<size_t>(i)] = search(fine, joints, limits, options.gravity, options.max_evaluations, k);
     report("refined", i, refined, result.refined[static_cast<size_t>(i)], fine.X.rows());
   });
   int best = -1;
@@ -283,7 +295,7 @@ ChainIdentification identify_chain(const Eigen::MatrixXd& X, const Eigen::Matrix
   result.status = result.refined[static_cast<size_t>(best)].status;
   result.residual_rms = result.refined[static_cast<size_t>(best)].residual_rms;
   result.robot =
-      chain_from(points[static_cast<size_t>(order[static_cast<size_t>(best)])], joints, X, options.gravity, true);
+      chain_from(points[static_cast<size_t>(order[static_cast<size_t>(best)])], joints, limits, options.gravity, true);
   return result;
 }
 

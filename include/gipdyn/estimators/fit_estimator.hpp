@@ -12,9 +12,9 @@
 #include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/fit_report.hpp"
-#include "gipdyn/robot/chain_identification.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/progress.hpp"
+#include "gipdyn/robot/chain_identification.hpp"
 
 namespace gipdyn {
 

@@ -32,8 +32,9 @@ struct ChainIdentificationOptions {
   int refined_starts = 4;
   int rows = 300;
   // Each start draws a and d uniformly in [-length_scale, length_scale] metres
-  // (alpha, theta and the tilt of gravity uniformly over all angles): the size
-  // of the arm's links, roughly.
+  // (alpha and theta uniformly over all angles; gravity along the first
+  // joint's axis on even starts, tilted by up to 90 degrees on odd ones): the
+  // size of the arm's links, roughly.
   double length_scale = 0.6;
   // Levenberg-Marquardt's cap on residual evaluations per start (finite-difference
   // Jacobians included).
