@@ -143,6 +143,7 @@ TEST(CApi, MisuseGetsAStatusAndAMessage) {
   gipdyn_model_free(nullptr);
   EXPECT_STREQ(gipdyn_status_string(GIPDYN_ERROR_SIZE), "wrong size");
   EXPECT_STREQ(gipdyn_version(), gipdyn::version());
+  EXPECT_EQ(std::string(gipdyn_build_info()), gipdyn::build_summary());
 
   // Files: missing, truncated.
   gipdyn_model* m = nullptr;
@@ -212,6 +213,30 @@ TEST(CApi, EveryEstimatorPredictsAsTheCppApi) {
       for (int j = 0; j < 4; ++j) EXPECT_NEAR(g[j], g_expected(0, j), 1e-9 * (1.0 + std::abs(g_expected(0, j))));
     }
   }
+}
+
+// The library reports the Eigen layout and instruction set it was compiled with;
+// this file is compiled with the flags a consumer of the gipdyn target gets, so
+// the two must agree, and both must be the 16-byte layout of Debian's libraries.
+TEST(BuildInfo, SaysHowTheLibraryWasCompiledAndMatchesItsConsumers) {
+  const BuildInfo info = build_info();
+  EXPECT_EQ(info.eigen_static_align_bytes, EIGEN_MAX_STATIC_ALIGN_BYTES);
+  EXPECT_EQ(info.eigen_heap_align_bytes, EIGEN_DEFAULT_ALIGN_BYTES);
+  EXPECT_EQ(info.eigen_heap_align_bytes, 16);
+  EXPECT_EQ(info.eigen_simd, Eigen::SimdInstructionSetsInUse());
+#if defined(__x86_64__)
+#if defined(__SSE4_2__)
+  EXPECT_NE(info.instruction_set.find("SSE4.2"), std::string::npos) << info.instruction_set;
+#else
+  EXPECT_EQ(info.instruction_set, "x86-64 (SSE2)");
+#endif
+  EXPECT_EQ(info.instruction_set.find("AVX"), std::string::npos) << info.instruction_set;
+  EXPECT_FALSE(running_cpu_features().empty());
+#endif
+  const std::string summary = build_summary();
+  EXPECT_NE(summary.find("built for " + info.instruction_set + "; Eigen " + info.eigen_version), std::string::npos)
+      << summary;
+  EXPECT_NE(summary.find("16-byte alignment"), std::string::npos) << summary;
 }
 
 }  // namespace

@@ -101,7 +101,8 @@ int main(int argc, char** argv) {
   // What the build holds, so that a user (and the tests) can tell whether --distributed will work.
   app.set_version_flag("--version", std::string("gipdyn ") + gipdyn::version() + " (model file format " +
                                         std::to_string(gipdyn::kModelFormatVersion) + ", distributed training: " +
-                                        (gipdyn::cli::built_with_mpi() ? "MPI" : "not built") + ")");
+                                        (gipdyn::cli::built_with_mpi() ? "MPI" : "not built") + ")\n" +
+                                        gipdyn::build_summary());
   app.require_subcommand(1);
   std::map<CLI::App*, gipdyn::cli::Command> commands;
   auto add = [&](const char* name, const char* help, auto adder) {

@@ -10,6 +10,8 @@
 #include <Eigen/Dense>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 struct NeighbourConsistencyOptions {

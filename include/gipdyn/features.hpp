@@ -13,6 +13,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/joint_types.hpp"
 
 namespace gipdyn {

@@ -3,6 +3,7 @@
 // The whole public API in one include; each header below holds one concept.
 #include "gipdyn/blas_threads.hpp"
 #include "gipdyn/data_consistency.hpp"
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"

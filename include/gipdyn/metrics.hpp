@@ -2,6 +2,8 @@
 // Accuracy metrics of docs/method.md section 7.
 #include <Eigen/Dense>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 struct Accuracy {

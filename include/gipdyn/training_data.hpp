@@ -4,6 +4,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/joint_types.hpp"
 
 namespace gipdyn {

@@ -14,12 +14,12 @@ import warnings
 import numpy as np
 
 from . import _core
-from ._core import __version__
+from ._core import __version__, build_info
 from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
                     SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
 
 __all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
-           "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size"]
+           "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size", "build_info"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator

@@ -361,6 +361,21 @@ PYBIND11_MODULE(_core, m) {
   m.def("preset_names", &preset_names);
   m.attr("NOISE_SHARE_WARNING") = kNoiseShareWarning;
   m.attr("__version__") = version();
+  m.def("build_info", [] {
+    const BuildInfo info = gipdyn::build_info();
+    py::dict d;
+    d["version"] = version();
+    d["instruction_set"] = info.instruction_set;
+    d["eigen_version"] = info.eigen_version;
+    d["eigen_simd"] = info.eigen_simd;
+    d["eigen_static_align_bytes"] = info.eigen_static_align_bytes;
+    d["eigen_heap_align_bytes"] = info.eigen_heap_align_bytes;
+    d["running_cpu"] = running_cpu_features();
+    d["summary"] = build_summary();
+    return d;
+  }, "How the library was compiled and where it runs, as a dict: version, instruction_set,\n"
+     "eigen_version, eigen_simd, eigen_static_align_bytes, eigen_heap_align_bytes, running_cpu and\n"
+     "summary (one line, what `gipdyn --version` prints; put it in bug reports).");
   m.def("preset_max_training_rows", &preset_max_training_rows, py::arg("name"));
 
   py::class_<NllBackend, std::shared_ptr<NllBackend>>(m, "NllBackend").def("describe", &NllBackend::describe);

@@ -283,6 +283,20 @@ def test_version_is_the_projects():
     assert f'\nversion = "{gipdyn.__version__}"' in pyproject
 
 
+def test_build_info_is_the_command_lines():
+    # How the library was compiled, for bug reports: the line `gipdyn --version` prints, and Eigen's layout,
+    # which must be Debian's 16 bytes (include/gipdyn/eigen_abi.hpp).
+    info = gipdyn.build_info()
+    assert info["version"] == gipdyn.__version__
+    assert info["eigen_static_align_bytes"] == 16 and info["eigen_heap_align_bytes"] == 16
+    assert info["instruction_set"].startswith("x86-64") and "AVX" not in info["instruction_set"]
+    assert info["summary"].startswith("built for " + info["instruction_set"] + "; Eigen " + info["eigen_version"])
+    gipdyn_bin = os.environ.get("GIPDYN_BIN")
+    if gipdyn_bin:
+        out = subprocess.run([gipdyn_bin, "--version"], capture_output=True, text=True, check=True).stdout
+        assert out.splitlines()[1] == info["summary"]
+
+
 def test_is_a_scikit_learn_regressor():
     from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
 

@@ -101,6 +101,11 @@ const char* gipdyn_last_error(void) { return t_last_error.c_str(); }
 
 const char* gipdyn_version(void) { return gipdyn::version(); }
 
+const char* gipdyn_build_info(void) {
+  static const std::string summary = gipdyn::build_summary();  // thread-safe initialisation
+  return summary.c_str();
+}
+
 const char* gipdyn_status_string(gipdyn_status status) {
   switch (status) {
     case GIPDYN_OK: return "ok";

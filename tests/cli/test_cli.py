@@ -40,6 +40,11 @@ def test_version_is_the_projects_and_model_files_record_it(trained, gipdyn_bin):
     assert r.returncode == 0 and r.stdout.startswith(f"gipdyn {declared} (model file format "), r.stdout
     # It also says whether --distributed can work (tests/cli/test_distributed.py relies on it).
     assert ", distributed training: MPI)" in r.stdout or ", distributed training: not built)" in r.stdout, r.stdout
+    # And how it was compiled, for bug reports: the instruction set and Eigen's layout (16 bytes, that of
+    # Debian's libraries gipdyn shares Eigen objects with; include/gipdyn/eigen_abi.hpp).
+    build = r.stdout.splitlines()[1]
+    assert build.startswith("built for x86-64") and "; Eigen 3." in build, build
+    assert "16-byte alignment" in build and "AVX" not in build.split(";")[0], build
     d, _, _ = trained
     assert model_header(d / "m.gipdyn")["written_by"] == f"gipdyn {declared}"
 

@@ -1,6 +1,9 @@
 #!/usr/bin/env bash
 # Installs the build tree into a temporary prefix and builds a project outside
-# the source tree against it with find_package(gipdyn); runs the result.
+# the source tree against it with find_package(gipdyn); runs the result. The
+# same project compiled with AVX2 (Eigen then lays its objects out otherwise
+# than gipdyn and Debian's liborocos-kdl) must fail to compile, in one line
+# that names the fix.
 # Usage: install_test.sh BUILD_DIR
 set -euo pipefail
 build=$(cd "$1" && pwd)
@@ -15,3 +18,15 @@ cmake --build "$work/consumer" -j"$(nproc)" > "$work/build.log"
 "$work/consumer/consumer"
 "$work/consumer/c_consumer"
 if [ -x "$work/consumer/distributed_consumer" ]; then "$work/consumer/distributed_consumer"; fi
+
+cmake -S "$here/consumer" -B "$work/consumer-avx2" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$work/prefix" \
+  -DCMAKE_CXX_FLAGS=-march=x86-64-v3 > "$work/configure-avx2.log"
+if cmake --build "$work/consumer-avx2" --target consumer > "$work/build-avx2.log" 2>&1; then
+  echo "install_test: a consumer compiled with -march=x86-64-v3 built; gipdyn/eigen_abi.hpp should refuse it" >&2
+  exit 1
+fi
+if ! grep -q "error: #error \"gipdyn: Eigen is compiled with another alignment" "$work/build-avx2.log"; then
+  echo "install_test: the AVX2 consumer failed without gipdyn's message:" >&2
+  cat "$work/build-avx2.log" >&2
+  exit 1
+fi

@@ -8,6 +8,7 @@
 #include <nlohmann/json.hpp>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
 

@@ -6,6 +6,7 @@
 #include <optional>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/estimators/neural_network.hpp"

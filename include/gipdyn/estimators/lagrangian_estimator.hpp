@@ -10,6 +10,7 @@
 #include <Eigen/Dense>
 #include <memory>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_weight_space.hpp"

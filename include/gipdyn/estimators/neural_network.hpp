@@ -9,6 +9,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/progress.hpp"

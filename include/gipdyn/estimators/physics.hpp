@@ -19,6 +19,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 
 namespace gipdyn {

@@ -14,6 +14,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/training.hpp"

@@ -5,6 +5,8 @@
 #include <functional>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 struct JitterPolicy {

@@ -11,6 +11,7 @@
 #include <memory>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/mean_function.hpp"
 #include "gipdyn/kernels/kernel.hpp"

@@ -7,6 +7,8 @@
 #include <Eigen/Dense>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 struct HyperparameterPrior {

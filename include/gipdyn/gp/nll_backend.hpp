@@ -7,6 +7,7 @@
 #include <Eigen/Dense>
 #include <string>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 
 namespace gipdyn {

@@ -15,6 +15,7 @@
 #include <Eigen/Dense>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/kernel.hpp"

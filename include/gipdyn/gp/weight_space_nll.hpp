@@ -11,6 +11,7 @@
 // the quadratic form are sums of squares: nothing cancels when the noise is small.
 #include <Eigen/Dense>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 
 namespace gipdyn {

@@ -8,6 +8,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/joint_types.hpp"
 

@@ -4,6 +4,8 @@
 #include <Eigen/Dense>
 #include <nlohmann/json.hpp>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 nlohmann::json number_or_null(double v);

@@ -15,6 +15,8 @@
 #include <utility>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 // 3: sparse GP models ("approximation": "vfe"). Older versions are read as they are.

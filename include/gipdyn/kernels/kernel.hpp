@@ -11,6 +11,8 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 class RegressorWorkspace;  // robot/dynamics.hpp

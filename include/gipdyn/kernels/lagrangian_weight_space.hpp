@@ -23,6 +23,7 @@
 #include <utility>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 
 namespace gipdyn {

@@ -8,6 +8,7 @@
 #include <vector>
 
 #include "gipdyn/blas_threads.hpp"
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/gp/nll_backend.hpp"

@@ -7,6 +7,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {

@@ -16,6 +16,8 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
+
 namespace gipdyn {
 
 struct PreprocessOptions {

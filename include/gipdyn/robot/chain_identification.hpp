@@ -15,6 +15,7 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/progress.hpp"
 #include "gipdyn/robot/robot_model.hpp"

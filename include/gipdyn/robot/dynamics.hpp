@@ -6,6 +6,7 @@
 #include <memory>
 #include <vector>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/robot/robot_model.hpp"
 
 namespace gipdyn {

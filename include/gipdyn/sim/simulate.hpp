@@ -6,6 +6,7 @@
 #include <cstdint>
 #include <nlohmann/json.hpp>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/robot/robot_model.hpp"
 #include "gipdyn/sim/trajectory.hpp"
 

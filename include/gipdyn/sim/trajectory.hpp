@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <cstdint>
 
+#include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/robot/robot_model.hpp"
 
 namespace gipdyn {
