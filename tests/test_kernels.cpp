@@ -4,6 +4,7 @@
 
 #include <cmath>
 
+#include "gipdyn/detail/factor_pair_product.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
 #include "gipdyn/kernels/friction_kernel.hpp"
@@ -334,6 +335,41 @@ double naive_gip(const JointTypes& joints, const Eigen::VectorXd& logp, const Ei
   }
   EXPECT_EQ(o, logp.size());
   return k;
+}
+
+// The GIP kernel's innermost loop runs in AVX2 or AVX-512 copies where the CPU
+// has them (the rest of the library stays at the baseline instruction set):
+// every copy this CPU runs, on lengths that leave vector tails, gives the bits
+// of the plain formula, so a model predicts the same on every CPU.
+TEST(FactorPairProduct, EveryInstructionSetThisCpuRunsGivesThePlainLoopsBits) {
+  using detail::VectorIsa;
+  const double p[3] = {0.7, -1.3, 0.45}, q[3] = {1.9, 0.35, -2.1};
+  int compared = 0;
+  for (const std::ptrdiff_t m : {0, 1, 3, 8, 13, 64, 1001}) {
+    const int size = static_cast<int>(m);
+    const Eigen::VectorXd u = random_vector(size, -2.0, 2.0, 21), v = random_vector(size, -2.0, 2.0, 22),
+                          col = random_vector(size, -1.0, 1.0, 23);
+    for (const bool with_v : {true, false}) {
+      Eigen::VectorXd expected = col;
+      for (std::ptrdiff_t i = 0; i < m; ++i) {
+        double x = p[0] + p[1] * u(i), y = q[0] + q[1] * u(i);
+        if (with_v) x = x + p[2] * v(i), y = y + q[2] * v(i);
+        expected(i) = col(i) * (x * y);
+      }
+      for (const VectorIsa isa : {VectorIsa::kBaseline, VectorIsa::kAvx2, VectorIsa::kAvx512}) {
+        if (static_cast<int>(isa) > static_cast<int>(detail::cpu_vector_isa())) continue;
+        Eigen::VectorXd out = col;
+        detail::multiply_by_factor_pair(isa, out.data(), u.data(), with_v ? v.data() : nullptr, m, p, q);
+        for (std::ptrdiff_t i = 0; i < m; ++i)
+          ASSERT_EQ(out(i), expected(i)) << detail::vector_isa_name(isa) << ", m = " << m << ", i = " << i;
+        ++compared;
+      }
+      Eigen::VectorXd dispatched = col;
+      detail::multiply_by_factor_pair(dispatched.data(), u.data(), with_v ? v.data() : nullptr, m, p, q);
+      EXPECT_TRUE(dispatched == expected) << "m = " << m;
+    }
+  }
+  EXPECT_GE(compared, 14);  // the baseline at least, with and without v, at every length
 }
 
 class GipKernelTest : public ::testing::TestWithParam<const char*> {};

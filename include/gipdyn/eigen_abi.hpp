@@ -15,7 +15,8 @@
 #include <Eigen/Core>
 
 // The fix the message names: without the AVX family (-mno-avx after -march=...,
-// as the GIPDYN_NATIVE build does) Eigen keeps the baseline's layout.
+// as the GIPDYN_NATIVE build does) Eigen keeps the baseline's layout. Code that
+// must use AVX does so on raw arrays (gipdyn/detail/factor_pair_product.hpp).
 #if EIGEN_MAX_STATIC_ALIGN_BYTES != 16 || EIGEN_DEFAULT_ALIGN_BYTES != 16
 #error "gipdyn: Eigen is compiled with another alignment than Debian's liborocos-kdl (16 bytes), which gipdyn shares Eigen objects with: compile this file without -march=native or -mavx*, or add -mno-avx after them (to tune gipdyn itself for this CPU, configure it with GIPDYN_NATIVE=ON)"
 #endif

@@ -53,7 +53,8 @@ const char* gipdyn_status_string(gipdyn_status status);
 const char* gipdyn_version(void);
 /* How the library was compiled and where it runs, one line for bug reports:
  * "built for x86-64 (SSE2); Eigen 3.4.0 (SSE, SSE2), 16-byte alignment;
- * running on a CPU with AVX2, FMA, AVX, SSE4.2". Valid for the process's life. */
+ * running on a CPU with AVX2, FMA, AVX, SSE4.2; GIP kernel loops in AVX2".
+ * Valid for the process's life. */
 const char* gipdyn_build_info(void);
 
 /* Loads any model file gipdyn writes: the GP estimators (gip, gip-friction,

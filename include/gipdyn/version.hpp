@@ -35,7 +35,8 @@ BuildInfo build_info();
 std::string running_cpu_features();
 
 // One line for --version and bug reports: the build's instruction set, Eigen
-// and its alignment, and the CPU it runs on.
+// and its alignment, the CPU it runs on, and the vector instructions the GIP
+// kernel's innermost loops use there (chosen at run time, whatever the build).
 std::string build_summary();
 
 }  // namespace gipdyn

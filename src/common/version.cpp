@@ -3,6 +3,7 @@
 #include <Eigen/Core>
 #include <vector>
 
+#include "gipdyn/detail/factor_pair_product.hpp"
 #include "gipdyn/eigen_abi.hpp"
 
 #ifndef GIPDYN_VERSION_STRING
@@ -82,7 +83,7 @@ std::string build_summary() {
                      "), " + std::to_string(info.eigen_heap_align_bytes) + "-byte alignment";
   const std::string cpu = running_cpu_features();
   if (!cpu.empty()) line += "; running on a CPU with " + cpu;
-  return line;
+  return line + "; GIP kernel loops in " + detail::vector_isa_name(detail::cpu_vector_isa());
 }
 
 }  // namespace gipdyn

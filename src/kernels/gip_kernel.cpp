@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
+#include "gipdyn/detail/factor_pair_product.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
@@ -177,16 +178,12 @@ void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::Matrix
     const Factor& f1 = position_factors_[f];
     const Factor& f2 = position_factors_[f + 1];
     const int c0 = f1.columns[0];
-    const auto u = Z.col(c0).segment(i0, m).array();
-    const double a1 = w(f1.offset + 1) * zq(c0), a2 = w(f2.offset + 1) * zq(c0);
-    if (f1.columns.size() == 2) {
-      const int c1 = f1.columns[1];
-      const auto v = Z.col(c1).segment(i0, m).array();
-      const double b1 = w(f1.offset + 2) * zq(c1), b2 = w(f2.offset + 2) * zq(c1);
-      col *= (w(f1.offset) + a1 * u + b1 * v) * (w(f2.offset) + a2 * u + b2 * v);
-    } else {
-      col *= (w(f1.offset) + a1 * u) * (w(f2.offset) + a2 * u);
-    }
+    const bool with_v = f1.columns.size() == 2;
+    const int c1 = with_v ? f1.columns[1] : c0;
+    const double p[3] = {w(f1.offset), w(f1.offset + 1) * zq(c0), with_v ? w(f1.offset + 2) * zq(c1) : 0.0};
+    const double q[3] = {w(f2.offset), w(f2.offset + 1) * zq(c0), with_v ? w(f2.offset + 2) * zq(c1) : 0.0};
+    detail::multiply_by_factor_pair(col.data(), Z.col(c0).data() + i0, with_v ? Z.col(c1).data() + i0 : nullptr, m,
+                                    p, q);
   }
   if (has_friction()) {
     const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);

@@ -1,0 +1,28 @@
+#pragma once
+// Internal, not a stable API: the GIP kernel's innermost loop in the widest
+// vector instructions of the CPU it runs on. The library and Eigen are compiled
+// for the baseline instruction set (eigen_abi.hpp says why); these loops touch
+// only raw arrays, so a copy of them compiled for AVX2 or AVX-512 shares no
+// Eigen object with anything, and the copy is chosen when the program runs.
+#include <cstddef>
+
+namespace gipdyn::detail {
+
+enum class VectorIsa { kBaseline, kAvx2, kAvx512 };
+
+// The widest of kAvx512 (AVX-512F), kAvx2 and kBaseline this CPU runs; read once.
+VectorIsa cpu_vector_isa();
+const char* vector_isa_name(VectorIsa isa);  // "SSE2", "AVX2", "AVX-512"
+
+// col[i] *= (p[0] + p[1] u[i] + p[2] v[i]) * (q[0] + q[1] u[i] + q[2] v[i]) for
+// i < m; with v null the v terms are left out. The two factors of one joint's
+// position kernel read the same columns, hence one pass for both. Every ISA
+// gives the same bits: element-wise sums and products in this order, no fused
+// multiply-add. The arrays must not overlap.
+void multiply_by_factor_pair(double* col, const double* u, const double* v, std::ptrdiff_t m, const double p[3],
+                             const double q[3]);
+// The same with a given ISA, which this CPU must run (the tests compare them).
+void multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
+                             const double p[3], const double q[3]);
+
+}  // namespace gipdyn::detail
