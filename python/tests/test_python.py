@@ -283,6 +283,15 @@ def test_version_is_the_projects():
     assert f'\nversion = "{gipdyn.__version__}"' in pyproject
 
 
+def test_the_license_and_the_citation_are_named_where_packages_read_them():
+    # LICENSE is BSD-3-Clause; the wheel's metadata and CITATION.cff say so, and the citation is of this version.
+    assert open(os.path.join(ROOT, "LICENSE")).read().startswith("BSD 3-Clause License\n")
+    assert '\nlicense = {text = "BSD-3-Clause"}' in open(os.path.join(ROOT, "pyproject.toml")).read()
+    citation = open(os.path.join(ROOT, "CITATION.cff")).read()
+    assert "\nlicense: BSD-3-Clause\n" in citation and f"\nversion: {gipdyn.__version__}\n" in citation
+    assert 'doi: "10.1109/LRA.2019.2945240"' in citation  # the GIP paper, the preferred citation
+
+
 def test_build_info_is_the_command_lines():
     # How the library was compiled, for bug reports: the line `gipdyn --version` prints, and Eigen's layout,
     # which must be Debian's 16 bytes (include/gipdyn/eigen_abi.hpp).

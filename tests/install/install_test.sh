@@ -13,6 +13,8 @@ trap 'rm -rf "$work"' EXIT
 cmake --install "$build" --prefix "$work/prefix" > "$work/install.log"
 test -f "$work/prefix/include/gipdyn/gipdyn.hpp"
 test -x "$work/prefix/bin/gipdyn"
+test -f "$work/prefix/share/doc/gipdyn/LICENSE"
+test -f "$work/prefix/share/doc/gipdyn/CITATION.cff"
 cmake -S "$here/consumer" -B "$work/consumer" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/configure.log"
 cmake --build "$work/consumer" -j"$(nproc)" > "$work/build.log"
 "$work/consumer/consumer"
