@@ -6,8 +6,9 @@ namespace gipdyn::detail {
 namespace {
 
 // One body for every ISA, inlined into each ISA's function below so that the
-// compiler vectorises it with that ISA's registers. ISO C++ mode (no GNU
-// extensions) keeps GCC from contracting a * b + c into a fused multiply-add.
+// compiler vectorises it with that ISA's registers. This file is compiled with
+// -ffp-contract=off (CMakeLists.txt): no copy may fuse a * b + c into one
+// rounding, which the AVX-512 copy could otherwise do.
 template <bool kWithV>
 __attribute__((always_inline)) inline void factor_pair_loop(double* __restrict col, const double* __restrict u,
                                                             const double* __restrict v, std::ptrdiff_t m,
