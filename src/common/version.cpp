@@ -5,6 +5,7 @@
 
 #include "gipdyn/detail/factor_pair_product.hpp"
 #include "gipdyn/eigen_abi.hpp"
+#include "gipdyn/error.hpp"
 
 #ifndef GIPDYN_VERSION_STRING
 #error "GIPDYN_VERSION_STRING must be defined by the build (CMake's project version)"
@@ -13,17 +14,11 @@
 namespace gipdyn {
 namespace {
 
-std::string joined(const std::vector<const char*>& names) {
-  std::string out;
-  for (const char* name : names) out += (out.empty() ? "" : ", ") + std::string(name);
-  return out;
-}
-
 // Read from the compiler's predefined macros of this translation unit, which
 // is compiled with the library's flags.
 std::string compiled_instruction_set() {
 #if defined(__x86_64__)
-  std::vector<const char*> extensions;
+  std::vector<std::string> extensions;
 #if defined(__AVX512F__)
   extensions.push_back("AVX-512");
 #endif
@@ -65,7 +60,7 @@ BuildInfo build_info() {
 std::string running_cpu_features() {
 #if defined(__x86_64__) && defined(__GNUC__)
   __builtin_cpu_init();
-  std::vector<const char*> features;
+  std::vector<std::string> features;
   if (__builtin_cpu_supports("avx512f")) features.push_back("AVX-512");
   if (__builtin_cpu_supports("avx2")) features.push_back("AVX2");
   if (__builtin_cpu_supports("fma")) features.push_back("FMA");
