@@ -58,6 +58,18 @@ VectorIsa detect() {
   return VectorIsa::kBaseline;
 }
 
+// The copy of the loop for an ISA, which the caller knows this CPU runs.
+void run(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m, const double* p,
+         const double* q) {
+  switch (isa) {
+#ifdef GIPDYN_HAVE_WIDE_VECTORS
+    case VectorIsa::kAvx512: return avx512(col, u, v, m, p, q);
+    case VectorIsa::kAvx2: return avx2(col, u, v, m, p, q);
+#endif
+    default: return baseline(col, u, v, m, p, q);
+  }
+}
+
 }  // namespace
 
 VectorIsa cpu_vector_isa() {
@@ -78,25 +90,12 @@ void multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const 
                              const double p[3], const double q[3]) {
   if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa()))
     throw Error(std::string("multiply_by_factor_pair: this CPU does not run ") + vector_isa_name(isa));
-  switch (isa) {
-#ifdef GIPDYN_HAVE_WIDE_VECTORS
-    case VectorIsa::kAvx512: return avx512(col, u, v, m, p, q);
-    case VectorIsa::kAvx2: return avx2(col, u, v, m, p, q);
-#endif
-    default: return baseline(col, u, v, m, p, q);
-  }
+  run(isa, col, u, v, m, p, q);
 }
 
 void multiply_by_factor_pair(double* col, const double* u, const double* v, std::ptrdiff_t m, const double p[3],
                              const double q[3]) {
-#ifdef GIPDYN_HAVE_WIDE_VECTORS
-  switch (cpu_vector_isa()) {
-    case VectorIsa::kAvx512: return avx512(col, u, v, m, p, q);
-    case VectorIsa::kAvx2: return avx2(col, u, v, m, p, q);
-    case VectorIsa::kBaseline: break;
-  }
-#endif
-  baseline(col, u, v, m, p, q);
+  run(cpu_vector_isa(), col, u, v, m, p, q);
 }
 
 }  // namespace gipdyn::detail
