@@ -26,4 +26,9 @@ class JointTypes {
   std::vector<JointType> types_;
 };
 
+// The columns of a log of num_joints joints: "q1".."qn", "qd1".."qdn", "qdd1".."qddn".
+std::vector<std::string> input_column_names(int num_joints);
+// "tau1".."taun", with an optional suffix ("_true", "_hat", "_std").
+std::vector<std::string> torque_column_names(int num_joints, const std::string& suffix = "");
+
 }  // namespace gipdyn

@@ -38,4 +38,17 @@ std::string JointTypes::str() const {
   return s;
 }
 
+std::vector<std::string> input_column_names(int n) {
+  std::vector<std::string> names;
+  for (const char* prefix : {"q", "qd", "qdd"})
+    for (int i = 1; i <= n; ++i) names.push_back(prefix + std::to_string(i));
+  return names;
+}
+
+std::vector<std::string> torque_column_names(int n, const std::string& suffix) {
+  std::vector<std::string> names;
+  for (int i = 1; i <= n; ++i) names.push_back("tau" + std::to_string(i) + suffix);
+  return names;
+}
+
 }  // namespace gipdyn

@@ -1,7 +1,7 @@
 #include "gipdyn/training_data.hpp"
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/dataset.hpp"
+#include "gipdyn/joint_types.hpp"
 
 #include <algorithm>
 #include <cmath>

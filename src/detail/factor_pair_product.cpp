@@ -1,7 +1,5 @@
 #include "gipdyn/detail/factor_pair_product.hpp"
 
-#include "gipdyn/error.hpp"
-
 namespace gipdyn::detail {
 namespace {
 
@@ -86,11 +84,11 @@ const char* vector_isa_name(VectorIsa isa) {
   return "SSE2";
 }
 
-void multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
+bool multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
                              const double p[3], const double q[3]) {
-  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa()))
-    throw Error(std::string("multiply_by_factor_pair: this CPU does not run ") + vector_isa_name(isa));
+  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
   run(isa, col, u, v, m, p, q);
+  return true;
 }
 
 void multiply_by_factor_pair(double* col, const double* u, const double* v, std::ptrdiff_t m, const double p[3],

@@ -11,19 +11,6 @@ namespace gipdyn {
 const char* const kMatFileAdvice =
     "read it with read_mat_dataset, naming the variable that holds its q, qd, qdd, tau columns, or convert it to CSV";
 
-std::vector<std::string> input_column_names(int n) {
-  std::vector<std::string> names;
-  for (const char* prefix : {"q", "qd", "qdd"})
-    for (int i = 1; i <= n; ++i) names.push_back(prefix + std::to_string(i));
-  return names;
-}
-
-std::vector<std::string> torque_column_names(int n, const std::string& suffix) {
-  std::vector<std::string> names;
-  for (int i = 1; i <= n; ++i) names.push_back("tau" + std::to_string(i) + suffix);
-  return names;
-}
-
 Dataset Dataset::subset(const std::vector<Eigen::Index>& idx) const {
   Dataset d;
   d.X = X(idx, Eigen::all);

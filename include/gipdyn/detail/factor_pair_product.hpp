@@ -21,8 +21,9 @@ const char* vector_isa_name(VectorIsa isa);  // "SSE2", "AVX2", "AVX-512"
 // multiply-add. The arrays must not overlap.
 void multiply_by_factor_pair(double* col, const double* u, const double* v, std::ptrdiff_t m, const double p[3],
                              const double q[3]);
-// The same with a given ISA, which this CPU must run (the tests compare them).
-void multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
+// The same with a given ISA (the tests compare them); false, with col
+// untouched, where this CPU does not run that ISA.
+bool multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
                              const double p[3], const double q[3]);
 
 }  // namespace gipdyn::detail

@@ -22,10 +22,6 @@ struct Dataset {
   Dataset subset(const std::vector<Eigen::Index>& rows) const;
 };
 
-std::vector<std::string> input_column_names(int num_joints);
-// "tau1".."taun", with an optional suffix ("_true", "_hat", "_std").
-std::vector<std::string> torque_column_names(int num_joints, const std::string& suffix = "");
-
 // The advice read_dataset gives for a MATLAB file; front ends rename it to their own.
 extern const char* const kMatFileAdvice;
 
