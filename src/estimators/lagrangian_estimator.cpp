@@ -3,9 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
-#include <condition_variable>
 #include <limits>
-#include <mutex>
 #include <random>
 #include <vector>
 
@@ -13,6 +11,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/model/hyperparameter_search.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
@@ -22,7 +21,7 @@ namespace {
 
 void check_options(const TrainOptions& o) {
   TrainOptions shared = o;
-  shared.kernel = "gip";  // the kernel is LIP's own; the rest is checked as for any GP
+  shared.kernel = default_kernel_name();  // the kernel is LIP's own; the rest is checked as for any GP
   shared.validate();
   if (o.mean != MeanKind::Zero) throw Error("lip: TrainOptions::mean must be zero (the energies have zero prior mean)");
   if (o.prior.enabled) throw Error("lip: TrainOptions::prior is not supported; leave it off");
@@ -159,93 +158,6 @@ class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
   LagrangianWeightSpaceMean::Workspace workspace_;
 };
 
-// At most `slots` evaluations at once, for starts that are all in flight but
-// must share the cores as TrainOptions::threads asks.
-class ComputeSlots {
- public:
-  explicit ComputeSlots(int slots) : free_(slots) {}
-  // Holds a slot for its lifetime (none for a null ComputeSlots).
-  class Hold {
-   public:
-    explicit Hold(ComputeSlots* slots) : slots_(slots) {
-      if (slots_) slots_->acquire();
-    }
-    ~Hold() {
-      if (slots_) slots_->release();
-    }
-    Hold(const Hold&) = delete;
-    Hold& operator=(const Hold&) = delete;
-
-   private:
-    ComputeSlots* slots_;
-  };
-  void acquire() {
-    std::unique_lock<std::mutex> lock(mu_);
-    cv_.wait(lock, [&] { return free_ > 0; });
-    --free_;
-  }
-  void release() {
-    {
-      const std::lock_guard<std::mutex> lock(mu_);
-      ++free_;
-    }
-    cv_.notify_one();
-  }
-
- private:
-  std::mutex mu_;
-  std::condition_variable cv_;
-  int free_;
-};
-
-// TrainOptions::start_screening_evaluations: every start runs up to the
-// budget, waits there for the others (or for their end, where they converged
-// sooner), and then only the one with the lowest NLL so far goes on (the
-// first of equals). It depends on the starts' NLLs at the budget alone, not on
-// timing, so the result does not depend on the threads.
-class StartScreening {
- public:
-  StartScreening(int starts, int budget)
-      : best_(static_cast<size_t>(starts), std::numeric_limits<double>::infinity()),
-        arrived_(static_cast<size_t>(starts), false), stopped_(static_cast<size_t>(starts), false), budget_(budget) {}
-
-  // Start r's EvaluationGate.
-  bool proceed(int r, int evaluations, double best) {
-    if (evaluations < budget_) return true;
-    std::unique_lock<std::mutex> lock(mu_);
-    if (!arrived_[static_cast<size_t>(r)]) arrive(r, best);
-    cv_.wait(lock, [&] { return arrivals_ == static_cast<int>(best_.size()); });
-    if (r != leader_) stopped_[static_cast<size_t>(r)] = true;
-    return r == leader_;
-  }
-  // Whether the gate stopped a start (else every start ended before the budget).
-  bool stopped_any() {
-    const std::lock_guard<std::mutex> lock(mu_);
-    return std::find(stopped_.begin(), stopped_.end(), true) != stopped_.end();
-  }
-  // Start r ended (converged, failed or threw) before its gate closed.
-  void finished(int r, double best) {
-    const std::lock_guard<std::mutex> lock(mu_);
-    if (!arrived_[static_cast<size_t>(r)]) arrive(r, best);
-  }
-
- private:
-  void arrive(int r, double best) {
-    arrived_[static_cast<size_t>(r)] = true;
-    if (std::isfinite(best)) best_[static_cast<size_t>(r)] = best;
-    if (++arrivals_ == static_cast<int>(best_.size())) {
-      leader_ = static_cast<int>(std::min_element(best_.begin(), best_.end()) - best_.begin());
-      cv_.notify_all();
-    }
-  }
-
-  std::mutex mu_;
-  std::condition_variable cv_;
-  std::vector<double> best_;
-  std::vector<bool> arrived_, stopped_;
-  int budget_, arrivals_ = 0, leader_ = -1;
-};
-
 }  // namespace
 
 std::unique_ptr<QueryWorkspace> LagrangianEstimator::make_query_workspace() const {
@@ -328,8 +240,9 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   JointReport shared;
   shared.coupled = true;
   // The coupled likelihood has optima that explain whole joints as noise
-  // (UR10, 150 rows: NLL -2406 against -4600, test nMSE 100-1000x worse), and
-  // which start reaches the better one depends on the starting noise. So the
+  // (thousands of nats above the best, with test errors orders of magnitude
+  // worse; docs/training.md), and which start reaches the better one depends
+  // on the starting noise. So the
   // data-driven start is tried with the starting noise at 1, 0.1 and 0.01 times
   // TrainOptions::initial_noise_fraction (never below the floor); the restarts
   // perturb the first of them. The lowest NLL is kept.
@@ -344,63 +257,47 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   }
   // One fit is a single coupled optimisation whose factorisations run on one
   // core, so the starts run side by side (TrainOptions::threads, 0: all at
-  // once, sharing the cores) as far as memory allows. Each start depends on its starting point
-  // alone and BLAS runs on one thread, so the kept optimum does not depend on
-  // how many run at once.
+  // once, sharing the cores) as far as memory allows. Each start depends on
+  // its starting point alone and BLAS runs on one thread, so the kept optimum
+  // does not depend on how many run at once. Screening
+  // (TrainOptions::start_screening_evaluations) pays here: the starts that
+  // reach the noise-explained optima show it early, while the good ones spend
+  // most of their evaluations on the last few nats.
   const int num_starts = static_cast<int>(start_points.size());
-  const int compute_threads = worker_threads(sharing_threads(o.threads, num_starts), num_starts, start_bytes);
-  // Screening (TrainOptions::start_screening_evaluations): the starts that
-  // reach the worse optima show it early (the noise-explained ones sit
-  // thousands of nats above), while the good ones spend most of their
-  // evaluations on the last few nats. Every start must then be in flight at
-  // once, each keeping its L-BFGS memory, so screening needs the memory for
-  // all of them; the cores are shared through ComputeSlots as without it.
-  const bool screened = o.start_screening_evaluations > 0 && num_starts > 1 &&
-                        o.start_screening_evaluations < opt.max_iterations &&
-                        worker_threads(num_starts, num_starts, start_bytes) == num_starts;
-  StartScreening screening(num_starts, o.start_screening_evaluations);
-  ComputeSlots slots(compute_threads);
-  std::vector<OptimizerResult> results(static_cast<size_t>(num_starts));
-  run_tasks(num_starts, screened ? num_starts : compute_threads, [&](int r) {
-    struct Finish {  // every way out of the start, an exception's too, must release the others' wait
-      StartScreening& screening;
-      int r;
-      double best = std::numeric_limits<double>::infinity();
-      ~Finish() { screening.finished(r, best); }
-    } finish{screening, r};
-    LikelihoodWorkspace ws(Xh, yh, n, o.jitter);
-    LagrangianKernel trial = kernel;
-    Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-      trial.set_log_params(x.head(P));
-      const ComputeSlots::Hold hold(screened ? &slots : nullptr);
-      const Evaluation e = ws.evaluate(trial, x.tail(n).array().exp(), true);
-      if (!e.ok) return false;
-      f = e.nll;
-      g = e.gradient;
-      return true;
-    };
-    ProgressCallback cb;
-    if (progress)
-      cb = [&](const ProgressEvent& optimizer_event) {
-        ProgressEvent e = optimizer_event;
-        e.estimator = friction ? "lip+friction" : "lip";
-        e.restart = r;
-        e.rows = static_cast<long>(Xh.rows());
-        e.seconds = seconds();
-        progress(e);
-      };
-    EvaluationGate gate;
-    if (screened)
-      gate = [&](int evaluations, double best) { return screening.proceed(r, evaluations, best); };
-    OptimizerResult& result = results[static_cast<size_t>(r)];
-    result = minimize(objective, start_points[static_cast<size_t>(r)], opt, cb, gate);
-    if (result.usable()) finish.best = result.f;
-  });
-  BestOfStarts starts;
-  for (const OptimizerResult& res : results) {
-    shared.evaluations += res.evaluations;
-    starts.add(res);
-  }
+  SearchOptions search;
+  search.optimizer = opt;
+  search.screening_evaluations = o.start_screening_evaluations;
+  search.threads = sharing_threads(o.threads, num_starts);
+  search.bytes_per_start = start_bytes;
+  const std::string name = estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction);
+  const SearchResult found = search_hyperparameters(
+      start_points,
+      [&](int) -> Objective {
+        auto ws = std::make_shared<LikelihoodWorkspace>(Xh, yh, n, o.jitter);
+        auto trial = std::make_shared<LagrangianKernel>(kernel);
+        return [ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+          trial->set_log_params(x.head(P));
+          const Evaluation e = ws->evaluate(*trial, x.tail(n).array().exp(), true);
+          if (!e.ok) return false;
+          f = e.nll;
+          g = e.gradient;
+          return true;
+        };
+      },
+      search,
+      [&](int r) -> ProgressCallback {
+        if (!progress) return {};
+        return [&, r](const ProgressEvent& optimizer_event) {
+          ProgressEvent e = optimizer_event;
+          e.estimator = name;
+          e.restart = r;
+          e.rows = static_cast<long>(Xh.rows());
+          e.seconds = seconds();
+          progress(e);
+        };
+      });
+  const BestOfStarts& starts = found.best;
+  shared.evaluations = found.evaluations;
   shared.restart_nlls = starts.objectives;
   const OptimizerResult& kept = starts.kept;
   shared.status = kept.status;
@@ -415,7 +312,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
   LikelihoodWorkspace final_ws(X, y, n, o.jitter);
   if (subsampled) shared.hyperparameter_rows = static_cast<long>(Xh.rows());
-  if (screened && screening.stopped_any()) shared.screening_evaluations = o.start_screening_evaluations;
+  shared.screening_evaluations = found.screening_evaluations;
   const Evaluation final_fit = final_ws.evaluate(kernel, noise, false);
   if (!final_fit.ok) {
     out.report.message = "lip: final fit failed: " + final_fit.message;
@@ -551,7 +448,7 @@ nlohmann::json LagrangianEstimator::summary() const {
 LagrangianEstimator LagrangianEstimator::from_container(const ModelContainer& c, const std::string& what) {
   const JointTypes joints = JointTypes::parse(c.header.at("joints").get<std::string>());
   // Files written before the serial-chain kernel have no such entry: theirs was the full one.
-  LagrangianKernel kernel(joints, c.header.at("estimator").get<std::string>() == "lip+friction",
+  LagrangianKernel kernel(joints, estimator_spec(c.header.at("estimator").get<std::string>()).friction,
                           c.header.value("serial_chain", false));
   const Eigen::MatrixXd& p = c.array("log_params", what);
   const Eigen::MatrixXd& noise = c.array("noise_variances", what);

@@ -14,6 +14,7 @@
 #include "gipdyn/memory.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/model/hyperparameter_search.hpp"
 
 namespace gipdyn {
 
@@ -126,43 +127,58 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   kernel->restrict_log_params(Z, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
   x0 = x0.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
 
-  GpWorkspace ws;
-  SparseGpWorkspace sparse_ws;
-  std::unique_ptr<Kernel> trial = kernel->clone();
   std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
   std::normal_distribution<double> normal(0.0, 1.0);
+  // The data-driven start, then the restarts perturbed from it (TrainOptions::restarts).
+  std::vector<Eigen::VectorXd> starts{x0};
+  for (int r = 1; r <= o.restarts; ++r) {
+    Eigen::VectorXd start = x0;
+    for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
+    starts.push_back(start);
+  }
 
   const bool exact_objective = o.hyperparameter_objective == HyperparameterObjective::Exact &&
                                o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
-  // One optimisation of the NLL on the rows (Xr, Zr, yr).
+  // The search (hyperparameter_search.hpp) from `from` on the rows (Xr, Zr, yr).
   // all_rows: (Xr, Zr, yr) are the hyperparameter rows, not the warm-start subsample.
-  auto optimise = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
-                      const Eigen::VectorXd& start, int restart, const EvaluationGate& gate = {}) {
+  auto search_on = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
+                       const std::vector<Eigen::VectorXd>& from) {
     const bool sparse = Zm && all_rows && !exact_objective, distributed = o.nll_backend && all_rows;
-    // The exact NLL of a finite feature expansion (PP) in weight space: the same
-    // value and gradient without the O(N^3) factorisation.
-    std::optional<WeightSpaceNll> weight_space;
-    Eigen::MatrixXd Phi;
-    if (!sparse && !distributed && mean.kind() == MeanKind::Zero && kernel->weight_space_features(Zr, Phi))
-      weight_space.emplace(std::move(Phi), yr);
-    Objective objective = [&](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-      trial->set_log_params(x.head(P));
-      // A warm-start subsample is small: the exact NLL there, in this process;
-      // the sparse bound (unless asked for the exact NLL) or the backend on all rows.
-      NllEvaluation e = weight_space ? weight_space->evaluate(x.head(P), x(P))
-                        : sparse     ? evaluate_vfe(*trial, x(P), Zr, yr, *Zm, true, sparse_ws, o.jitter)
-                        : distributed
-                            ? o.nll_backend->evaluate(*trial, x(P), Zr, yr, true, nullptr, o.jitter)
-                            : evaluate_profiled_nll(*trial, x(P), mean, Xr, Zr, yr, true, ws, nullptr, o.jitter);
-      if (!e.ok()) return false;
-      f = e.nll;
-      g = e.gradient;
-      if (o.prior.enabled) f += prior_penalty(x, x0, o.prior.width, &g);  // MAP
-      return true;
+    // Each start evaluates with its own kernel and workspace: starts may run side by side (screening).
+    auto objective_for = [&, sparse, distributed](int) -> Objective {
+      struct State {
+        std::unique_ptr<Kernel> trial;
+        GpWorkspace ws;
+        SparseGpWorkspace sparse_ws;
+        // The exact NLL of a finite feature expansion (PP) in weight space: the
+        // same value and gradient without the O(N^3) factorisation.
+        std::optional<WeightSpaceNll> weight_space;
+      };
+      auto state = std::make_shared<State>();
+      state->trial = kernel->clone();
+      Eigen::MatrixXd Phi;
+      if (!sparse && !distributed && mean.kind() == MeanKind::Zero && kernel->weight_space_features(Zr, Phi))
+        state->weight_space.emplace(std::move(Phi), yr);
+      return [&, state, sparse, distributed](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+        Kernel& trial = *state->trial;
+        trial.set_log_params(x.head(P));
+        // A warm-start subsample is small: the exact NLL there, in this process;
+        // the sparse bound (unless asked for the exact NLL) or the backend on all rows.
+        NllEvaluation e =
+            state->weight_space ? state->weight_space->evaluate(x.head(P), x(P))
+            : sparse            ? evaluate_vfe(trial, x(P), Zr, yr, *Zm, true, state->sparse_ws, o.jitter)
+            : distributed       ? o.nll_backend->evaluate(trial, x(P), Zr, yr, true, nullptr, o.jitter)
+                          : evaluate_profiled_nll(trial, x(P), mean, Xr, Zr, yr, true, state->ws, nullptr, o.jitter);
+        if (!e.ok()) return false;
+        f = e.nll;
+        g = e.gradient;
+        if (o.prior.enabled) f += prior_penalty(x, x0, o.prior.width, &g);  // MAP
+        return true;
+      };
     };
-    ProgressCallback cb;
-    if (progress)
-      cb = [&](const ProgressEvent& optimizer_event) {
+    auto progress_for = [&](int restart) -> ProgressCallback {
+      if (!progress) return {};
+      return [&, restart](const ProgressEvent& optimizer_event) {
         ProgressEvent e = optimizer_event;
         e.estimator = o.kernel;
         e.joint = j;
@@ -171,9 +187,16 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
         e.seconds = seconds();
         progress(e);
       };
-    OptimizerOptions stage = opt;
-    stage.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(yr.size());
-    return minimize(objective, start, stage, cb, gate);
+    };
+    SearchOptions search;
+    search.optimizer = opt;
+    search.optimizer.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(yr.size());
+    search.screening_evaluations = o.start_screening_evaluations;
+    search.threads = 1;  // the joints are the parallel work
+    const double side = static_cast<double>(sparse ? Zm->rows() : yr.size());
+    search.bytes_per_start = (sparse ? 10.0 : 2.0) * 8.0 * side * side;  // as training_memory's per joint
+    search.concurrent_objectives = !distributed;
+    return search_hyperparameters(from, objective_for, search, progress_for);
   };
 
   // The rows the hyperparameters are learned on: all, or a constant-step subsample.
@@ -188,51 +211,24 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
   // Every start on the subsample when the data are large: the subsample's
   // optimum is a start close to the full data's, and there restarts are cheap.
   const bool warm = o.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
-  RowSubset w;  // the warm-start subsample, taken once for every start
-  if (warm) w = RowSubset(Xo, Zo, yo, o.warm_start_rows);
-  // Screening (TrainOptions::start_screening_evaluations), one start after
-  // another: a start goes on past the budget only if its NLL there is below
-  // every earlier start's at the budget, so the start run to its end last is
-  // the one with the lowest NLL at the budget (the first of equals), as
-  // LagrangianEstimator's starts side by side choose it.
-  const int budget = o.restarts > 0 && o.start_screening_evaluations < opt.max_iterations
-                         ? o.start_screening_evaluations
-                         : 0;
-  double leader_at_budget = std::numeric_limits<double>::infinity();
-  bool stopped_any = false;
-  BestOfStarts starts;
-  for (int r = 0; r <= o.restarts; ++r) {
-    Eigen::VectorXd start = x0;
-    if (r > 0)
-      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    double at_budget = std::numeric_limits<double>::infinity();
-    bool decided = false, stopped = false;
-    EvaluationGate gate;
-    if (budget > 0)
-      gate = [&](int evaluations, double best) {
-        if (evaluations < budget || decided) return !stopped;
-        decided = true;
-        at_budget = best;
-        stopped = !(best < leader_at_budget);
-        return !stopped;
-      };
-    OptimizerResult res =
-        warm ? optimise(w.X, w.Z, w.y, false, start, r, gate) : optimise(Xo, Zo, yo, true, start, r, gate);
-    (warm ? out.report.warm_start_evaluations : out.report.evaluations) += res.evaluations;
-    if (budget > 0 && !decided && res.usable()) at_budget = res.f;  // ended before the budget
-    if (at_budget < leader_at_budget) leader_at_budget = at_budget;
-    stopped_any = stopped_any || stopped;
-    starts.add(res);
+  SearchResult found;
+  if (warm) {
+    const RowSubset w(Xo, Zo, yo, o.warm_start_rows);
+    found = search_on(w.X, w.Z, w.y, false, starts);
+    out.report.warm_start_evaluations = found.evaluations;
+  } else {
+    found = search_on(Xo, Zo, yo, true, starts);
+    out.report.evaluations = found.evaluations;
   }
-  if (stopped_any) out.report.screening_evaluations = budget;
-  out.report.restart_nlls = starts.objectives;
-  OptimizerResult kept = starts.kept;
-  Eigen::VectorXd best_x = starts.found() ? kept.x : Eigen::VectorXd();
+  out.report.screening_evaluations = found.screening_evaluations;
+  out.report.restart_nlls = found.best.objectives;
+  OptimizerResult kept = found.best.kept;
+  Eigen::VectorXd best_x = found.best.found() ? kept.x : Eigen::VectorXd();
   if (warm && best_x.size() > 0) {
-    OptimizerResult res = optimise(Xo, Zo, yo, true, best_x, 0);
-    out.report.evaluations += res.evaluations;
-    kept = res;
-    best_x = res.usable() ? res.x : Eigen::VectorXd();
+    const SearchResult full = search_on(Xo, Zo, yo, true, {best_x});
+    out.report.evaluations += full.evaluations;
+    kept = full.best.kept;
+    best_x = full.best.found() ? kept.x : Eigen::VectorXd();
   }
   out.report.status = kept.status;
   out.report.message = kept.message;
@@ -257,6 +253,8 @@ JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixX
     return out;
   }
   kernel->set_log_params(best_x.head(P));
+  GpWorkspace ws;  // the final fit's
+  SparseGpWorkspace sparse_ws;
   if (mean.kind() != MeanKind::Zero) {  // the coefficients that go with the chosen hyperparameters
     Eigen::VectorXd beta;
     const NllEvaluation at_best =

@@ -12,6 +12,7 @@
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/gp/nll_backend.hpp"
+#include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/optim/optimizer.hpp"
@@ -39,7 +40,7 @@ std::string to_string(HyperparameterObjective o);
 HyperparameterObjective parse_hyperparameter_objective(const std::string& s);
 
 struct TrainOptions {
-  std::string kernel = "gip";
+  std::string kernel = default_kernel_name();  // a name of kernel_table() (kernels/kernel_factory.hpp)
   // The nominal robot for model-based kernels (pp, sp); required by them, ignored by the others.
   RobotPrior robot_prior;
   OptimizerOptions optimizer;
@@ -56,8 +57,8 @@ struct TrainOptions {
   // constant-step subsample of this many rows (every start and restart there,
   // each evaluation (rows/N)^3 of the cost), then continue on all rows from the
   // best subsample optimum. 0 (the default): optimise on all rows from the
-  // start. Measured (docs/training.md): 2-2.5x faster, the same NLL on a UR10,
-  // a worse optimum on one SCARA joint; hence opt-in.
+  // start. Opt-in: the subsample's optimum need not lead to the full data's
+  // best one (docs/training.md measures both).
   int warm_start_rows = 0;
   // Sparse GP (gp/sparse_gp.hpp): with M > 0, each joint is conditioned on M
   // inducing rows chosen among the training rows (greedy variance under the
@@ -79,8 +80,7 @@ struct TrainOptions {
   // A joint's optimisation has converged when the projected |dNLL/dlog theta|_inf
   // at its best point is at most this times the number of rows (the NLL and its
   // gradient grow with the rows); it sets OptimizerOptions::gradient_tolerance.
-  // 1e-4 stopped a demo joint 6 nats short of its optimum, with 125x the test
-  // error (docs/training.md); 1e-5 costs 1.5-2x the evaluations.
+  // docs/training.md measures how far short of the optimum looser tolerances stop.
   double gradient_tolerance_per_row = 1e-5;
   // Noise variance, relative to the variance of the scaled output: its start and its floor.
   double initial_noise_fraction = 1e-2;
@@ -99,13 +99,12 @@ struct TrainOptions {
   // section 11). Off: every entry may depend on every joint (the LIP paper's
   // kernel), for joints in another order.
   bool serial_chain = true;
-  // lip: its starts (three starting noises, plus restarts) first run for at
-  // most this many NLL evaluations each; only the one with the lowest NLL
-  // then continues to convergence. On 15 logs (SCARA, PUMA, UR10, 7R arm;
-  // docs/training.md) the leader after 60 ends within 2 nats of the best of
-  // the starts run to the end, at half the evaluations on a 6R arm. The GP
-  // estimators' restarts are screened the same way, one start after another:
-  // a start goes on past the budget only while its NLL there leads.
+  // Screening of the starts (SearchOptions::screening_evaluations,
+  // hyperparameter_search.hpp): lip's starts (three starting noises, plus
+  // restarts) and a GP joint's restarts first run for at most this many NLL
+  // evaluations each; only the one with the lowest NLL then continues to
+  // convergence. docs/training.md measures how close the leader at this
+  // budget ends to the best of the starts run to the end.
   // 0: every start runs to convergence.
   int start_screening_evaluations = 60;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
