@@ -73,8 +73,8 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
   }
   // Runs fitted side by side share the table, the log, the time estimate and
   // the progress output, and the cores: each fit gets its share of them
-  // unless the options ask for a thread count (measured: one thread a fit
-  // beats every joint at once here, bench/RESULTS.md).
+  // unless the options ask for a thread count (bench/RESULTS.md compares one
+  // thread a fit with every joint at once).
   std::mutex shared;
   EstimatorOptions base = c.base;
   if (c.concurrent_runs > 1 && base.gp.threads == 0)

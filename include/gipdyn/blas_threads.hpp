@@ -1,6 +1,6 @@
 #pragma once
 // gipdyn runs BLAS on one thread and parallelises over joints itself
-// (docs/method.md section 5: a 2-thread BLAS next to a busy core ran 30x slower here). One
+// (docs/method.md section 5: a multi-threaded BLAS next to a busy core waits for it). One
 // thread everywhere also makes results independent of the machine's core
 // count: the same model predicts bit-identically in every process.
 

@@ -257,7 +257,7 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
 }
 
 void PredictionWorkspace::predict(const double* x, double* tau) {
-  const FlushSubnormalsToZero fast_floats;  // 5x faster on a real-log RBF model (bench/RESULTS.md)
+  const FlushSubnormalsToZero fast_floats;  // floating_point.hpp; bench/RESULTS.md times a real-log RBF model
   const InverseDynamicsModel& m = *model_;
   const Eigen::MatrixXd& Z = m.training_features();
   m.features().compute_row(x, z_.data());

@@ -186,7 +186,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
 // Where L-BFGS can no longer improve on its best point, is the objective's
 // rounding what hides the rest of the descent? An ill-conditioned NLL is
 // deterministic but rough at the scale of its rounding (docs/training.md
-// measured 1e-3 to 6e-3 nats at steps of 1e-7 to 1e-4), while its gradient
+// measures it), while its gradient
 // stays smooth. Along the steepest descent d from the best point: the
 // roughness is how far the objective strays from its first-order prediction
 // at two steps too short to change it (1e-7 in the log-hyperparameters); the

@@ -48,8 +48,8 @@ class ParametricKernel final : public Kernel {
   static constexpr double kMaxParameterShare = 100.0;
 
   // One query's mean in weight space: the plan holds diag(s) Phi(Z)^T alpha, so
-  // a query costs one regressor instead of N (50 ms a query on 2000 UR10 rows
-  // before); no allocation once the scratch has its buffers.
+  // a query costs one regressor instead of N; no allocation once the scratch
+  // has its buffers.
   void plan_mean(const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, MeanPlan& plan) const override;
   double mean_one(const double* z, const Eigen::MatrixXd& Z, const Eigen::VectorXd& alpha, const MeanPlan& plan,
                   Eigen::Ref<Eigen::VectorXd> krow, KernelScratch& scratch) const override;
