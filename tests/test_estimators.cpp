@@ -1,6 +1,7 @@
 // The estimators of issue 4 behind one interface: fe, pp, sp, the GP kernels and nn.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <array>
 #include <atomic>
 #include <cmath>
@@ -14,6 +15,8 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
+#include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/metrics.hpp"
@@ -188,6 +191,94 @@ INSTANTIATE_TEST_SUITE_P(Names, EveryEstimator,
                                            "gip-friction+rbf", "gip+friction", "gip+friction+rbf", "gip-envelope",
                                            "gip-envelope+friction", "nn"),
                          [](const ::testing::TestParamInfo<std::string>& info) { return test::test_name(info.param); });
+
+// The table is the only place a name is spelled; every reader agrees with it.
+TEST(EstimatorTable, EveryNameOnceAndEveryRowConsistent) {
+  const std::vector<std::string>& names = estimator_names();
+  ASSERT_EQ(names.size(), estimator_table().size());
+  int defaults = 0, teachers = 0;
+  for (const std::string& name : names) {
+    EXPECT_EQ(std::count(names.begin(), names.end(), name), 1) << name;
+    const EstimatorSpec& e = estimator_spec(name);
+    EXPECT_EQ(e.name, name);
+    EXPECT_FALSE(e.help.empty()) << name;
+    // A GP row is its kernel's row, and the kernel is built by that name.
+    EXPECT_EQ(e.family == EstimatorFamily::Gp, e.kernel != nullptr) << name;
+    if (e.kernel) {
+      EXPECT_EQ(e.kernel->name, name);
+      EXPECT_EQ(e.needs_robot, kernel_needs_robot(name));
+      RobotPrior prior;
+      prior.robot = std::make_shared<const RobotModel>(scara_robot());
+      EXPECT_NE(make_kernel(name, FeatureMap(scara_robot().joint_types()), 1, prior), nullptr) << name;
+    }
+    defaults += e.default_estimator;
+    teachers += e.default_teacher;
+    if (e.default_teacher) EXPECT_FALSE(e.needs_robot) << "a default teacher must teach without a robot";
+    if (!e.preset.empty()) EXPECT_EQ(preset_options(e.preset).name, name);
+  }
+  EXPECT_EQ(defaults, 1);
+  EXPECT_EQ(teachers, 1);
+  EXPECT_EQ(EstimatorOptions{}.name, default_estimator_name());
+  EXPECT_EQ(TrainOptions{}.kernel, default_estimator_name());
+  EXPECT_EQ(TeacherOptions{}.name, default_teacher_name());
+  EXPECT_THROW(estimator_spec("gip-turbo"), Error);
+  // Variants are columns, read back by family.
+  EXPECT_TRUE(estimator_spec(estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, true)).friction);
+  EXPECT_FALSE(estimator_spec(estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, false)).friction);
+  for (const std::string& name : physics_estimator_names()) EXPECT_TRUE(estimator_spec(name).rigid_body_terms);
+}
+
+TEST(EstimatorTable, TeacherChoiceIsOneRuleForEveryFrontEnd) {
+  TeacherOptions settings;
+  settings.states = 321;
+  EstimatorOptions plain;  // the default estimator, exact GP, no robot
+  const std::optional<TeacherOptions> automatic = choose_teacher(kAutomaticTeacher, plain, settings);
+  ASSERT_TRUE(automatic.has_value());
+  EXPECT_EQ(automatic->name, default_teacher_name());
+  EXPECT_EQ(automatic->mode, TeachingMode::Automatic);
+  EXPECT_EQ(automatic->states, 321);
+  EstimatorOptions sparse = plain;  // automatic teaching is not for a sparse fit: no teacher at all
+  sparse.gp.inducing_points = 50;
+  EXPECT_FALSE(choose_teacher(kAutomaticTeacher, sparse, settings).has_value());
+  EstimatorOptions rbf;
+  rbf.name = "rbf";
+  EXPECT_FALSE(choose_teacher(kAutomaticTeacher, rbf, settings).has_value());
+  EXPECT_FALSE(choose_teacher(kNoTeacher, plain, settings).has_value());
+  const std::optional<TeacherOptions> named = choose_teacher("chain", rbf, settings);
+  ASSERT_TRUE(named.has_value());
+  EXPECT_EQ(named->name, "chain");
+  EXPECT_EQ(named->mode, TeachingMode::Always);
+  EXPECT_THROW(choose_teacher("sometimes", plain, settings), Error);
+}
+
+TEST(EstimatorTable, TeachingRecordIsWrittenByTheFitAndKeptByModelFiles) {
+  const Split s = scara_split(0.01, 80);
+  EstimatorOptions o;
+  o.gp.optimizer.max_iterations = 8;
+  TeacherOptions settings;
+  settings.states = 150;
+  settings.student_hyperparameter_rows = 100;
+  o.teacher = choose_teacher(kAutomaticTeacher, o, settings);
+  FitResult r = fit_estimator(o, s.train.X, s.train.tau, scara_robot().joint_types());
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  const nlohmann::json& record = r.estimator->teaching_record();
+  ASSERT_TRUE(record.is_object());
+  EXPECT_EQ(record.at("estimator"), default_teacher_name());
+  EXPECT_EQ(record.at("mode"), "automatic");
+  EXPECT_EQ(record.at("outcome"), to_string(r.teaching));
+  EXPECT_EQ(record.at("states"), 150);
+  const std::string path = temp_path("taught.model");
+  save_estimator(*r.estimator, path);
+  const std::unique_ptr<Estimator> back = load_estimator(path);
+  std::filesystem::remove(path);
+  EXPECT_EQ(back->teaching_record(), record);
+  // Without a teacher asked for, no record.
+  o.teacher.reset();
+  FitResult plain = fit_estimator(o, s.train.X, s.train.tau, scara_robot().joint_types());
+  ASSERT_TRUE(plain.report.ok());
+  EXPECT_TRUE(plain.estimator->teaching_record().is_null());
+  EXPECT_FALSE(estimator_container(*plain.estimator).header.contains("teacher"));
+}
 
 TEST(Estimators, NeuralNetworkIsReproducibleForASeed) {
   const Split s = scara_split(0.01, 100);

@@ -1,13 +1,36 @@
 #include "estimator_args.hpp"
 
 #include "cli_parsing.hpp"
+#include <algorithm>
+
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 
 namespace gipdyn::cli {
 
 std::string estimator_list() {
   return joined(estimator_names());
+}
+
+std::string estimator_table_text() {
+  size_t width = 0;
+  for (const EstimatorSpec& e : estimator_table()) width = std::max(width, e.name.size());
+  std::string text = "Estimators (--kernel):\n";
+  for (const EstimatorSpec& e : estimator_table())
+    text += "  " + e.name + std::string(width + 2 - e.name.size(), ' ') + e.help +
+            (e.needs_robot ? " (needs --robot)" : "") + "\n";
+  return text;
+}
+
+std::string preset_list() {
+  std::vector<std::string> clauses;
+  for (const std::string& name : preset_names()) {
+    const int rows = preset_max_training_rows(name);
+    clauses.push_back(name + " (" + preset_options(name).name +
+                      (rows > 0 ? ", at most " + std::to_string(rows) + " rows" : std::string()) + ")");
+  }
+  return joined(clauses);
 }
 
 void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
@@ -18,8 +41,7 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--lbfgs-memory", lbfgs_memory,
-                 "GP: correction pairs L-BFGS keeps (docs/training.md: 40 reach the optimum in 2-3x fewer "
-                 "evaluations than NLopt's 10)")
+                 "GP: correction pairs L-BFGS keeps (docs/training.md compares memories)")
       ->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--gradient-tolerance", gradient_tolerance,

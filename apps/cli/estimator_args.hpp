@@ -43,6 +43,10 @@ struct EstimatorArgs {
 };
 
 std::string estimator_list();  // "gip, gip-friction, ..., fe, nn"
+// One line per estimator of the library's table: its name, what it is, whether it needs --robot.
+std::string estimator_table_text();
+// One clause per preset: "default (gip), real (gip-envelope+friction, at most 1000 rows)".
+std::string preset_list();
 
 // Headings of --help: each estimator's options under its own, so that the
 // options a user needs first (data, kernel, output) are not lost among forty.

@@ -84,9 +84,8 @@ std::string joints_below_noise(const Dataset& data) {
 // the noise (warned about on their own): the model predicts them worse than
 // their own mean over the test rows would. On simulated logs the usual cause
 // is coverage: the test motion reaches states the training motion never
-// visited (a 20 s 7R log: nMSE 2.6 on the last joint for GIP, LIP and RBF
-// alike); on real logs also torques that differ at the same state (the UR10's
-// two recordings, docs/real-robots.md).
+// visited, whatever the estimator; on real logs also torques that differ at
+// the same state (docs/real-robots.md).
 std::string joints_worse_than_their_mean(const Accuracy& acc, const Dataset& data, const std::string& path) {
   std::string out;
   for (Eigen::Index j = 0; j < acc.nmse.size(); ++j) {
@@ -243,7 +242,7 @@ Command add_evaluate(CLI::App& app) {
                  "Diagnostics folder: predicted vs measured torque over time, residual histograms and, for GP "
                  "models, the share of the output variance the model calls noise (PNG + diagnostics.json)");
   app.add_option("--physics", a->physics,
-                 "Compare the model's gravity, inertia and Coriolis torque (gip, gip-friction, gip+friction, lip, lip+friction, pp, fe) with "
+                 "Compare the model's gravity, inertia and Coriolis torque (" + joined(physics_estimator_names()) + ") with "
                  "this robot's (scara, ur10, a URDF or JSON file) at the test states: relative errors printed, "
                  "in --json, and with --plots as physics.csv and physics.png (estimated against true)");
   app.add_option("--plot-window", a->plot_window, "Rows shown in the torque-over-time plot")->capture_default_str();

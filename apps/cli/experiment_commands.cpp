@@ -33,7 +33,7 @@ int report(const ExperimentOutcome& o, bool quiet) {
 }
 
 EstimatorOptions base_options(const EstimatorArgs& args) {
-  EstimatorOptions o = args.build("gip");  // the experiment's config checks the shared options
+  EstimatorOptions o = args.build(default_estimator_name());  // the experiment's config checks the shared options
   o.robot_prior = {};
   return o;
 }
@@ -139,7 +139,8 @@ Command add_experiment(CLI::App& app) {
   r->add_option("--plot-window", real->config.plot_window, "Test rows in the torque-over-time plot")
       ->capture_default_str();
   r->add_option("--estimators", real->estimators,
-                estimator_help + " (default: gip,gip-friction,rbf,nn, plus fe,pp,sp when a robot is known)");
+                estimator_help + " (default: " + joined(default_compared_estimators(false), ",") + ", plus " +
+                    joined(robot_compared_estimators(), ",") + " when a robot is known)");
   r->add_option("--out", real->config.out,
                 "Output folder: nmse.csv, summary.md, nmse_bar.png, torque_time.png, predictions_*.csv")
       ->required();
@@ -207,7 +208,7 @@ Command add_experiment(CLI::App& app) {
     if (!real->estimators.empty()) {
       c.estimators = split_list(real->estimators);
     } else if (!c.robot.empty()) {
-      c.estimators = {"gip", "gip-friction", "rbf", "nn", "fe", "pp", "sp"};
+      c.estimators = default_compared_estimators(true);
     }
     if (!real->sizes.empty()) c.sizes = parse_int_list(real->sizes, "--sizes", "100,200,500");
     c.base = base_options(real->est);

@@ -30,7 +30,7 @@ Command add_physics(CLI::App& app) {
   };
   auto a = std::make_shared<Args>();
   app.description(
-      "Rigid-body terms of a learned model (gip, gip-friction, gip+friction, lip, lip+friction, pp, fe): gravity g(q), the inertia matrix M(q)\n"
+      "Rigid-body terms of a learned model (" + joined(physics_estimator_names()) + "): gravity g(q), the inertia matrix M(q)\n"
       "and, when the states have velocities, the Coriolis/centrifugal torque C(q, qd) qd and the friction\n"
       "torque, all from the model's torque predictions. M is the symmetric part of the rows the joints'\n"
       "models learn; per row, how physical they are: their asymmetry and the smallest eigenvalue of M.\n"

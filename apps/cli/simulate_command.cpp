@@ -42,7 +42,7 @@ Command add_simulate(CLI::App& app) {
                "Generate the data with lengths perturbed by up to 0.05 m and angles by up to 5 deg");
   app.add_flag("--friction", a->sim.friction, "Add the robot's viscous and Coulomb friction to the torques");
   app.add_option("--model", a->model,
-                 "A learned model (gip, gip-friction, gip+friction, lip, lip+friction, pp, fe) driven by the same noise-free torques from the same start: "
+                 "A learned model (" + joined(physics_estimator_names()) + ") driven by the same noise-free torques from the same start: "
                  "adds its motion as q1_model.., qd1_model.. columns")
       ->check(CLI::ExistingFile);
   app.add_option("--integrator", a->integrator, "--model: rk4 (torque interpolated linearly) or euler (semi-implicit, torque held)")

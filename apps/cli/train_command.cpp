@@ -29,7 +29,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, mat_variable, joints, kernel = "gip", out, preset, teacher = "auto", teacher_out;
+  std::string data, mat_variable, joints, kernel = default_estimator_name(), out, preset, teacher = "auto", teacher_out;
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -47,18 +47,16 @@ Command add_train(CLI::App& app) {
   add_data_option(app, a->data, a->mat_variable, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else those of --robot; else required)");
   app.add_option("--kernel", a->kernel,
-                 "Estimator: a GP kernel (gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp), lip (one GP "
-                 "over all joints with priors on the energies; train it on a few hundred rows, or learn its hyperparameters "
-                 "on a few hundred with --hyperparameter-rows), lip+friction (lip plus each joint's smooth friction and "
-                 "offset), fe or nn; "
-                 "fe, pp, sp need --robot")
+                 "Estimator, one of those listed under Estimators below (docs/choosing-a-model.md says which for "
+                 "which log)")
       ->capture_default_str();
+  app.footer(estimator_table_text());
   app.add_option("--subsample", a->subsample,
-                 "Keep this many training rows, taken with a constant step (0: all; --preset real: at most 1000)")
+                 "Keep this many training rows, taken with a constant step (0: all, or the --preset's limit)")
       ->capture_default_str();
   app.add_option("--preset", a->preset,
-                 "Start from a named set of options; options given explicitly override it. default, or real: for "
-                 "logs of real robots (kernel gip-envelope+friction, at most 1000 rows; docs/real-robots.md)");
+                 "Start from a named set of options; options given explicitly override it: " + preset_list() +
+                     "; real is for logs of real robots (docs/real-robots.md)");
   app.add_option(
       "--teacher", a->teacher,
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
@@ -118,11 +116,21 @@ Command add_train(CLI::App& app) {
               ? a->estimator.build(a->kernel)
               : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
       if (a->subsample < 0) throw Error("--subsample must be >= 0");
-      const bool automatic = a->teacher == "auto";
-      // --distributed sets the backend below; a preset other than default chose its own estimator.
-      const bool teaches = automatic ? (a->preset.empty() || a->preset == "default") && !mpi &&
-                                           automatic_teaching_applies(o)
-                                     : a->teacher != "none";
+      if (mpi) {
+        if (!is_gp_estimator(o.name))
+          throw Error("--distributed trains the exact GP of a GP kernel (" +
+                      joined(estimator_names_where([](const EstimatorSpec& e) { return e.kernel != nullptr; })) +
+                      "), not '" + o.name + "'");
+        o.gp.nll_backend = mpi->backend();
+      }
+      const bool automatic = a->teacher == kAutomaticTeacher;
+      TeacherOptions settings;
+      settings.states = a->teacher_states;
+      settings.hyperparameter_rows = a->teacher_hyperparameter_rows;
+      settings.student_hyperparameter_rows = a->student_hyperparameter_rows;
+      settings.seed = o.gp.seed;
+      o.teacher = choose_teacher(a->teacher, o, settings);
+      const bool teaches = o.teacher.has_value();
       // The teacher's options where no teacher teaches: left over beside --teacher none, but a
       // misunderstanding beside the default, which the user may have expected to teach.
       if (!teaches && !a->teacher_out.empty())
@@ -143,24 +151,9 @@ Command add_train(CLI::App& app) {
                       " with these options (--kernel gip alone, without --preset real, --inducing, --warm-start-rows, "
                       "--mean, --robot or --distributed): name a teacher (e.g. --teacher lip), or drop " + name);
         }
-      if (teaches) {
-        if (mpi) throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
-        TeacherOptions t;
-        t.name = automatic ? "lip" : a->teacher;
-        t.mode = automatic ? TeachingMode::Automatic : TeachingMode::Always;
-        t.states = a->teacher_states;
-        t.hyperparameter_rows = a->teacher_hyperparameter_rows;
-        t.student_hyperparameter_rows = a->student_hyperparameter_rows;
-        t.seed = o.gp.seed;
-        o.teacher = t;
-      }
+      if (teaches && mpi)
+        throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
       if (!a->preset.empty() && app.count("--subsample") == 0) a->subsample = preset_max_training_rows(a->preset);
-      if (mpi) {
-        if (!is_gp_estimator(o.name))
-          throw Error("--distributed trains the exact GP of a kernel estimator (gip, rbf, gip-friction, ...), not '" +
-                      o.name + "'");
-        o.gp.nll_backend = mpi->backend();
-      }
       data = read_robot_log(a->data, a->mat_variable, joints, true);
       for (const auto& w : training_input_warnings(data.X, joints, a->data)) data_warnings.push_back(w);
       total = data.rows();
@@ -206,19 +199,18 @@ Command add_train(CLI::App& app) {
       // Where the log is not a simulated one, it may be a robot's: there the taught model is usually
       // thrown away after the teacher's minutes, and gip alone runs away from the training motions
       // (docs/real-robots.md). Say so before the minutes are spent.
-      if (a->preset.empty() && o.name == "gip" &&
+      if (a->preset.empty() && estimator_spec(o.name).default_estimator &&
           sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator)) {
         const char* const recommendation =
             "  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there";
         const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
         if (taught && o.teacher->mode == TeachingMode::Automatic)
-          std::printf("%s the model %s teaches is usually thrown away, after %s's fit (minutes on a 6-joint arm)\n",
+          std::printf("%s the model %s teaches is usually thrown away, after %s's fit\n",
                       recommendation, o.teacher->name.c_str(), o.teacher->name.c_str());
         else if (!taught)
-          std::printf("%s gip alone extrapolates its polynomial away from the training motions (the shared UR10 log, "
-                      "1000 rows: mean test nMSE 2.1 and 542 on its two splits, against 0.79 and 0.57 with --preset "
-                      "real)\n",
-                      recommendation);
+          std::printf("%s %s alone extrapolates its polynomial away from the training motions (docs/real-robots.md "
+                      "compares it with --preset real on the shared UR10 log)\n",
+                      recommendation, o.name.c_str());
       }
       std::fflush(stdout);
     }
@@ -251,22 +243,7 @@ Command add_train(CLI::App& app) {
       return 0;
     }
     if (!r.report.ok()) throw Error("training failed: " + r.report.message);
-    ModelContainer model = r.estimator->to_container();
-    if (o.teacher) model.header["teacher"] = {{"estimator", o.teacher->name}, {"mode", to_string(o.teacher->mode)}};
-    if (r.teacher_report)
-      model.header["teacher"].update({{"estimator", o.teacher->name},
-                                 {"states", o.teacher->states},
-                                 {"hyperparameter_rows", o.teacher->hyperparameter_rows},
-                                 {"student_hyperparameter_rows", o.teacher->student_train_options(o.gp).hyperparameter_rows},
-                                 {"seed", o.teacher->seed},
-                                 {"label_noise_std", std::vector<double>(r.label_noise_std.data(), r.label_noise_std.data() + r.label_noise_std.size())},
-                                 {"status", to_string(r.teacher_report->status)},
-                                 {"seconds", r.teacher_report->seconds}});
-    if (o.teacher) model.header["teacher"]["outcome"] = to_string(r.teaching);
-    if (r.teaching_check)  // null for a joint whose logged torque is constant
-      model.header["teacher"]["log_nmse"] = {{"teacher", numbers_or_null(r.teaching_check->teacher_nmse)},
-                                             {"student", numbers_or_null(r.teaching_check->student_nmse)}};
-    write_container(model, a->out);
+    save_estimator(*r.estimator, a->out);
     // Whatever became of the taught model: the teacher's fit is the user's to keep.
     const bool teacher_written = r.teacher && !a->teacher_out.empty();
     if (teacher_written) write_container(r.teacher->to_container(), a->teacher_out);

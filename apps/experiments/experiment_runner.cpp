@@ -126,7 +126,7 @@ void WarmStarts::store(const std::string& estimator, const std::vector<Eigen::Ve
   write_file_atomically(path_, [&](std::ostream& o) { o << j.dump(2) << "\n"; });
 }
 
-EstimatorSpec parse_estimator_spec(const std::string& name) {
+StudentTeacherSpec parse_estimator_spec(const std::string& name) {
   const auto at = name.find('@');
   if (at == std::string::npos) return {name, ""};
   return {name.substr(0, at), name.substr(at + 1)};
@@ -134,7 +134,7 @@ EstimatorSpec parse_estimator_spec(const std::string& name) {
 
 EstimatorOptions options_for(const EstimatorOptions& base, const std::string& name, const RobotPrior& prior,
                              std::uint64_t seed) {
-  const EstimatorSpec spec = parse_estimator_spec(name);
+  const StudentTeacherSpec spec = parse_estimator_spec(name);
   EstimatorOptions o = base;
   o.name = spec.student;
   if (estimator_needs_robot(spec.student)) o.robot_prior = prior;
@@ -186,7 +186,7 @@ nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<st
 void validate_estimators(const std::vector<std::string>& estimators) {
   if (estimators.empty()) throw Error("--estimators: name at least one estimator");
   for (const auto& e : estimators) {
-    const EstimatorSpec spec = parse_estimator_spec(e);
+    const StudentTeacherSpec spec = parse_estimator_spec(e);
     require_known_estimator(spec.student);
     if (e.find('@') == std::string::npos) continue;
     TeacherOptions teacher;
@@ -202,7 +202,7 @@ void validate_estimators(const std::vector<std::string>& estimators) {
 
 void validate_base_options(const EstimatorOptions& base) {
   TrainOptions gp = base.gp;
-  gp.kernel = "gip";  // the model-based kernels' robot is checked per estimator
+  gp.kernel = default_kernel_name();  // the model-based kernels' robot is checked per estimator
   gp.validate();
   base.nn.validate();
 }

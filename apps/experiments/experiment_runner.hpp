@@ -70,10 +70,10 @@ FitAndPredict fit_and_predict(const EstimatorOptions& options, const Eigen::Matr
 // "STUDENT@TEACHER" (e.g. gip@lip): the student trained on the teacher's
 // torques at states drawn from the training log's box (estimators/teacher.hpp,
 // TeacherOptions' defaults and the run's seed).
-struct EstimatorSpec {
+struct StudentTeacherSpec {
   std::string student, teacher;  // teacher: empty without one
 };
-EstimatorSpec parse_estimator_spec(const std::string& name);
+StudentTeacherSpec parse_estimator_spec(const std::string& name);
 
 // The base options for estimator `name` (a spec as above): its name, the
 // nominal robot if it needs one, the teacher if any, the seed.

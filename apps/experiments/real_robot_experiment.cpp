@@ -174,7 +174,9 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
     if (table.contains({{"estimator", e}})) continue;
     // GP estimators scale as N^3 and get the subsample; fe uses every training row, nn its own subsample.
     const std::string student = parse_estimator_spec(e).student;
-    const Dataset& d = is_kernel_estimator(student) ? train_gp : student == "nn" ? train_nn : train;
+    const Dataset& d = is_kernel_estimator(student)                                        ? train_gp
+                        : estimator_family(student) == EstimatorFamily::NeuralNetwork ? train_nn
+                                                                                       : train;
     note(progress, e + ": fitting " + std::to_string(d.rows()) + " rows (elapsed " +
                duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() + ")");
     const Eigen::MatrixXd Xtest = test_inputs(c, s, d);

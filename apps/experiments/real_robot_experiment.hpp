@@ -28,7 +28,7 @@ struct RealRobotConfig {
   int max_train = 4000;      // GP estimators: constant-step subsample of the training rows
   int nn_max_train = 0;      // nn: the same kind of subsample (0: every training row, as the paper)
   int plot_window = 1000;    // test rows shown in the torque-over-time plot
-  std::vector<std::string> estimators{"gip", "gip-friction", "rbf", "nn"};
+  std::vector<std::string> estimators = default_compared_estimators(false);
   // Learning curve instead of one fit per estimator: every estimator on
   // `repeats` interleaved constant-step subsamples of each size (max_train and
   // nn_max_train are then not used).

@@ -58,7 +58,7 @@ def p50_query_us(model, X):
     return 1e6 * float(np.median(times))
 
 
-gip = fitted("GIP on the log", gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=max_iter), train["X"], train["tau"])
+gip = fitted("GIP on the log", gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=max_iter, teacher="none"), train["X"], train["tau"])
 taught = fitted(f"GIP taught by LIP (LIP's hyperparameters on {hyperparameter_rows} rows, {virtual} drawn states)",
                 gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=max_iter, teacher="lip", teacher_states=virtual,
                                          teacher_hyperparameter_rows=hyperparameter_rows),

@@ -123,6 +123,14 @@ def neg_nmse_scorer(estimator, X, Y):
     return -float(np.mean(estimator.nmse(X, Y)))
 
 
+def _estimator_row(name):
+    """The library's table row of the estimator `name` (estimator_table())."""
+    for row in _core.estimator_table():
+        if row["name"] == name:
+            return row
+    raise ValueError(f"unknown estimator {name!r}; one of {', '.join(_core.estimator_names())}")
+
+
 _DEFAULTS = TrainOptions()
 _TEACHER_DEFAULTS = TeacherOptions()
 
@@ -131,10 +139,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     """One exact GP per joint, hyperparameters by maximum marginal likelihood.
 
     Parameters mirror `gipdyn train`: joints (one "R" or "P" per joint; None,
-    the default: those of robot where it is given, else the SCARA's "RRPR"), kernel ("gip",
-    "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf", "gip+friction",
-    "gip+friction+rbf", "gip-envelope", "gip-envelope+friction", and the model-based
-    "pp", "sp" that need robot), optimizer ("lbfgs", "adam"), max_iter, restarts,
+    the default: those of robot where it is given, else the SCARA's "RRPR"), kernel (one of
+    @KERNELS@; those that need robot: @ROBOT_KERNELS@), optimizer ("lbfgs", "adam"), max_iter, restarts,
     seed, scaling ("standardize", "center", "none"), min_noise, threads,
     learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",
     "ur10", a URDF or JSON file, or a Robot), robot_friction (friction columns in
@@ -150,20 +156,20 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     hyperparameter_objective (with inducing and hyperparameter_rows: "bound",
     the sparse GP's variational bound on the subsample, or "exact", the
     subsample's exact NLL),
-    teacher (None: learn from (X, Y); "lip": fit LIP on (X, Y), then learn
+    teacher ("auto", the default, as `gipdyn train`'s; "none" or None: learn from (X, Y); "lip": fit LIP on (X, Y), then learn
     from LIP's torques at teacher_states states drawn uniformly from the box
     X spans, with LIP's residual on (X, Y) as the noise floor; seed draws
     them. On one short motion this gives a GIP model that extrapolates like
     LIP and answers like GIP: docs/training.md; "chain": the library's chain
     estimator teaches instead, a serial chain's geometry identified from
     (X, Y) (docs/method.md section 16; a rigid arm without friction: from one
-    20 s UR10 motion, with teacher_states=4000, joints 1-5 below 4e-3); "auto", `gipdyn train`'s default: "lip" on a log of
-    at most 14000 torque values (rows x joints), the taught model kept only if
-    it fits (X, Y) as LIP does, else learned from (X, Y), and only for the gip
-    kernel's exact GP without mean, robot, warm start or distributed; after
+    20 s UR10 motion); "auto": "lip" on a log of at most
+    TeacherOptions().automatic_max_log_values torque values (rows x joints), the
+    taught model kept only if it fits (X, Y) as LIP does, else learned from
+    (X, Y), and only for the gip kernel's exact GP without mean, robot, warm
+    start or distributed, else no teacher (the library's choose_teacher); after
     fit, teaching_ says which: "taught", "student missed the log", "log too
-    long", "teacher failed", "student failed", "not applicable" or "no
-    teacher", and teaching_failure_ why the teacher or student failed), teacher_states, teacher_hyperparameter_rows (the
+    long", "teacher failed", "student failed" or "no teacher", and teaching_failure_ why the teacher or student failed), teacher_states, teacher_hyperparameter_rows (the
     teacher learns its hyperparameters on that many rows, 0: all),
     student_hyperparameter_rows (with a teacher, the student learns its
     hyperparameters on that many of the drawn states, 0: all; a
@@ -203,7 +209,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                  gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
                  inducing=_DEFAULTS.inducing_points, distributed=False,
                  hyperparameter_rows=_DEFAULTS.hyperparameter_rows,
-                 hyperparameter_objective=_DEFAULTS.hyperparameter_objective, teacher=None,
+                 hyperparameter_objective=_DEFAULTS.hyperparameter_objective, teacher="auto",
                  teacher_states=_TEACHER_DEFAULTS.states,
                  teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows,
                  student_hyperparameter_rows=_TEACHER_DEFAULTS.student_hyperparameter_rows,
@@ -240,19 +246,16 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.serial_chain = serial_chain
         self.start_screening = start_screening
 
-    def teacher_options(self):
-        """The library's TeacherOptions for these parameters, or None without a teacher."""
-        if self.teacher is None:
-            return None
-        o = TeacherOptions()
-        automatic = str(self.teacher) == "auto"
-        o.name = "lip" if automatic else str(self.teacher)
-        o.mode = _core.TeachingMode.automatic if automatic else _core.TeachingMode.always
-        o.states = int(self.teacher_states)
-        o.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
-        o.student_hyperparameter_rows = int(self.student_hyperparameter_rows)
-        o.seed = int(self.seed)
-        return o
+    def teacher_options(self, options=None):
+        """The library's TeacherOptions for these parameters (options: train_options(), made when not given),
+        or None without a teacher: the library's choose_teacher, as `gipdyn train --teacher` follows it."""
+        choice = "none" if self.teacher is None else str(self.teacher)
+        settings = TeacherOptions()
+        settings.states = int(self.teacher_states)
+        settings.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
+        settings.student_hyperparameter_rows = int(self.student_hyperparameter_rows)
+        settings.seed = int(self.seed)
+        return _core.choose_teacher(choice, options if options is not None else self.train_options(), settings)
 
     def _optimizer_options(self):
         """TrainOptions with the keywords every GP estimator shares."""
@@ -362,30 +365,30 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         rows = self._training_rows(X.shape[0])
         if rows is not None:
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
-        teacher = self.teacher_options()
-        if teacher is not None and self.distributed and teacher.mode == _core.TeachingMode.always:
-            # teacher="auto" steps aside for a distributed fit (automatic_teaching_applies), as train's default does.
-            raise ValueError("teacher is not distributed: fit without distributed=True, or without a teacher")
         options = self.train_options()
+        teacher = self.teacher_options(options)
+        if teacher is not None and self.distributed:
+            # teacher="auto" steps aside for a distributed fit (automatic_teaching_applies), as train's default does.
+            raise ValueError("teacher is not distributed: fit without distributed=True, or with teacher=\"none\"")
         self._warn_about_a_long_exact_fit(options, teacher, X.shape[0], len(joints))
         fit = _core.fit(X, Y, joints, options, teacher, bool(self.verbose))
         self.model_ = fit["model"]
         self.teaching_ = fit["teaching"]
-        if teacher is not None:
-            self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
+        # Set whether or not a teacher was chosen (teaching_ says which).
+        self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
+        if fit["teacher"] is not None:
+            self.teacher_ = LagrangianGP(joints=joints, friction=_estimator_row(teacher.name)["friction"])
+            self.teacher_.model_ = fit["teacher"]
+            self.teacher_._set_fitted_attributes()
+        self.teacher_report_ = fit["teacher_report"]
+        self.label_noise_std_ = fit["label_noise_std"]
+        self.teaching_check_ = fit["teaching_check"]  # None unless a taught model was checked
+        self.teaching_failure_ = fit["teaching_failure"]  # why, where teaching_ is "teacher failed" or "student failed"
+        if self.teaching_ == "taught":  # a teaching not kept has no say in the model
             if fit["teacher"] is not None:
-                self.teacher_ = LagrangianGP(joints=joints, friction=teacher.name == "lip+friction")
-                self.teacher_.model_ = fit["teacher"]
-                self.teacher_._set_fitted_attributes()
-            self.teacher_report_ = fit["teacher_report"]
-            self.label_noise_std_ = fit["label_noise_std"]
-            self.teaching_check_ = fit["teaching_check"]  # None unless a taught model was checked
-            self.teaching_failure_ = fit["teaching_failure"]  # why, where teaching_ is "teacher failed" or "student failed"
-            if self.teaching_ == "taught":  # a teaching not kept has no say in the model
-                if fit["teacher"] is not None:
-                    _warn_unconverged_joints(fit["teacher"], f"teacher {teacher.name}: ")
-                if self.teaching_check_["warning"]:
-                    warnings.warn(self.teaching_check_["warning"], TeachingWarning, stacklevel=2)
+                _warn_unconverged_joints(fit["teacher"], f"teacher {teacher.name}: ")
+            if self.teaching_check_["warning"]:
+                warnings.warn(self.teaching_check_["warning"], TeachingWarning, stacklevel=2)
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)
@@ -536,13 +539,18 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             self.__dict__.update(state)
 
 
+InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace(
+    "@KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"])).replace(
+    "@ROBOT_KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"] and r["needs_robot"]))
+
+
 class LagrangianGP(InverseDynamicsGP):
     """LIP: one GP over the torques of all joints, with the priors on the
     kinetic and potential energy and the torques from the Lagrange equations
     (docs/method.md section 11). Besides torques, gravity, inertia and Coriolis
     it estimates the energies: kinetic_energy(X) and potential_energy(q) (the
     latter up to a constant). The system is (N n) x (N n): train it on a few
-    hundred rows (300 SCARA rows train in about 100 s), or learn the
+    hundred rows (bench/RESULTS.md times it), or learn the
     hyperparameters on a few hundred (hyperparameter_rows) and condition on a
     few thousand.
 
@@ -637,7 +645,7 @@ class LagrangianGP(InverseDynamicsGP):
     def load(cls, path):
         """Load a lip model written by `save` or by `gipdyn train --kernel lip`."""
         model = _core.LagrangianModel.load(str(path))
-        est = cls(joints=model.joints, friction=model.estimator == "lip+friction")
+        est = cls(joints=model.joints, friction=_estimator_row(model.estimator)["friction"])
         est.model_ = model
         est._set_fitted_attributes()
         return est

@@ -103,6 +103,15 @@ struct Model {
   explicit Model(std::shared_ptr<const GpEstimator> e) : estimator(std::move(e)), model(&estimator->model()) {}
 };
 
+// A GP model file's estimator, with its teaching record; throws gipdyn::Error for another estimator's file.
+std::shared_ptr<Model> gp_model_from_container(const ModelContainer& c, const std::string& what) {
+  std::unique_ptr<Estimator> e = estimator_from_container(c, what);
+  auto* gp = dynamic_cast<GpEstimator*>(e.get());
+  if (!gp) throw Error(what + " holds a '" + e->name() + "' model, not a GP kernel's; load it with the class that trained it (LagrangianGP for lip)");
+  e.release();
+  return std::make_shared<Model>(std::shared_ptr<const GpEstimator>(gp));
+}
+
 // (rows, n, n) NumPy array of the inertia matrices.
 py::array_t<double> stack_matrices(const std::vector<Eigen::MatrixXd>& Ms, int n) {
   py::array_t<double> out({static_cast<py::ssize_t>(Ms.size()), static_cast<py::ssize_t>(n), static_cast<py::ssize_t>(n)});
@@ -508,11 +517,19 @@ PYBIND11_MODULE(_core, m) {
             return tau;
           },
           py::arg("x"))
-      .def("save", [](const Model& s, const std::string& path) { save_model(*s.model, path); })
-      .def("to_bytes", [](const Model& s) { return py::bytes(serialize_model(*s.model)); })
-      .def_static("load", [](const std::string& path) { return std::make_shared<Model>(load_model(path)); })
+      .def_property_readonly(
+          "teaching_record",
+          [](const Model& s) { return s.estimator->teaching_record().is_null() ? std::string() : s.estimator->teaching_record().dump(); },
+          "The model file's teacher block as JSON (docs/model-format.md); '' where no teacher was asked for")
+      .def("save", [](const Model& s, const std::string& path) { save_estimator(*s.estimator, path); })
+      .def("to_bytes", [](const Model& s) { return py::bytes(pack_container(estimator_container(*s.estimator))); })
+      .def_static("load",
+                  [](const std::string& path) {
+                    const std::string what = "model file '" + path + "'";
+                    return gp_model_from_container(unpack_container(read_model_bytes(path), what), what);
+                  })
       .def_static("from_bytes", [](const py::bytes& b) {
-        return std::make_shared<Model>(deserialize_model(std::string(b), "pickled model"));
+        return gp_model_from_container(unpack_container(std::string(b), "pickled model"), "pickled model");
       });
 
   py::class_<LagrangianModel, std::shared_ptr<LagrangianModel>> lagrangian_class(m, "LagrangianModel");
@@ -603,6 +620,7 @@ PYBIND11_MODULE(_core, m) {
   m.def(
       "exact_hyperparameter_rows",
       [](const TrainOptions& options, const std::optional<TeacherOptions>& teacher, Eigen::Index rows, int joints) {
+        require_known_kernel(options.kernel);
         return exact_hyperparameter_rows(gp_estimator_options(options, teacher), rows, joints);
       },
       py::arg("options"), py::arg("teacher"), py::arg("rows"), py::arg("joints"),
@@ -625,7 +643,38 @@ PYBIND11_MODULE(_core, m) {
       py::arg("X"), py::arg("joints"), py::arg("source"),
       "One line per problem of the training inputs: joints that never move, constant columns, revolute positions "
       "spanning more than two turns (usually a log in degrees)");
-  m.def("kernel_names", &kernel_names);
+  m.def("kernel_names", &kernel_names, "The per-joint GP kernels, in the library's table order");
+  m.def("estimator_names", &estimator_names, "Every estimator, in the library's table order");
+  m.def("default_teacher_name", &default_teacher_name, "The estimator that teaches by default (teacher=\"auto\")");
+  m.def(
+      "choose_teacher",
+      [](const std::string& choice, const TrainOptions& options, const TeacherOptions& settings) {
+        require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
+        return choose_teacher(choice, gp_estimator_options(options, std::nullopt), settings);
+      },
+      py::arg("choice"), py::arg("options"), py::arg("settings"),
+      "The library's rule (gipdyn/estimators/fit_estimator.hpp): the TeacherOptions a fit of these options gets "
+      "for teacher=choice (\"auto\", \"none\" or an estimator's name), or None");
+  m.def(
+      "estimator_table",
+      [] {
+        py::list rows;
+        for (const EstimatorSpec& e : estimator_table()) {
+          py::dict d;
+          d["name"] = e.name;
+          d["help"] = e.help;
+          d["gp_kernel"] = e.family == EstimatorFamily::Gp;
+          d["needs_robot"] = e.needs_robot;
+          d["friction"] = e.friction;
+          d["rigid_body_terms"] = e.rigid_body_terms;
+          d["default"] = e.default_estimator;
+          d["default_teacher"] = e.default_teacher;
+          rows.append(d);
+        }
+        return rows;
+      },
+      "The library's table of estimators: one dict per estimator (name, help, gp_kernel, needs_robot, friction, "
+      "rigid_body_terms, default, default_teacher)");
 
   py::class_<NeighbourConsistencyOptions>(m, "NeighbourConsistencyOptions")
       .def(py::init<>())

@@ -1,6 +1,7 @@
 """Tests of the gipdyn Python module: estimator API, agreement with the CLI,
 model files across C++ and Python, pickling, scikit-learn integration, input
 validation, robots, simulation and the examples."""
+import json
 import os
 import pickle
 import re
@@ -36,7 +37,7 @@ def scara():
 @pytest.fixture(scope="module")
 def fitted(scara):
     train, _ = scara
-    return gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"], train["tau"])
+    return gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=40).fit(train["X"], train["tau"])
 
 
 def test_fit_predict_and_attributes(scara, fitted):
@@ -59,7 +60,7 @@ def test_fit_predict_and_attributes(scara, fitted):
 
 def test_sparse_gp_from_python(scara, tmp_path):
     train, test = scara
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, max_iter=40).fit(train["X"], train["tau"])
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, max_iter=40).fit(train["X"], train["tau"])
     assert est.train_options().inducing_points == 60
     assert est.model_.is_sparse and est.model_.num_training_samples == 60 and est.model_.num_data_rows == 200
     pred, std = est.predict(test["X"], return_std=True)
@@ -80,33 +81,33 @@ def test_sparse_gp_from_python(scara, tmp_path):
     with pytest.raises(ValueError, match="window"):
         est.partial_fit(test["X"][:5], test["tau"][:5], window=100)
     with pytest.raises(ValueError, match="inducing"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", inducing=-1).fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=-1).fit(train["X"], train["tau"])
 
 
 def test_hyperparameters_from_a_subsample_and_the_model_from_every_row(scara):
     train, _ = scara
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, hyperparameter_rows=100, max_iter=30)
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, hyperparameter_rows=100, max_iter=30)
     est.fit(train["X"], train["tau"])
     assert est.train_options().hyperparameter_rows == 100
     assert all(r["hyperparameter_rows"] == 100 for r in est.training_report_)
     assert est.model_.num_data_rows == 200
     with pytest.raises(ValueError, match="hyperparameter_rows must be 0 or at least"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", hyperparameter_rows=2).fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", hyperparameter_rows=2).fit(train["X"], train["tau"])
     # The subsample's exact NLL instead of the bound: other hyperparameters, the same rows in the model.
-    exact = gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, hyperparameter_rows=100, max_iter=30,
+    exact = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, hyperparameter_rows=100, max_iter=30,
                                      hyperparameter_objective="exact").fit(train["X"], train["tau"])
     assert exact.train_options().hyperparameter_objective == "exact"
     assert exact.model_.num_data_rows == 200
     assert exact.hyperparameters_ != est.hyperparameters_
     with pytest.raises(ValueError, match="hyperparameter_objective: unknown objective 'fast'"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", hyperparameter_objective="fast").fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", hyperparameter_objective="fast").fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="needs hyperparameter_rows"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", inducing=60, hyperparameter_objective="exact").fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, hyperparameter_objective="exact").fit(train["X"], train["tau"])
 
 
 def test_partial_fit_with_refit_reoptimises_from_the_current_hyperparameters(scara):
     train, test = scara
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"][:100], train["tau"][:100])
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=40).fit(train["X"][:100], train["tau"][:100])
     before = [dict(h) for h in est.hyperparameters_]
     est.partial_fit(train["X"][100:], 1.2 * train["tau"][100:], window=100, refit=True)
     assert est.model_.num_training_samples == 100
@@ -116,8 +117,8 @@ def test_partial_fit_with_refit_reoptimises_from_the_current_hyperparameters(sca
 
 def test_fit_trajectory_equals_fit(scara):
     train, test = scara
-    a = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10).fit(train["X"], train["tau"])
-    b = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10).fit_trajectory(train["q"], train["qd"], train["qdd"],
+    a = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=10).fit(train["X"], train["tau"])
+    b = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=10).fit_trajectory(train["q"], train["qd"], train["qdd"],
                                                                             train["tau"])
     assert np.array_equal(a.predict(test["X"]), b.predict(test["X"]))
 
@@ -132,10 +133,10 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     subprocess.run([CLI, "predict", "--model", str(tmp_path / "cli.gipdyn"), "--data", str(tmp_path / "test.csv"),
                     "--out", str(tmp_path / "cli_pred.csv"), "--no-std"], check=True)
     cli_pred = np.loadtxt(tmp_path / "cli_pred.csv", delimiter=",", skiprows=1)
-    # Same data (read back from the same CSV), same options, same seed: same model (the CLI's default teacher is
-    # Python's teacher="auto").
+    # Same data (read back from the same CSV), same options, same seed, each front end's default teacher: the
+    # same model, taught by the same rule (the library's choose_teacher).
     csv = np.loadtxt(tmp_path / "train.csv", delimiter=",", skiprows=1)
-    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, seed=3, teacher="auto").fit(csv[:, :12], csv[:, 12:])
+    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, seed=3).fit(csv[:, :12], csv[:, 12:])
     assert py.teaching_ == "taught"
     X_test = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :12]
     assert np.array_equal(py.predict(X_test), cli_pred)
@@ -148,6 +149,12 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     subprocess.run([CLI, "predict", "--model", str(tmp_path / "py.gipdyn"), "--data", str(tmp_path / "test.csv"),
                     "--out", str(tmp_path / "py_pred.csv"), "--no-std"], check=True)
     assert np.array_equal(np.loadtxt(tmp_path / "py_pred.csv", delimiter=",", skiprows=1), cli_pred)
+    # The same model-file metadata: the teacher block the library writes, whichever front end trained.
+    records = [json.loads(gipdyn.InverseDynamicsGP.load(tmp_path / f).model_.teaching_record)
+               for f in ("cli.gipdyn", "py.gipdyn")]
+    for r in records:
+        assert r["outcome"] == "taught" and r["mode"] == "automatic" and r.pop("seconds") > 0
+    assert records[0] == records[1]
 
 
 def test_pickle_round_trip(scara, fitted):
@@ -161,7 +168,7 @@ def test_sklearn_cross_validation_and_grid_search(scara):
     from sklearn.model_selection import GridSearchCV, KFold, cross_val_score
 
     train, _ = scara
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=10)
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=10)
     scores = cross_val_score(est, train["X"], train["tau"], cv=KFold(3))
     assert scores.shape == (3,) and np.isfinite(scores).all()
     # score() (the default scoring) is 1 - mean nMSE: higher is better, and it ranks
@@ -191,7 +198,7 @@ def test_sklearn_cross_validation_and_grid_search(scara):
 ])
 def test_bad_input_raises_value_error(X, Y, message):
     with pytest.raises(ValueError) as err:
-        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=2).fit(X, Y)
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=2).fit(X, Y)
     if message:
         assert message in str(err.value)
 
@@ -204,7 +211,7 @@ def test_inputs_of_another_joint_count_name_the_joints_and_the_fix():
     assert "X must have 12 columns (q, qd, qdd of joints='RRPR'), got 18" in str(err.value)
     assert "18 columns are 6 joints, e.g. joints='RRRRRR'" in str(err.value)
     d = gipdyn.simulate("scara", samples=40, seed=3)
-    m = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=2).fit(d["X"], d["tau"])
+    m = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=2).fit(d["X"], d["tau"])
     with pytest.raises(ValueError, match="the model was trained on these joints"):
         m.predict(X)
     assert m.predict(d["X"][0]).shape == (1, 4)  # one state as a 1-D row
@@ -233,8 +240,8 @@ def test_one_joint_takes_a_1d_target_like_scikit_learn():
     rng = np.random.default_rng(3)
     X = np.column_stack([rng.uniform(-2, 2, 60), rng.uniform(-1, 1, 60), rng.uniform(-1, 1, 60)])
     tau = 0.2 * X[:, 2] + 1.5 * np.cos(X[:, 0]) + 0.001 * rng.standard_normal(60)
-    as_vector = gipdyn.InverseDynamicsGP(joints="R").fit(X, tau)
-    as_column = gipdyn.InverseDynamicsGP(joints="R").fit(X, tau[:, None])
+    as_vector = gipdyn.InverseDynamicsGP(joints="R", teacher="none").fit(X, tau)
+    as_column = gipdyn.InverseDynamicsGP(joints="R", teacher="none").fit(X, tau[:, None])
     np.testing.assert_array_equal(as_vector.predict(X[:5]), as_column.predict(X[:5]))
     assert gipdyn.nmse(tau[:, None], as_vector.predict(X)).max() < 1e-3
 
@@ -309,7 +316,7 @@ def test_build_info_is_the_command_lines():
 def test_is_a_scikit_learn_regressor():
     from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
 
-    est = gipdyn.InverseDynamicsGP(joints="RR", kernel="rbf", min_noise=1e-6)
+    est = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", min_noise=1e-6)
     assert isinstance(est, BaseEstimator) and isinstance(est, RegressorMixin) and is_regressor(est)
     copy = clone(est)
     assert copy is not est and copy.get_params() == est.get_params()
@@ -318,7 +325,7 @@ def test_is_a_scikit_learn_regressor():
 def test_training_report_and_convergence_warning(scara):
     train, _ = scara
     with pytest.warns(gipdyn.ConvergenceWarning, match="raise max_iter") as caught:
-        est = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"], train["tau"])
+        est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=3).fit(train["X"], train["tau"])
     report = est.training_report_
     # The library's lines, in Python's keywords, naming every joint that stopped early.
     lines = [str(w.message) for w in caught if w.category is gipdyn.ConvergenceWarning]
@@ -335,7 +342,7 @@ def test_noise_warning_names_a_joint_whose_torque_is_below_the_noise(scara):
     train, _ = scara
     tau = train["tau_true"] * np.array([1.0, 1.0, 1.0, 1e-3]) + 0.01 * np.random.default_rng(3).standard_normal((200, 4))
     with pytest.warns(gipdyn.NoiseWarning, match=r"joint\(s\) 4 \(\d+ %\): the fit calls most of the torque noise"):
-        est = gipdyn.InverseDynamicsGP(joints="RRPR").fit(train["X"], tau)
+        est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none").fit(train["X"], tau)
     shares = [r["noise_share"] for r in est.training_report_]
     assert shares[3] >= gipdyn._core.NOISE_SHARE_WARNING and max(shares[:3]) < 0.01, shares
 
@@ -344,7 +351,7 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
     # pp on the true robot is exact up to the noise of 200 samples: every term within 0.1 % of the robot's.
     train, test = scara
     robot = gipdyn.Robot.load("scara")
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="pp", robot="scara", max_iter=30).fit(train["X"], train["tau"])
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="pp", robot="scara", max_iter=30).fit(train["X"], train["tau"])
     q, qd = test["q"][:20], test["qd"][:20]
     zero = np.zeros_like(q)
 
@@ -365,11 +372,11 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
     assert relative_error(est.coriolis(q, qd), robot.inverse_dynamics(q, qd, zero) - g_true) < 1e-3
     np.testing.assert_allclose(est.friction(q, qd), 0.0, atol=1e-9)  # no friction columns: nothing odd in qd
     with pytest.raises(ValueError, match="cannot give gravity"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="rbf", max_iter=2).fit(train["X"], train["tau"]).gravity(q)
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="rbf", max_iter=2).fit(train["X"], train["tau"]).gravity(q)
 
 
 def test_train_options_are_the_librarys_own():
-    o = gipdyn.InverseDynamicsGP(joints="RR", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, seed=5,
+    o = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, seed=5,
                                  scaling="center", min_noise=1e-6, mean="linear", prior="lognormal",
                                  prior_width=1.5).train_options()
     assert isinstance(o, gipdyn.TrainOptions)
@@ -397,7 +404,7 @@ def test_train_options_are_the_librarys_own():
 def test_option_errors_name_the_keyword(params, message):
     X, Y = np.random.default_rng(0).normal(size=(20, 12)), np.zeros((20, 4))
     with pytest.raises(ValueError) as err:
-        gipdyn.InverseDynamicsGP(joints="RRPR", **params).fit(X, Y)
+        gipdyn.InverseDynamicsGP(**{"joints": "RRPR", "teacher": "none", **params}).fit(X, Y)
     assert message in str(err.value)
     assert "Options::" not in str(err.value) and "--" not in str(err.value)
 
@@ -405,11 +412,11 @@ def test_option_errors_name_the_keyword(params, message):
 def test_bad_options_and_unfitted_model_raise_value_error():
     X, Y = np.random.default_rng(0).normal(size=(20, 12)), np.zeros((20, 4))
     with pytest.raises(ValueError, match="unknown kernel"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="matern").fit(X, Y)
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="matern").fit(X, Y)
     with pytest.raises(ValueError, match="'X'"):
-        gipdyn.InverseDynamicsGP(joints="RXPR").fit(X, Y)
+        gipdyn.InverseDynamicsGP(joints="RXPR", teacher="none").fit(X, Y)
     with pytest.raises(ValueError, match="not fitted"):
-        gipdyn.InverseDynamicsGP(joints="RRPR").predict(X)
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none").predict(X)
 
 
 def test_robot_from_urdf_dynamics_and_regressor():
@@ -488,7 +495,7 @@ def test_ur10_real_example_runs(tmp_path):
 def test_model_based_and_hybrid_kernels(scara, tmp_path):
     train, test = scara
     for kernel in ("pp", "gip+rbf"):
-        est = gipdyn.InverseDynamicsGP(joints="RRPR", kernel=kernel, robot="scara", max_iter=30)
+        est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel=kernel, robot="scara", max_iter=30)
         est.fit(train["X"], train["tau"])
         # About three times what each reaches: pp is exact up to the noise, the hybrid as GIP.
         bound = {"pp": [1e-7, 1e-6, 1e-6, 3e-3], "gip+rbf": [6e-3, 3e-2, 2e-4, 0.15]}[kernel]
@@ -499,28 +506,28 @@ def test_model_based_and_hybrid_kernels(scara, tmp_path):
         assert back.kernel == kernel
         np.testing.assert_array_equal(back.predict(test["X"]), est.predict(test["X"]))
     with pytest.raises(ValueError, match="needs the nominal robot"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="sp").fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="sp").fit(train["X"], train["tau"])
 
 
 def test_mean_function_and_map_prior(scara):
     train, test = scara
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="gip", mean="constant", prior="lognormal", max_iter=30)
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="gip", mean="constant", prior="lognormal", max_iter=30)
     est.fit(train["X"], train["tau"])
     e = gipdyn.nmse(test["tau_true"], est.predict(test["X"]))
     assert np.all(e < [2.5e-2, 3e-2, 2.5e-3, 0.25]), e  # about three times what it reaches
     assert list(est.hyperparameters_[0])[-1] == "mean.constant"
-    linear = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="rbf", mean="linear", max_iter=5).fit(train["X"], train["tau"])
+    linear = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="rbf", mean="linear", max_iter=5).fit(train["X"], train["tau"])
     names = list(linear.hyperparameters_[0])
     assert names[-13:] == ["mean.constant"] + [f"mean.x{k}" for k in range(1, 13)]
     with pytest.raises(ValueError, match="mean 'quadratic' is unknown"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", mean="quadratic").fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", mean="quadratic").fit(train["X"], train["tau"])
     with pytest.raises(ValueError, match="lognormal"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", prior="gauss").fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", prior="gauss").fit(train["X"], train["tau"])
 
 
 def test_partial_fit_adds_samples_with_fixed_hyperparameters(scara):
     train, test = scara
-    first = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=40).fit(train["X"][:120], train["tau"][:120])
+    first = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=40).fit(train["X"][:120], train["tau"][:120])
     hyper = [dict(h) for h in first.hyperparameters_]
     err_before = first.nmse(test["X"], test["tau_true"]).mean()
     first.partial_fit(train["X"][120:], train["tau"][120:])
@@ -530,7 +537,7 @@ def test_partial_fit_adds_samples_with_fixed_hyperparameters(scara):
     first.partial_fit(train["X"][190:], train["tau"][190:], window=150)
     assert first.model_.num_training_samples == 150
     # An unfitted estimator's first partial_fit is fit.
-    fresh = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=5).partial_fit(train["X"][:50], train["tau"][:50])
+    fresh = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=5).partial_fit(train["X"][:50], train["tau"][:50])
     assert fresh.model_.num_training_samples == 50
     with pytest.raises(ValueError, match="window"):
         first.partial_fit(train["X"][:5], train["tau"][:5], window=2)
@@ -640,7 +647,7 @@ def test_lagrangian_gp_serial_chain_is_the_default_and_can_be_turned_off(scara):
 
 def _gip_model_file(train, tmp_path):
     path = tmp_path / "gip.gipdyn"
-    gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(train["X"][:50], train["tau"][:50]).save(path)
+    gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=3).fit(train["X"][:50], train["tau"][:50]).save(path)
     return str(path)
 
 
@@ -681,9 +688,9 @@ def test_distributed_fit_under_mpirun_gives_the_in_process_model(tmp_path):
     r = subprocess.run([MPIRUN, "-np", "2", "--oversubscribe", sys.executable, str(script), str(out)],
                        capture_output=True, text=True, timeout=300, env=env)
     assert r.returncode == 0, r.stderr
-    assert "processes 2 teaching not applicable" in r.stdout  # teacher="auto" steps aside for a distributed fit
+    assert "processes 2 teaching no teacher" in r.stdout  # teacher="auto" chooses none for a distributed fit
     d = gipdyn.simulate("scara", samples=220, seed=31)
-    single = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=12, min_noise=1e-3, threads=1).fit(d["X"], d["tau"])
+    single = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=12, min_noise=1e-3, threads=1).fit(d["X"], d["tau"])
     a = single.predict(gipdyn.simulate("scara", samples=50, seed=32)["X"])
     b = np.load(out)
     assert np.linalg.norm(a - b) < 1e-7 * np.linalg.norm(a)
@@ -804,15 +811,15 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
 
 
 def test_auto_teacher_is_for_the_gip_kernel_alone():
-    # The library's automatic_teaching_applies: teacher="auto" on another kernel learns from the log, as the CLI's
-    # default train does (the teacher that cannot start: tests/cli, under an address-space limit).
+    # The library's choose_teacher: teacher="auto" on another kernel has no teacher and learns from the log, as the
+    # CLI's default train does (the teacher that cannot start: tests/cli, under an address-space limit).
     train = gipdyn.simulate("scara", samples=80, seed=2)
     kwargs = dict(joints="RRPR", kernel="rbf", max_iter=10, seed=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         auto = gipdyn.InverseDynamicsGP(teacher="auto", **kwargs).fit(train["X"], train["tau"])
         own = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"], train["tau"])
-    assert auto.teaching_ == "not applicable" and own.teaching_ == "no teacher"
+    assert auto.teaching_ == "no teacher" and own.teaching_ == "no teacher"
     assert auto.teacher_ is None and auto.teaching_check_ is None and auto.model_.num_training_samples == 80
     np.testing.assert_array_equal(auto.predict(train["X"]), own.predict(train["X"]))
 
@@ -822,18 +829,18 @@ def test_positions_that_look_like_degrees_are_warned_about():
     X = train["X"].copy()
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=3).fit(X, train["tau"])
     assert not [w for w in caught if issubclass(w.category, gipdyn.DataWarning)]
     X[:, 0] = np.degrees(X[:, 0]) * 10  # joint 1 in (tenths of) degrees: far more than two turns
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=3).fit(X, train["tau"])
     data = [str(w.message) for w in caught if issubclass(w.category, gipdyn.DataWarning)]
     assert len(data) == 1 and "column q1 of X spans" in data[0] and "convert q, qd and qdd to radians" in data[0], data
     X[:, 1], X[:, 5], X[:, 9] = 0.4, 0.0, 0.0  # joint 2 locked
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
-        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=3).fit(X, train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=3).fit(X, train["tau"])
     data = [str(w.message) for w in caught if issubclass(w.category, gipdyn.DataWarning)]
     assert len(data) == 2 and data[0].startswith("joint(s) 2 never move in X"), data
 
@@ -842,7 +849,7 @@ def test_a_long_exact_fit_is_warned_about_before_it_starts():
     # The rule behind the warning fit() gives before the first evaluation (a fit on 8000 rows takes too long to
     # run here): exact GPs on 8000 or more rows; not a sparse one, a subsampled one, pp or a taught one.
     def warned(rows, **params):
-        model = gipdyn.InverseDynamicsGP(joints="RR", **params)
+        model = gipdyn.InverseDynamicsGP(**{"joints": "RR", "teacher": "none", **params})
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
             model._warn_about_a_long_exact_fit(model.train_options(), model.teacher_options(), rows, model.n_joints)

@@ -68,8 +68,8 @@ gipdyn_status check_query(const gipdyn_workspace* ws, int n, const void* out) {
 gipdyn_status check_physics(const gipdyn_workspace* ws) {
   if (!ws->model->physics)
     return fail(GIPDYN_ERROR_UNSUPPORTED,
-                "this model's torque is not affine in the accelerations: gravity and inertia need a gip, "
-                "gip-friction, gip+friction, pp, fe or lip model");
+                ("this model's torque is not affine in the accelerations: gravity and inertia need a model of one "
+                 "of " + gipdyn::joined(gipdyn::physics_estimator_names())).c_str());
   return GIPDYN_OK;
 }
 

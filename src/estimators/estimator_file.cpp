@@ -1,6 +1,9 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 
+#include <algorithm>
+
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
@@ -9,22 +12,47 @@
 
 namespace gipdyn {
 
-std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, const std::string& what) {
+namespace {
+
+std::unique_ptr<Estimator> read_estimator(const ModelContainer& c, const std::string& what) {
   std::string kind;
   try {
     kind = c.header.value("estimator", "gp");  // format 1 files hold GP models only
     if (kind == "gp") return std::make_unique<GpEstimator>(model_from_container(c, what));
-    if (kind == "lip" || kind == "lip+friction") return std::make_unique<LagrangianEstimator>(LagrangianEstimator::from_container(c, what));
-    if (kind == "fe" || kind == "chain") return std::make_unique<FisherianEstimator>(FisherianEstimator::from_container(c, what));
-    if (kind == "nn") return std::make_unique<NeuralNetworkEstimator>(NeuralNetwork::from_container(c, what));
+    const auto& names = estimator_names();
+    if (std::find(names.begin(), names.end(), kind) != names.end()) {
+      switch (estimator_spec(kind).family) {
+        case EstimatorFamily::Lagrangian:
+          return std::make_unique<LagrangianEstimator>(LagrangianEstimator::from_container(c, what));
+        case EstimatorFamily::Fisherian:
+          return std::make_unique<FisherianEstimator>(FisherianEstimator::from_container(c, what));
+        case EstimatorFamily::NeuralNetwork:
+          return std::make_unique<NeuralNetworkEstimator>(NeuralNetwork::from_container(c, what));
+        case EstimatorFamily::Gp: break;  // stored as "gp", the kernel beside it
+      }
+    }
   } catch (const nlohmann::json::exception& e) {
     throw Error(what + " is corrupted (" + std::string(e.what()) + "); re-save the model");
   }
   throw Error(what + " holds an unknown estimator '" + kind + "'; upgrade gipdyn");
 }
 
+}  // namespace
+
+std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, const std::string& what) {
+  std::unique_ptr<Estimator> e = read_estimator(c, what);
+  if (c.header.contains("teacher")) e->set_teaching_record(c.header.at("teacher"));
+  return e;
+}
+
+ModelContainer estimator_container(const Estimator& estimator) {
+  ModelContainer c = estimator.to_container();
+  if (!estimator.teaching_record().is_null()) c.header["teacher"] = estimator.teaching_record();
+  return c;
+}
+
 void save_estimator(const Estimator& estimator, const std::string& path) {
-  write_container(estimator.to_container(), path);
+  write_container(estimator_container(estimator), path);
 }
 
 std::unique_ptr<Estimator> load_estimator(const std::string& path) {

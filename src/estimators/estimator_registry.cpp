@@ -1,44 +1,118 @@
 #include "gipdyn/estimators/estimator_registry.hpp"
 
-#include <algorithm>
-
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 
 namespace gipdyn {
 
+namespace {
+
+std::vector<EstimatorSpec> make_table() {
+  std::vector<EstimatorSpec> t;
+  for (const KernelSpec& k : kernel_table()) {
+    EstimatorSpec e;
+    e.name = k.name;
+    e.family = EstimatorFamily::Gp;
+    e.help = k.help;
+    e.needs_robot = k.needs_robot;
+    e.rigid_body_terms = k.rigid_body_terms;
+    e.kernel_method = true;
+    e.default_estimator = k.default_kernel;
+    e.kernel = &k;
+    t.push_back(e);
+  }
+  auto gp_row = [&t](const char* name) -> EstimatorSpec& {
+    for (EstimatorSpec& e : t)
+      if (e.name == name) return e;
+    throw Error(std::string("estimator table: no kernel '") + name + "'");
+  };
+  gp_row("gip").preset = "default";
+  // The real preset: where its learning curves on real logs flatten (docs/real-robots.md), and an exact
+  // GP's O(N^3) fit stays in minutes a joint.
+  gp_row("gip-envelope+friction").preset = "real";
+  gp_row("gip-envelope+friction").preset_max_training_rows = 1000;
+  for (const char* compared : {"gip", "gip-friction", "rbf", "pp", "sp"}) gp_row(compared).compared_by_default = true;
+
+  auto row = [&t](const char* name, EstimatorFamily family, const char* help) -> EstimatorSpec& {
+    t.push_back(EstimatorSpec{});
+    t.back().name = name;
+    t.back().family = family;
+    t.back().help = help;
+    return t.back();
+  };
+  EstimatorSpec* e = &row("lip", EstimatorFamily::Lagrangian,
+                          "one GP over all joints with priors on the kinetic and potential energies (LIP)");
+  e->rigid_body_terms = e->kernel_method = e->default_teacher = true;
+  e = &row("lip+friction", EstimatorFamily::Lagrangian, "lip + each joint's smooth friction and offset");
+  e->rigid_body_terms = e->kernel_method = e->friction = true;
+  e = &row("fe", EstimatorFamily::Fisherian, "least squares on the nominal robot's rigid-body regressor");
+  e->rigid_body_terms = e->needs_robot = e->compared_by_default = true;
+  e = &row("chain", EstimatorFamily::Fisherian,
+           "fe on a serial chain whose geometry is identified from the log (no robot needed)");
+  e->rigid_body_terms = e->identifies_chain = true;
+  e = &row("nn", EstimatorFamily::NeuralNetwork, "fully connected network");
+  e->compared_by_default = true;
+  return t;
+}
+
+const std::string& name_where(bool EstimatorSpec::*column) {
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.*column) return e.name;
+  throw Error("estimator table: no row is marked for this role");
+}
+
+}  // namespace
+
+const std::vector<EstimatorSpec>& estimator_table() {
+  static const std::vector<EstimatorSpec> table = make_table();
+  return table;
+}
+
 const std::vector<std::string>& estimator_names() {
-  static const std::vector<std::string> names = [] {
-    std::vector<std::string> n = kernel_names();
-    n.push_back("lip");
-    n.push_back("lip+friction");
-    n.push_back("fe");
-    n.push_back("chain");
-    n.push_back("nn");
-    return n;
-  }();
+  static const std::vector<std::string> names = estimator_names_where([](const EstimatorSpec&) { return true; });
   return names;
 }
 
-void require_known_estimator(const std::string& name) { require_one_of(name, estimator_names(), "estimator"); }
-
-EstimatorFamily estimator_family(const std::string& name) {
-  require_known_estimator(name);
-  if (name == "lip" || name == "lip+friction") return EstimatorFamily::Lagrangian;
-  if (name == "fe" || name == "chain") return EstimatorFamily::Fisherian;
-  if (name == "nn") return EstimatorFamily::NeuralNetwork;
-  return EstimatorFamily::Gp;
+std::vector<std::string> estimator_names_where(bool (*keep)(const EstimatorSpec&)) {
+  std::vector<std::string> names;
+  for (const EstimatorSpec& e : estimator_table())
+    if (keep(e)) names.push_back(e.name);
+  return names;
 }
 
-bool is_gp_estimator(const std::string& name) {
-  const auto& k = kernel_names();
-  return std::find(k.begin(), k.end(), name) != k.end();
+const EstimatorSpec& estimator_spec(const std::string& name) {
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.name == name) return e;
+  require_one_of(name, estimator_names(), "estimator");  // throws, listing the names
+  throw Error("estimator '" + name + "' is not in the estimator table");
 }
 
-bool is_kernel_estimator(const std::string& name) {
-  return is_gp_estimator(name) || name == "lip" || name == "lip+friction";
+std::vector<std::string> default_compared_estimators(bool robot_known) {
+  std::vector<std::string> names = estimator_names_where([](const EstimatorSpec& e) {
+    return e.compared_by_default && !e.needs_robot;
+  });
+  if (robot_known)
+    for (const std::string& name : robot_compared_estimators()) names.push_back(name);
+  return names;
 }
 
-bool estimator_needs_robot(const std::string& name) { return name == "fe" || kernel_needs_robot(name); }
+std::vector<std::string> robot_compared_estimators() {
+  return estimator_names_where([](const EstimatorSpec& e) { return e.compared_by_default && e.needs_robot; });
+}
+
+const std::string& default_estimator_name() { return name_where(&EstimatorSpec::default_estimator); }
+const std::string& default_teacher_name() { return name_where(&EstimatorSpec::default_teacher); }
+
+const std::string& estimator_name(EstimatorFamily family, bool EstimatorSpec::*variant, bool on) {
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.family == family && (!variant || e.*variant == on)) return e.name;
+  throw Error("estimator table: no row of this family and variant");
+}
+
+void require_known_estimator(const std::string& name) { estimator_spec(name); }
+EstimatorFamily estimator_family(const std::string& name) { return estimator_spec(name).family; }
+bool is_gp_estimator(const std::string& name) { return estimator_spec(name).family == EstimatorFamily::Gp; }
+bool is_kernel_estimator(const std::string& name) { return estimator_spec(name).kernel_method; }
+bool estimator_needs_robot(const std::string& name) { return estimator_spec(name).needs_robot; }
 
 }  // namespace gipdyn

@@ -1,6 +1,7 @@
 #include "gipdyn/estimators/fisherian.hpp"
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/training_data.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -94,6 +95,10 @@ ModelContainer FisherianEstimator::to_container() const {
   return c;
 }
 
+std::string FisherianEstimator::name() const {
+  return estimator_name(EstimatorFamily::Fisherian, &EstimatorSpec::identifies_chain, !identification_.empty());
+}
+
 nlohmann::json FisherianEstimator::summary() const {
   nlohmann::json s = {{"estimator", name()}, {"robot", prior_.robot->name()}, {"friction", prior_.friction},
                        {"base_parameters", base_rank_}};
@@ -109,7 +114,8 @@ FisherianEstimator FisherianEstimator::from_container(const ModelContainer& c, c
   if (w.cols() != 1 || w.rows() != regressor_columns(prior))
     throw Error(what + " is corrupted (weights shape); re-save the model");
   FisherianEstimator e(prior, w.col(0));
-  if (c.header.value("estimator", std::string("fe")) == "chain")
+  const std::string stored = c.header.value("estimator", estimator_name(EstimatorFamily::Fisherian));
+  if (estimator_spec(stored).identifies_chain)
     return std::move(e).identified_by(c.header.value("chain_identification", std::string()));
   return e;
 }

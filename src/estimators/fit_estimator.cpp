@@ -6,7 +6,10 @@
 #include <optional>
 #include <string>
 
+#include <algorithm>
+
 #include "gipdyn/error.hpp"
+#include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
@@ -16,7 +19,7 @@ namespace gipdyn {
 
 void EstimatorOptions::validate() const {
   require_known_estimator(name);
-  if (name == "chain") chain.validate();
+  if (estimator_spec(name).identifies_chain) chain.validate();
   if (teacher) teacher->validate();
 }
 
@@ -43,7 +46,7 @@ FitResult fit_gp(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eige
 
 FitResult fit_lagrangian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                          const JointTypes& joints, const ProgressCallback& progress) {
-  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.train_options(), progress, o.name == "lip+friction");
+  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.train_options(), progress, estimator_spec(o.name).friction);
   FitResult result;
   result.report = std::move(r.report);
   result.estimator = std::move(r.estimator);
@@ -71,7 +74,7 @@ FitResult fit_chain(const EstimatorOptions& o, const Eigen::MatrixXd& X, const E
 
 FitResult fit_fisherian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                         const JointTypes& joints, const ProgressCallback& progress) {
-  if (o.name == "chain") return fit_chain(o, X, Y, joints, progress);
+  if (estimator_spec(o.name).identifies_chain) return fit_chain(o, X, Y, joints, progress);
   if (o.robot_prior.robot) require_matching_robot(o.robot_prior, joints);
   FitResult result;
   result.estimator = std::make_unique<FisherianEstimator>(FisherianEstimator::fit(o.robot_prior, X, Y));
@@ -123,11 +126,50 @@ std::optional<std::string> could_not_start(bool automatic, Start&& start) {
   return std::nullopt;
 }
 
+// The model file's "teacher" block (docs/model-format.md); null without a teacher.
+nlohmann::json teaching_record(const EstimatorOptions& o, const FitResult& r) {
+  if (!o.teacher) return nullptr;
+  const TeacherOptions& t = *o.teacher;
+  nlohmann::json record = {{"estimator", t.name}, {"mode", to_string(t.mode)}};
+  if (r.teacher_report)
+    record.update({{"states", t.states},
+                   {"hyperparameter_rows", t.hyperparameter_rows},
+                   {"student_hyperparameter_rows", t.student_train_options(o.gp).hyperparameter_rows},
+                   {"seed", t.seed},
+                   {"label_noise_std", std::vector<double>(r.label_noise_std.data(),
+                                                           r.label_noise_std.data() + r.label_noise_std.size())},
+                   {"status", to_string(r.teacher_report->status)},
+                   {"seconds", r.teacher_report->seconds}});
+  record["outcome"] = to_string(r.teaching);
+  if (r.teaching_check)  // null for a joint whose logged torque is constant
+    record["log_nmse"] = {{"teacher", numbers_or_null(r.teaching_check->teacher_nmse)},
+                          {"student", numbers_or_null(r.teaching_check->student_nmse)}};
+  return record;
+}
+
 }  // namespace
+
+std::optional<TeacherOptions> choose_teacher(const std::string& choice, const EstimatorOptions& options,
+                                             TeacherOptions settings) {
+  if (choice == kNoTeacher) return std::nullopt;
+  if (choice == kAutomaticTeacher) {
+    if (!automatic_teaching_applies(options)) return std::nullopt;
+    settings.name = default_teacher_name();
+    settings.mode = TeachingMode::Automatic;
+    return settings;
+  }
+  const auto& names = estimator_names();
+  if (std::find(names.begin(), names.end(), choice) == names.end())
+    throw Error("unknown teacher '" + choice + "'; choose " + std::string(kAutomaticTeacher) + ", " + kNoTeacher +
+                " or one of: " + joined(names));
+  settings.name = choice;
+  settings.mode = TeachingMode::Always;
+  return settings;
+}
 
 bool automatic_teaching_applies(const EstimatorOptions& options) {
   const TrainOptions& gp = options.gp;
-  return options.name == "gip" && gp.inducing_points == 0 && gp.warm_start_rows == 0 && gp.mean == MeanKind::Zero &&
+  return estimator_spec(options.name).default_estimator && gp.inducing_points == 0 && gp.warm_start_rows == 0 && gp.mean == MeanKind::Zero &&
          !options.robot_prior.robot && !gp.nll_backend;
 }
 
@@ -140,7 +182,8 @@ bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints) {
 Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints) {
   const TrainOptions& gp = options.gp;
   // pp with a zero mean fits in weight space (train_model), O(rows P^2) with P parameters.
-  const bool weight_space = options.name == "pp" && gp.mean == MeanKind::Zero;
+  const EstimatorSpec& spec = estimator_spec(options.name);
+  const bool weight_space = spec.kernel && spec.kernel->finite_features && gp.mean == MeanKind::Zero;
   if (!is_gp_estimator(options.name) || weight_space || gp.inducing_points > 0 || gp.nll_backend ||
       teaches(options, rows, joints))
     return 0;
@@ -151,8 +194,8 @@ std::string long_exact_fit_warning(Eigen::Index rows) {
   if (rows < kLongExactFitRows) return "";
   const std::string n = std::to_string(rows);
   return "an exact GP learns its hyperparameters on " + n + " rows: every NLL evaluation factorises a " + n + " x " +
-         n + " matrix, at a cost growing as rows^3 (13 s at 8000 rows, 3 min at 20000, on one core of "
-         "bench/RESULTS.md's machine), and a joint usually needs 80-300";
+         n + " matrix, at a cost growing as rows^3 (bench/RESULTS.md times it), and a joint needs one per optimiser "
+         "step";
 }
 
 std::string to_string(TeachingOutcome outcome) {
@@ -190,8 +233,18 @@ std::string describe(TeachingOutcome outcome, const std::string& teacher_name) {
 }
 
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
-                        const JointTypes& joints, const ProgressCallback& progress) {
+                        const JointTypes& joints, const ProgressCallback& user_progress) {
   options.validate();
+  // Events of the parts that do not know the estimator's name (the chain's
+  // identification, the network's epochs) carry the fitted estimator's.
+  ProgressCallback progress;
+  if (user_progress)
+    progress = [&](const ProgressEvent& event) {
+      if (!event.estimator.empty()) return user_progress(event);
+      ProgressEvent named = event;
+      named.estimator = options.name;
+      user_progress(named);
+    };
   const auto t0 = std::chrono::steady_clock::now();
   const Fit fit = fit_function(estimator_family(options.name));
   EstimatorOptions on_log = options;
@@ -242,13 +295,14 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
     if (options.teacher) result.teaching = TeachingOutcome::LogTooLong;
   }
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (progress) {
+  if (result.estimator) result.estimator->set_teaching_record(teaching_record(options, result));
+  if (user_progress) {
     ProgressEvent e;
     e.estimator = options.name;
     e.seconds = result.report.seconds;
     e.finished = true;
     e.message = result.report.ok() ? "fit " + to_string(result.report.status) : "failed: " + result.report.message;
-    progress(e);
+    user_progress(e);
   }
   return result;
 }

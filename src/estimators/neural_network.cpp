@@ -115,9 +115,9 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
   const auto t0 = std::chrono::steady_clock::now();
   torch::set_num_threads(options.threads);
   // libtorch's products run in the OpenBLAS gipdyn links, whose default thread
-  // count is the machine's: the trained weights then differed in the last
-  // digits from one machine to another (1.8e-14 after 30 epochs on 2 cores
-  // against 1), and the second thread spent as much time spinning as working.
+  // count is the machine's: the trained weights would then differ in the last
+  // digits from one machine to another, against the rule that a seed gives
+  // the same model everywhere.
   use_single_threaded_blas();
   const std::vector<int> hidden = options.hidden_for(n);
   torch::nn::Sequential model;
@@ -158,7 +158,6 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
     net.final_loss_ = total / static_cast<double>(N);
     if (progress) {
       ProgressEvent e;
-      e.estimator = "nn";
       e.iteration = epoch;
       e.objective = net.final_loss_;
       e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();

@@ -23,13 +23,13 @@ std::unique_ptr<QueryWorkspace> NeuralNetworkEstimator::make_query_workspace() c
 
 ModelContainer NeuralNetworkEstimator::to_container() const {
   ModelContainer c;
-  c.header["estimator"] = "nn";
+  c.header["estimator"] = name();
   net_.to_container(c);
   return c;
 }
 
 nlohmann::json NeuralNetworkEstimator::summary() const {
-  return {{"estimator", "nn"}, {"weights", net_.num_weights()}, {"final_training_loss", net_.final_loss()}};
+  return {{"estimator", name()}, {"weights", net_.num_weights()}, {"final_training_loss", net_.final_loss()}};
 }
 
 }  // namespace gipdyn

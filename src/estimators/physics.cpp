@@ -4,15 +4,11 @@
 #include <cmath>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
 
 namespace gipdyn {
 
 namespace {
-
-const std::vector<std::string>& physics_estimators() {
-  static const std::vector<std::string> names{"gip", "gip-friction", "gip+friction", "lip", "lip+friction", "pp", "fe", "chain"};
-  return names;
-}
 
 void require_positions(const Estimator& e, const Eigen::Ref<const Eigen::MatrixXd>& Q, const char* what) {
   const int n = e.joints().size();
@@ -31,14 +27,15 @@ Eigen::MatrixXd states(const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::
 
 }  // namespace
 
-bool estimator_gives_physics(const std::string& name) {
-  const auto& names = physics_estimators();
-  return std::find(names.begin(), names.end(), name) != names.end();
+bool estimator_gives_physics(const std::string& name) { return estimator_spec(name).rigid_body_terms; }
+
+std::vector<std::string> physics_estimator_names() {
+  return estimator_names_where([](const EstimatorSpec& e) { return e.rigid_body_terms; });
 }
 
 void require_physics(const Estimator& estimator) {
   if (estimator_gives_physics(estimator.name())) return;
-  const std::string valid = joined(physics_estimators());
+  const std::string valid = joined(physics_estimator_names());
   throw Error("a '" + estimator.name() +
               "' model cannot give gravity, inertia or Coriolis terms: its torque is not affine in the "
               "accelerations; train one of: " + valid);

@@ -5,22 +5,28 @@
 namespace gipdyn {
 
 const std::vector<std::string>& preset_names() {
-  static const std::vector<std::string> names{"default", "real"};
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const EstimatorSpec& e : estimator_table())
+      if (!e.preset.empty()) n.push_back(e.preset);
+    return n;
+  }();
   return names;
 }
 
 EstimatorOptions preset_options(const std::string& name) {
   require_one_of(name, preset_names(), "preset");
   EstimatorOptions o;
-  if (name == "real") o.name = "gip-envelope+friction";
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.preset == name) o.name = e.name;
   return o;
 }
 
 int preset_max_training_rows(const std::string& name) {
   require_one_of(name, preset_names(), "preset");
-  // docs/real-robots.md: on the UR10 and SARCOS learning curves gip-envelope gains
-  // little beyond 1000 rows, and 1000 rows train in about a minute per joint on one core.
-  return name == "real" ? 1000 : 0;
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.preset == name) return e.preset_max_training_rows;
+  return 0;
 }
 
 }  // namespace gipdyn

@@ -1,6 +1,5 @@
 #include "gipdyn/kernels/kernel_factory.hpp"
 
-
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
 #include "gipdyn/kernels/friction_kernel.hpp"
@@ -9,30 +8,6 @@
 #include "gipdyn/kernels/rbf_kernel.hpp"
 
 namespace gipdyn {
-
-const std::vector<std::string>& kernel_names() {
-  static const std::vector<std::string> names{"gip", "gip-friction", "rbf", "gip+rbf", "gip-friction+rbf",
-                                               "gip+friction", "gip+friction+rbf", "gip-envelope",
-                                               "gip-envelope+friction", "pp", "sp"};
-  return names;
-}
-
-bool kernel_needs_robot(const std::string& name) { return name == "pp" || name == "sp"; }
-
-bool is_gip_kernel(const std::string& name) { return name == "gip" || name == "gip-friction"; }
-
-GipKernel make_gip_kernel(const std::string& name, const FeatureMap& features, int joint) {
-  if (!is_gip_kernel(name)) throw Error("make_gip_kernel: '" + name + "' is not a GIP kernel");
-  return GipKernel(features, name == "gip-friction" ? joint : -1);
-}
-
-void require_known_kernel(const std::string& name) { require_one_of(name, kernel_names(), "kernel"); }
-
-void require_matching_robot(const RobotPrior& prior, const JointTypes& joints) {
-  if (prior.robot && prior.robot->joint_types().str() != joints.str())
-    throw Error("robot '" + prior.robot->name() + "' has joints " + prior.robot->joint_types().str() +
-                " but the data have " + joints.str() + "; give a robot prior (RobotPrior::robot) with the data's joint types");
-}
 
 namespace {
 
@@ -70,27 +45,107 @@ std::unique_ptr<Kernel> make_envelope(const FeatureMap& features) {
   return std::make_unique<EnvelopeKernel>(std::make_unique<GipKernel>(features), make_rbf(features, "envelope"));
 }
 
+std::vector<KernelSpec> make_table() {
+  using F = const FeatureMap&;
+  using P = const RobotPrior&;
+  std::vector<KernelSpec> t;
+  auto row = [&t](const char* name, const char* help) -> KernelSpec& {
+    t.push_back(KernelSpec{});
+    t.back().name = name;
+    t.back().help = help;
+    return t.back();
+  };
+  KernelSpec* k = &row("gip", "GIP kernel: polynomial in the rigid-body dynamics' own functions of q, qd, qdd");
+  k->gip_kernel = k->rigid_body_terms = k->default_kernel = true;
+  k->build = [](F f, int, P) -> std::unique_ptr<Kernel> { return std::make_unique<GipKernel>(f); };
+  k = &row("gip-friction", "GIP + viscous and Coulomb friction of the joint's own motor");
+  k->gip_kernel = k->rigid_body_terms = true;
+  k->build = [](F f, int j, P) -> std::unique_ptr<Kernel> { return std::make_unique<GipKernel>(f, j); };
+  k = &row("rbf", "RBF with ARD lengthscales on (q, qd, qdd)");
+  k->build = [](F f, int, P) { return make_rbf(f); };
+  k = &row("gip+rbf", "GIP + RBF: a structured part that generalises, a local part for the rest");
+  k->build = [](F f, int, P) { return with_rbf(std::make_unique<GipKernel>(f), f); };
+  k = &row("gip-friction+rbf", "gip-friction + RBF");
+  k->build = [](F f, int j, P) { return with_rbf(std::make_unique<GipKernel>(f, j), f); };
+  k = &row("gip+friction",
+           "GIP + smooth Coulomb (tanh), viscous and Stribeck friction of the joint's own motor and a torque offset");
+  k->rigid_body_terms = true;
+  k->build = [](F f, int j, P) { return with_friction(std::make_unique<GipKernel>(f), f, j, false); };
+  k = &row("gip+friction+rbf", "gip+friction + RBF");
+  k->build = [](F f, int j, P) { return with_friction(std::make_unique<GipKernel>(f), f, j, true); };
+  k = &row("gip-envelope",
+           "GIP x a long-lengthscale RBF envelope: reverts to the prior mean far from the training inputs");
+  k->build = [](F f, int, P) { return make_envelope(f); };
+  k = &row("gip-envelope+friction", "gip-envelope + the joint's smooth friction and offset: for real robots' logs");
+  k->build = [](F f, int j, P) { return with_friction(make_envelope(f), f, j, false); };
+  k = &row("pp", "parametric prior on the nominal robot's rigid-body regressor");
+  k->needs_robot = k->rigid_body_terms = k->finite_features = true;
+  k->build = [](F, int j, P p) -> std::unique_ptr<Kernel> {
+    return std::make_unique<ParametricKernel>(p.robot, j, p.friction);
+  };
+  k = &row("sp", "pp + RBF (semiparametric)");
+  k->needs_robot = true;
+  k->build = [](F f, int j, P p) { return with_rbf(std::make_unique<ParametricKernel>(p.robot, j, p.friction), f); };
+  return t;
+}
+
 }  // namespace
+
+const std::vector<KernelSpec>& kernel_table() {
+  static const std::vector<KernelSpec> table = make_table();
+  return table;
+}
+
+const std::vector<std::string>& kernel_names() {
+  static const std::vector<std::string> names = [] {
+    std::vector<std::string> n;
+    for (const KernelSpec& k : kernel_table()) n.push_back(k.name);
+    return n;
+  }();
+  return names;
+}
+
+const std::string& default_kernel_name() {
+  for (const KernelSpec& k : kernel_table())
+    if (k.default_kernel) return k.name;
+  throw Error("kernel table: no row is the default kernel");
+}
+
+const KernelSpec& kernel_spec(const std::string& name) {
+  for (const KernelSpec& k : kernel_table())
+    if (k.name == name) return k;
+  require_one_of(name, kernel_names(), "kernel");  // throws, listing the names
+  throw Error("kernel '" + name + "' is not in the kernel table");
+}
+
+void require_known_kernel(const std::string& name) { kernel_spec(name); }
+
+bool kernel_needs_robot(const std::string& name) { return kernel_spec(name).needs_robot; }
+
+bool is_gip_kernel(const std::string& name) { return kernel_spec(name).gip_kernel; }
+
+GipKernel make_gip_kernel(const std::string& name, const FeatureMap& features, int joint) {
+  const KernelSpec& spec = kernel_spec(name);
+  if (!spec.gip_kernel) throw Error("make_gip_kernel: '" + name + "' is not a GIP kernel");
+  std::unique_ptr<Kernel> k = spec.build(features, joint, RobotPrior{});
+  return *static_cast<GipKernel*>(k.get());
+}
+
+void require_matching_robot(const RobotPrior& prior, const JointTypes& joints) {
+  if (prior.robot && prior.robot->joint_types().str() != joints.str())
+    throw Error("robot '" + prior.robot->name() + "' has joints " + prior.robot->joint_types().str() +
+                " but the data have " + joints.str() + "; give a robot prior (RobotPrior::robot) with the data's joint types");
+}
 
 std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint,
                                     const RobotPrior& prior) {
+  const KernelSpec& spec = kernel_spec(name);
   if (joint < 0 || joint >= features.num_joints()) throw Error("make_kernel: joint index out of range");
-  if (kernel_needs_robot(name)) {
+  if (spec.needs_robot) {
     if (!prior.robot) throw Error("kernel '" + name + "' is model-based and needs the nominal robot (RobotPrior::robot)");
     require_matching_robot(prior, features.joints());
   }
-  if (is_gip_kernel(name)) return std::make_unique<GipKernel>(make_gip_kernel(name, features, joint));
-  if (name == "rbf") return make_rbf(features);
-  if (name == "gip+rbf") return with_rbf(std::make_unique<GipKernel>(features), features);
-  if (name == "gip-friction+rbf") return with_rbf(std::make_unique<GipKernel>(features, joint), features);
-  if (name == "gip-envelope") return make_envelope(features);
-  if (name == "gip-envelope+friction") return with_friction(make_envelope(features), features, joint, false);
-  if (name == "gip+friction") return with_friction(std::make_unique<GipKernel>(features), features, joint, false);
-  if (name == "gip+friction+rbf") return with_friction(std::make_unique<GipKernel>(features), features, joint, true);
-  if (name == "pp") return std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction);
-  if (name == "sp") return with_rbf(std::make_unique<ParametricKernel>(prior.robot, joint, prior.friction), features);
-  require_known_kernel(name);
-  throw Error("make_kernel: kernel '" + name + "' is listed but not built here");
+  return spec.build(features, joint, prior);
 }
 
 }  // namespace gipdyn

@@ -235,7 +235,6 @@ ChainIdentification identify_chain(const Eigen::MatrixXd& X, const Eigen::Matrix
   auto report = [&](const char* stage, int s, int of, const ChainStartReport& rep, long rows) {
     if (!progress) return;
     ProgressEvent e;
-    e.estimator = "chain";
     e.restart = s;
     e.rows = rows;
     e.iteration = rep.evaluations;

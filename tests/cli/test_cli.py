@@ -141,14 +141,21 @@ def test_a_mistyped_or_missing_command_is_named_with_the_closest_one(gipdyn_bin)
     assert run(gipdyn_bin, "experiment", "real", "--help").returncode == 0
 
 
-def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin):
+def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin, tmp_path):
     # Forty options in one list hide the few a newcomer needs: those come first,
     # each estimator's own under its heading.
     out = run(gipdyn_bin, "train", "--help").stdout
     headings = [line for line in out.splitlines() if line and not line.startswith(" ")][2:]
     assert [h.split(" (")[0] for h in headings] == [
         "Options:", "Teacher", "GP hyperparameter learning", "Model-based estimators", "LIP",
-        "Serial chain identified from the log", "Neural network"], headings
+        "Serial chain identified from the log", "Neural network", "Estimators"], headings
+    # The estimators' list is the library's table, as the error for an unknown name gives it.
+    listed = [line.split()[0] for line in out[out.index("Estimators (--kernel):"):].splitlines()[1:] if line.strip()]
+    (tmp_path / "log.csv").write_text("q1\n0\n")
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--kernel", "bogus", "--out",
+            str(tmp_path / "m.gipdyn"))
+    assert r.returncode != 0 and "chain" in listed
+    assert listed == r.stderr.split("choose one of: ")[1].strip().rstrip(".").split(", "), r.stderr
 
     def section_of(flag):
         before = out[:out.index("  " + flag + " ")]
@@ -200,7 +207,7 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "--optimizer 'sgd' is unknown; choose lbfgs or adam"),
         ("no L-BFGS memory", HEADER + ROWS, "RR", ["--lbfgs-memory", "0"], "--lbfgs-memory must be at least 1"),
         ("a teacher that needs a robot", HEADER + ROWS, "RR", ["--teacher", "fe"], "--teacher: 'fe' needs a nominal robot"),
-        ("an unknown teacher", HEADER + ROWS, "RR", ["--teacher", "lap"], "unknown estimator 'lap'"),
+        ("an unknown teacher", HEADER + ROWS, "RR", ["--teacher", "lap"], "unknown teacher 'lap'"),
         ("too few teacher states", HEADER + ROWS, "RR", ["--teacher", "lip", "--teacher-states", "2"],
          "--teacher-states must be at least 5"),
     ],

@@ -45,6 +45,15 @@ class Estimator {
   // The single-query path. GP and network estimators give one that never
   // allocates; the default goes through predict() on a one-row matrix.
   virtual std::unique_ptr<QueryWorkspace> make_query_workspace() const;
+
+  // How the fit that made this estimator used a teacher: the model file's
+  // "teacher" block (docs/model-format.md), written by fit_estimator and kept
+  // by model files (estimator_file.hpp); null where no teacher was asked for.
+  const nlohmann::json& teaching_record() const { return teaching_record_; }
+  void set_teaching_record(nlohmann::json record) { teaching_record_ = std::move(record); }
+
+ private:
+  nlohmann::json teaching_record_;
 };
 
 }  // namespace gipdyn

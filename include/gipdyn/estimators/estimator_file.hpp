@@ -9,6 +9,8 @@
 
 namespace gipdyn {
 
+// The estimator's model file contents: to_container() and its teaching record.
+ModelContainer estimator_container(const Estimator& estimator);
 // Written atomically (temporary file + rename).
 void save_estimator(const Estimator& estimator, const std::string& path);
 // Throws gipdyn::Error for a missing, truncated, corrupted or newer-version file.

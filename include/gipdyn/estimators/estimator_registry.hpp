@@ -1,26 +1,69 @@
 #pragma once
-// The estimators by name:
-//   GP kernels  gip, gip-friction, rbf, gip+rbf, gip-friction+rbf, gip+friction, gip+friction+rbf, gip-envelope, gip-envelope+friction, pp, sp
-//   lip         one GP over all joints with the Lagrangian kernel (energies)
-//   fe          least squares on the rigid-body regressor (base parameters)
-//   chain       fe on a serial chain whose geometry is identified from the log (robot/chain_identification.hpp)
-//   nn          fully connected network (docs/method.md)
-// fe, pp and sp are model-based: they need the nominal robot.
+// The table of estimators: the only place an estimator's name is spelled.
+// Every GP kernel of kernels/kernel_factory.hpp is an estimator of the GP
+// family; lip, lip+friction, fe, chain and nn follow. Dispatch, model files,
+// presets, the front ends' help and lists, and the experiments read this table.
 #include <string>
 #include <vector>
 
 namespace gipdyn {
 
+struct KernelSpec;
+
 // How an estimator is fitted and stored: its model file's "estimator" entry.
 enum class EstimatorFamily { Gp, Lagrangian, Fisherian, NeuralNetwork };
 
-// Names accepted by fit_estimator: the GP kernels, then lip, fe and nn.
+struct EstimatorSpec {
+  std::string name;
+  EstimatorFamily family = EstimatorFamily::Gp;
+  std::string help;  // one line
+  // Needs a nominal robot (RobotPrior::robot): fe and the model-based kernels.
+  bool needs_robot = false;
+  // Lagrangian: each joint's smooth friction and offset beside the energies.
+  bool friction = false;
+  // Fisherian: a serial chain's geometry identified from the log before the
+  // least-squares fit (robot/chain_identification.hpp).
+  bool identifies_chain = false;
+  // Gravity, inertia and Coriolis torques out of a fitted model (physics.hpp).
+  bool rigid_body_terms = false;
+  // Hyperparameters by marginal likelihood, cost cubic in the rows (the GP kernels, lip).
+  bool kernel_method = false;
+  // The estimator train fits by default, and the one that teaches it by
+  // default (TeacherOptions::name; fit_estimator.hpp's automatic teaching).
+  bool default_estimator = false, default_teacher = false;
+  // The preset (presets.hpp) that chooses this estimator, empty for none, and
+  // the most rows it trains on (a constant-step subsample of longer logs); 0: every row.
+  std::string preset;
+  int preset_max_training_rows = 0;
+  // Compared by the experiment commands unless they are given a list (those
+  // that need a robot only where one is known).
+  bool compared_by_default = false;
+  // GP family: the row of kernel_table(); null for the others.
+  const KernelSpec* kernel = nullptr;
+};
+
+// Every estimator, the GP kernels first.
+const std::vector<EstimatorSpec>& estimator_table();
+// The row of `name`; throws gipdyn::Error listing the valid names otherwise.
+const EstimatorSpec& estimator_spec(const std::string& name);
+// The table's names, in order; those whose row satisfies `keep`.
 const std::vector<std::string>& estimator_names();
-// Throws gipdyn::Error listing the valid names unless `name` is one of them.
+std::vector<std::string> estimator_names_where(bool (*keep)(const EstimatorSpec&));
+// The estimators compared_by_default, those that need a robot with robot_known only;
+// those that need a robot, alone.
+std::vector<std::string> default_compared_estimators(bool robot_known);
+std::vector<std::string> robot_compared_estimators();
+// The rows marked default_estimator and default_teacher.
+const std::string& default_estimator_name();
+const std::string& default_teacher_name();
+// The name of the row of `family` whose column `variant` is `on` (without a
+// variant: the family's first row), e.g. estimator_name(EstimatorFamily::Lagrangian,
+// &EstimatorSpec::friction, true) for LIP with friction.
+const std::string& estimator_name(EstimatorFamily family, bool EstimatorSpec::*variant = nullptr, bool on = false);
+
+// Readers of the table's columns, for valid names (else they throw as estimator_spec).
 EstimatorFamily estimator_family(const std::string& name);
-// The per-joint GP kernels (not lip).
 bool is_gp_estimator(const std::string& name);
-// GP kernels and lip: hyperparameters by marginal likelihood, cost cubic in the rows.
 bool is_kernel_estimator(const std::string& name);
 bool estimator_needs_robot(const std::string& name);
 void require_known_estimator(const std::string& name);

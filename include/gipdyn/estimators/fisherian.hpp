@@ -22,7 +22,7 @@ class FisherianEstimator final : public Estimator {
   // (robot/chain_identification.hpp), described by `report`.
   FisherianEstimator identified_by(std::string report) &&;
 
-  std::string name() const override { return identification_.empty() ? "fe" : "chain"; }
+  std::string name() const override;
   const JointTypes& joints() const override { return joints_; }
   Eigen::MatrixXd predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const override;
   // Single queries make no heap allocation: the regressor is built in the workspace.

@@ -20,7 +20,7 @@
 namespace gipdyn {
 
 struct EstimatorOptions {
-  std::string name = "gip";
+  std::string name = default_estimator_name();  // a name of estimator_table()
   TrainOptions gp;          // GP estimators (the kernel and robot prior are set from name and robot_prior)
   NeuralNetworkOptions nn;  // nn
   ChainIdentificationOptions chain;  // chain: the geometry search before fe
@@ -53,15 +53,27 @@ enum class TeachingOutcome {
 // sparse or distributed fit, and the automatic teacher is not measured there.
 bool automatic_teaching_applies(const EstimatorOptions& options);
 
+// The teacher choices a front end offers beside an estimator's name.
+inline constexpr const char* kAutomaticTeacher = "auto";
+inline constexpr const char* kNoTeacher = "none";
+// The teacher of a fit of `options`, the rule every front end follows (their
+// default is kAutomaticTeacher): kNoTeacher, none; kAutomaticTeacher, the
+// default teacher (default_teacher_name()) in TeachingMode::Automatic where
+// automatic_teaching_applies(options), else none; an estimator's name, that
+// teacher, TeachingMode::Always. The rest of the teacher's options come from
+// `settings`. Throws gipdyn::Error for any other choice.
+std::optional<TeacherOptions> choose_teacher(const std::string& choice, const EstimatorOptions& options,
+                                             TeacherOptions settings = {});
+
 // Whether fit_estimator fits a teacher on a log of `rows` rows and trains the
 // estimator on its states: TeachingMode::Always, or Automatic where
 // automatic_teaching_applies and the log is short enough (TeacherOptions::teaches);
 // the taught model may still be thrown away afterwards (TeachingCheck).
 bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints);
 
-// From this many rows an exact GP's hyperparameter fit takes tens of minutes a
-// joint on any machine we know: 13 s an evaluation at 8000 rows on one core
-// (bench/RESULTS.md), and 80-300 evaluations a joint.
+// From this many rows an exact GP's hyperparameter fit is long enough to warn
+// about: every evaluation is an O(rows^3) factorisation (bench/RESULTS.md
+// times them), and a joint needs one per optimiser step.
 inline constexpr Eigen::Index kLongExactFitRows = 8000;
 
 // The rows on which fit_estimator's exact GP learns its hyperparameters from
@@ -98,7 +110,7 @@ struct FitResult {
   TeachingOutcome teaching = TeachingOutcome::NoTeacher;
 };
 
-// Fits the named estimator (with a teacher: the teacher, then the estimator on
+// Fits the named estimator and sets its teaching record (Estimator::teaching_record) (with a teacher: the teacher, then the estimator on
 // its labelled states; a teacher or student that fails, or cannot start for
 // want of memory, fails the fit, unless TeachingMode::Automatic, which then
 // learns from the log, as it does for options automatic_teaching_applies

@@ -12,6 +12,7 @@
 
 #include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_weight_space.hpp"
 #include "gipdyn/model/fit_report.hpp"
@@ -46,7 +47,7 @@ class LagrangianEstimator final : public Estimator {
   static FitOutcome fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
                         const TrainOptions& options, const ProgressCallback& progress = {}, bool friction = false);
 
-  std::string name() const override { return kernel_.has_friction() ? "lip+friction" : "lip"; }
+  std::string name() const override { return estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, kernel_.has_friction()); }
   const JointTypes& joints() const override { return kernel_.joints(); }
   // In weight space where that is cheaper (LagrangianWeightSpaceMean::worthwhile:
   // a SCARA past about 10 rows, a 6R arm past about 35 on the serial chain and

@@ -16,6 +16,7 @@
 
 #include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/model/fit_report.hpp"
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/progress.hpp"
@@ -42,7 +43,7 @@ std::string to_string(TeachingMode mode);
 
 struct TeacherOptions {
   // An estimator of estimator_registry.hpp that needs no nominal robot.
-  std::string name = "lip";
+  std::string name = default_teacher_name();
   // States drawn from the box, labelled by the teacher: the student's training rows.
   int states = 2000;
   // The teacher learns its hyperparameters on a constant-step subsample of this
@@ -52,8 +53,8 @@ struct TeacherOptions {
   // The student learns its hyperparameters on a constant-step subsample of
   // this many drawn states, then is conditioned on all of them. The states are
   // independent draws over the whole box, so a few hundred of them tell the
-  // NLL what thousands do (on the SCARA the student's errors with 500 and
-  // with 2000 agree within about 2x) at a 64th of an evaluation's O(N^3).
+  // NLL what thousands do (docs/training.md compares them) at a fraction of
+  // an evaluation's O(N^3).
   // 0: on every state. TrainOptions::hyperparameter_rows, when above 0, wins.
   int student_hyperparameter_rows = 500;
   // Seed of the drawn states.
@@ -83,13 +84,9 @@ struct TeacherOptions {
 // Where the teacher's residual on the log is at least this share of a
 // joint's logged torque variance, the teacher has learned (almost) nothing of
 // that joint, and its torques at the drawn states are extrapolation of noise:
-// that joint is labelled with its logged mean instead. Measured (LIP teaching
-// GIP, default train, test on a new motion; docs/training.md): the taught
-// joints at shares 0.955 to 0.998 (the UR10's and the PUMA 560's joint 6,
-// torque a tenth of the noise) tested at nMSE 8.5 to 71, 1.0 to 10 with the
-// mean; the PUMA's joint 4 on a 200 s log, at 0.893, tested at 0.57 taught and
-// 1.0 with the mean. The threshold lies between the two, where the teacher
-// explains about 7 % of the variance.
+// that joint is labelled with its logged mean instead. The threshold lies
+// between the shares at which taught joints tested worse than their mean and
+// those at which teaching still helped (docs/training.md, "GIP taught by LIP").
 inline constexpr double kTeacherNoiseShareForMeanLabels = 0.93;
 
 struct TeachingSet {
@@ -116,24 +113,21 @@ struct TeachingSet {
 // exceeds its teacher's both by more than kTaughtNmseGapWarning and by more
 // than the factor kTaughtResidualRatioWarning. The student learns the
 // teacher's torques over the whole box of the log; where the log's states fill
-// that box (simulated motions), it fits the log as its teacher does (gaps of
-// 2e-3 or less on the SCARA and UR10); where they lie on a thin set of it (a
-// real robot's log), the teacher's torques over the box are extrapolation and
-// the student can miss the log by more than the torque's variance (gaps of
-// 2.5-50, 7-370 times the teacher's residual, on the real UR10 log;
-// docs/training.md). The ratio spares a joint whose torque is mostly noise:
-// there the teacher's own residual is near the torque's variance, and a
-// student that adds a seventh of that noise (a simulated UR10's wrist, 1.09
-// against 0.955) has lost nothing the log could teach.
+// that box (simulated motions), it fits the log as its teacher does; where
+// they lie on a thin set of it (a real robot's log), the teacher's torques
+// over the box are extrapolation and the student can miss the log by more
+// than the torque's variance (docs/training.md measures both). The ratio
+// spares a joint whose torque is mostly noise: there the teacher's own
+// residual is near the torque's variance, and a student that adds a fraction
+// of that noise has lost nothing the log could teach.
 inline constexpr double kTaughtNmseGapWarning = 0.1;
 inline constexpr double kTaughtResidualRatioWarning = 2.0;
 
 // A student that passes can still fit a joint's logged rows far worse than
 // its teacher: at least kTeacherFarAheadRatio times its nMSE, and above
-// kTeacherFarAheadFloor, below which both are as good as any user needs. On a
-// simulated 7R arm's 200 s motion LIP fits joint 1 at 3.8e-5 and its GIP
-// student at 0.044, and on a new motion they test at 1.4e-3 and 0.042: there
-// the teacher is the more accurate model, at its slower query.
+// kTeacherFarAheadFloor, below which both are as good as any user needs.
+// There the teacher is likely the more accurate model on new motions too, at
+// its slower query (docs/training.md shows a 7R arm's joint 1).
 inline constexpr double kTeacherFarAheadRatio = 10.0;
 inline constexpr double kTeacherFarAheadFloor = 1e-3;
 

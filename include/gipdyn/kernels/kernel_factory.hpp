@@ -17,14 +17,33 @@ struct RobotPrior {
   bool friction = false;  // add viscous and Coulomb friction parameters to the regressor
 };
 
-// Names accepted by make_kernel.
-const std::vector<std::string>& kernel_names();
-// Whether the kernel needs a RobotPrior with a robot (pp, sp).
-bool kernel_needs_robot(const std::string& name);
+// One row of the kernel table: the only place a kernel's name is spelled.
+struct KernelSpec {
+  std::string name;
+  std::string help;            // one line: what the kernel is
+  bool needs_robot = false;    // built on RobotPrior::robot (the model-based pp, sp)
+  bool gip_kernel = false;     // a GipKernel: the fused prediction path
+  bool rigid_body_terms = false;  // gravity, inertia and Coriolis torques out of a fitted model (physics.hpp)
+  bool finite_features = false;   // a finite feature expansion: the NLL in weight space (gp/weight_space_nll.hpp)
+  bool default_kernel = false;    // TrainOptions::kernel's default, and the estimator train fits by default
+  // The kernel of joint `joint` (0-based); prior.robot is set where needs_robot.
+  std::unique_ptr<Kernel> (*build)(const FeatureMap& features, int joint, const RobotPrior& prior) = nullptr;
+};
 
-// Whether the kernel is a GipKernel (gip, gip-friction): such models get the fused prediction path.
+// Every kernel make_kernel builds, in the order front ends list them. Sums
+// start with 90 % of the output variance in the structured part.
+const std::vector<KernelSpec>& kernel_table();
+// The row of `name`; throws gipdyn::Error listing the valid names otherwise.
+const KernelSpec& kernel_spec(const std::string& name);
+
+// The row marked default_kernel.
+const std::string& default_kernel_name();
+// The table's names, in order.
+const std::vector<std::string>& kernel_names();
+// Readers of the table's columns, for a valid name (else they throw as kernel_spec).
+bool kernel_needs_robot(const std::string& name);
 bool is_gip_kernel(const std::string& name);
-// The GipKernel of joint `joint` for gip or gip-friction (default parameters).
+// The GipKernel of joint `joint` for a kernel whose gip_kernel column is set (default parameters).
 GipKernel make_gip_kernel(const std::string& name, const FeatureMap& features, int joint);
 
 // Throws gipdyn::Error, listing the valid names, unless name is one of them.
@@ -32,23 +51,9 @@ void require_known_kernel(const std::string& name);
 // Throws gipdyn::Error when the prior has a robot whose joints differ from `joints`.
 void require_matching_robot(const RobotPrior& prior, const JointTypes& joints);
 
-// The kernel of joint `joint` (0-based) of a robot with the given feature map:
-//   "gip"               GIP kernel
-//   "gip-friction"      GIP + viscous and Coulomb friction of the joint's own motor
-//   "rbf"               RBF with ARD lengthscales on (q, qd, qdd)
-//   "gip+rbf"           GIP + RBF (a structured part that generalises, a local part for the rest)
-//   "gip-friction+rbf"  GIP-friction + RBF
-//   "gip+friction"      GIP + smooth Coulomb (tanh), viscous and Stribeck friction of the
-//                       joint's own motor and a torque offset (FrictionKernel), scales learned
-//   "gip+friction+rbf"  the same + RBF
-//   "gip-envelope"      GIP x a long-lengthscale RBF envelope (EnvelopeKernel): reverts to the
-//                       prior mean far from the training inputs instead of extrapolating a polynomial
-//   "gip-envelope+friction"  gip-envelope + the joint's smooth friction and offset (FrictionKernel);
-//                       the kernel of the "real" preset
-//   "pp"                parametric prior on the rigid-body regressor of prior.robot
-//   "sp"                PP + RBF (semiparametric)
-// Sums start with 90 % of the output variance in the structured part.
-// Throws gipdyn::Error for an unknown name or a missing robot.
+// The kernel `name` of joint `joint` (0-based) of a robot with the given
+// feature map. Throws gipdyn::Error for an unknown name, a joint out of range
+// or a missing robot.
 std::unique_ptr<Kernel> make_kernel(const std::string& name, const FeatureMap& features, int joint,
                                     const RobotPrior& prior = {});
 
