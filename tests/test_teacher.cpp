@@ -395,6 +395,63 @@ TEST(Teacher, AutomaticTeachingIsForTheGipKernelsExactGpAlone) {
   EXPECT_EQ(taught.teacher->name(), "lip");
 }
 
+// Every search setting of the student reaches the teacher; what describes the
+// student's own model does not.
+TEST(Teacher, TheTeacherSearchesAsTheStudentDoesForItsOwnModel) {
+  TrainOptions student;
+  student.kernel = "gip-friction";
+  student.optimizer.max_iterations = 77;
+  student.optimizer.lbfgs_memory = 13;
+  student.gradient_tolerance_per_row = 3e-6;
+  student.restarts = 2;
+  student.restart_spread = 0.5;
+  student.seed = 41;
+  student.initial_noise_fraction = 0.05;
+  student.min_noise_fraction = 1e-6;
+  student.jitter.max_relative = 1e-3;
+  student.threads = 3;
+  student.serial_chain = false;
+  student.start_screening_evaluations = 25;
+  student.scaling = OutputScaling::None;
+  student.mean = MeanKind::Linear;
+  student.prior.enabled = true;
+  student.warm_start_rows = 100;
+  student.inducing_points = 50;
+  student.hyperparameter_objective = HyperparameterObjective::Exact;
+  student.noise_std_floor = Eigen::VectorXd::Ones(4);
+  student.initial_log_params = {Eigen::VectorXd::Zero(3)};
+  student.robot_prior.robot = std::make_shared<const RobotModel>(scara_robot());
+  TeacherOptions t;
+  t.hyperparameter_rows = 123;
+  const TrainOptions o = t.teacher_train_options(student);
+  EXPECT_EQ(o.kernel, t.name);
+  EXPECT_EQ(o.hyperparameter_rows, 123);
+  EXPECT_FALSE(o.keep_factor);
+  EXPECT_EQ(o.optimizer.max_iterations, 77);
+  EXPECT_EQ(o.optimizer.lbfgs_memory, 13);
+  EXPECT_EQ(o.gradient_tolerance_per_row, 3e-6);
+  EXPECT_EQ(o.restarts, 2);
+  EXPECT_EQ(o.restart_spread, 0.5);
+  EXPECT_EQ(o.seed, 41u);
+  EXPECT_EQ(o.initial_noise_fraction, 0.05);
+  EXPECT_EQ(o.min_noise_fraction, 1e-6);
+  EXPECT_EQ(o.jitter.max_relative, 1e-3);
+  EXPECT_EQ(o.threads, 3);
+  EXPECT_FALSE(o.serial_chain);
+  EXPECT_EQ(o.start_screening_evaluations, 25);
+  const TrainOptions defaults;
+  EXPECT_EQ(o.scaling, defaults.scaling);
+  EXPECT_EQ(o.mean, defaults.mean);
+  EXPECT_EQ(o.prior.enabled, defaults.prior.enabled);
+  EXPECT_EQ(o.warm_start_rows, defaults.warm_start_rows);
+  EXPECT_EQ(o.inducing_points, defaults.inducing_points);
+  EXPECT_EQ(o.hyperparameter_objective, defaults.hyperparameter_objective);
+  EXPECT_EQ(o.noise_std_floor.size(), 0);
+  EXPECT_TRUE(o.initial_log_params.empty());
+  EXPECT_EQ(o.robot_prior.robot, nullptr);
+  EXPECT_EQ(o.nll_backend, nullptr);
+}
+
 TEST(Teacher, BadOptionsAreNamedBeforeAnyWork) {
   const Eigen::MatrixXd X = two_link_trajectory(40, 0.1, 1);
   const Eigen::MatrixXd Y = two_link_torques(X);

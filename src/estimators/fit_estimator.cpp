@@ -9,7 +9,8 @@
 #include <algorithm>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/json_numbers.hpp"
+#include "gipdyn/io/detail/json_numbers.hpp"
+#include "gipdyn/training_data.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
@@ -230,6 +231,26 @@ std::string describe(TeachingOutcome outcome, const std::string& teacher_name) {
              "robot, warm start or distributed backend";
   }
   return "";
+}
+
+TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
+                  const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress) {
+  options.validate();
+  validate_training_data(X, Y, joints);
+  EstimatorOptions teacher;
+  teacher.name = options.name;
+  teacher.gp = options.teacher_train_options(student);
+  teacher.nn.seed = student.seed;
+  teacher.chain.seed = student.seed;
+  teacher.chain.threads = student.threads;
+  FitResult fit = fit_estimator(teacher, X, Y, joints, progress);
+  if (!fit.report.ok()) {
+    fit.report.message = "the teacher " + options.name + " failed: " + fit.report.message;
+    TeachingSet failed;
+    failed.teacher_report = std::move(fit.report);
+    return failed;
+  }
+  return label_states(options, std::move(fit.estimator), std::move(fit.report), X, Y);
 }
 
 FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

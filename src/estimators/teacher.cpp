@@ -7,7 +7,6 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
-#include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/training_data.hpp"
 
@@ -38,21 +37,22 @@ bool TeacherOptions::teaches(Eigen::Index rows, Eigen::Index joints) const {
 }
 
 TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) const {
-  TrainOptions o;
+  const TrainOptions defaults;
+  TrainOptions o = student;
   o.kernel = name;
-  o.optimizer = student.optimizer;
-  o.gradient_tolerance_per_row = student.gradient_tolerance_per_row;
-  o.restarts = student.restarts;
-  o.restart_spread = student.restart_spread;
-  o.seed = student.seed;
-  o.initial_noise_fraction = student.initial_noise_fraction;
-  o.min_noise_fraction = student.min_noise_fraction;
-  o.jitter = student.jitter;
-  o.threads = student.threads;
   o.hyperparameter_rows = hyperparameter_rows;
-  o.serial_chain = student.serial_chain;
-  o.start_screening_evaluations = student.start_screening_evaluations;
   o.keep_factor = false;  // the teacher only predicts means
+  // What describes the student's own model, not the search.
+  o.scaling = defaults.scaling;
+  o.mean = defaults.mean;
+  o.prior = defaults.prior;
+  o.warm_start_rows = defaults.warm_start_rows;
+  o.inducing_points = defaults.inducing_points;
+  o.hyperparameter_objective = defaults.hyperparameter_objective;
+  o.noise_std_floor = defaults.noise_std_floor;
+  o.initial_log_params = defaults.initial_log_params;
+  o.robot_prior = defaults.robot_prior;
+  o.nll_backend = defaults.nll_backend;
   return o;
 }
 
@@ -124,29 +124,14 @@ std::string TeachingCheck::warning(const std::string& teacher_name) const {
   return "the model taught by " + teacher_name + " fits the logged rows far worse than its teacher (nMSE on the log, joint " +
          joints + "): the log's states fill too little of their box for the teacher's torques there to be more than "
          "extrapolation, as on a real robot's log; train without a teacher (e.g. the teacher's kernel " + teacher_name +
-         " itself, or gip)";
+         " itself, or " + default_estimator_name() + ")";
 }
 
-TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
-                  const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress) {
-  options.validate();
-  validate_training_data(X, Y, joints);
-  EstimatorOptions teacher;
-  teacher.name = options.name;
-  teacher.gp = options.teacher_train_options(student);
-  teacher.nn.seed = student.seed;
-  teacher.chain.seed = student.seed;
-  teacher.chain.threads = student.threads;
-  FitResult fit = fit_estimator(teacher, X, Y, joints, progress);
-
+TeachingSet label_states(const TeacherOptions& options, std::unique_ptr<Estimator> teacher, FitReport teacher_report,
+                         const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y) {
   TeachingSet set;
-  set.teacher_report = std::move(fit.report);
-  if (!set.teacher_report.ok()) {
-    set.teacher_report.message = "the teacher " + options.name + " failed: " + set.teacher_report.message;
-    return set;
-  }
-  set.teacher = std::move(fit.estimator);
-
+  set.teacher_report = std::move(teacher_report);
+  set.teacher = std::move(teacher);
   const Eigen::MatrixXd residual = Y - set.teacher->predict(X);
   set.label_noise_std = (residual.colwise().squaredNorm() / static_cast<double>(X.rows())).cwiseSqrt().transpose();
 

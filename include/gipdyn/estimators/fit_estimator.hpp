@@ -110,6 +110,15 @@ struct FitResult {
   TeachingOutcome teaching = TeachingOutcome::NoTeacher;
 };
 
+// Fits the teacher of `options` on (X, Y) (its search settings the student's:
+// TeacherOptions::teacher_train_options) and labels TeacherOptions::states
+// drawn states (label_states). Bad options or data throw gipdyn::Error before
+// any work; a teacher that fails to fit is reported in
+// TeachingSet::teacher_report, whose message then names the teacher ("the
+// teacher lip failed: ..."; X, Y empty).
+TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
+                  const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress = {});
+
 // Fits the named estimator and sets its teaching record (Estimator::teaching_record) (with a teacher: the teacher, then the estimator on
 // its labelled states; a teacher or student that fails, or cannot start for
 // want of memory, fails the fit, unless TeachingMode::Automatic, which then

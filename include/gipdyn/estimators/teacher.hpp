@@ -71,10 +71,14 @@ struct TeacherOptions {
   // Whether a log of this many rows of this many joints is taught (mode,
   // automatic_max_log_values).
   bool teaches(Eigen::Index rows, Eigen::Index joints) const;
-  // The teacher's GP options, derived from the student's: its optimiser,
-  // gradient tolerance, restarts, seed, noise start and floor, jitter and
-  // threads; the kernel is `name`, hyperparameter_rows this struct's, the rest
-  // (scaling, mean, prior, warm start, inducing points) the library's defaults.
+  // The teacher's GP options: the student's, so that every search setting
+  // (optimiser, tolerances, restarts, screening, seed, noise start and floor,
+  // jitter, threads, and any added later) reaches the teacher, except what
+  // describes the student's own model: the kernel is `name`,
+  // hyperparameter_rows this struct's, no kept factor (the teacher only
+  // predicts means), and scaling, mean, prior, warm start, inducing points,
+  // objective, noise floor, starting point, nominal robot and backend the
+  // library's defaults.
   TrainOptions teacher_train_options(const TrainOptions& student) const;
   // The student's own options: `student` with its hyperparameter subsample
   // (TrainOptions::hyperparameter_rows, else student_hyperparameter_rows).
@@ -152,11 +156,11 @@ struct TeachingCheck {
 TeachingCheck check_teaching(const Eigen::MatrixXd& Y, const Eigen::VectorXd& teacher_residual_rms,
                              const Eigen::MatrixXd& student_prediction);
 
-// Fits the teacher on (X, Y) and labels TeacherOptions::states drawn states.
-// Bad options or data throw gipdyn::Error before any work; a teacher that
-// fails to fit is reported in TeachingSet::teacher_report, whose message then
-// names the teacher ("the teacher lip failed: ..."; X, Y empty).
-TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
-                  const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress = {});
+// Labels TeacherOptions::states states drawn from the box of X with the
+// torques of `teacher`, fitted on (X, Y) (teacher_report.ok(); fit_estimator.hpp's
+// teach fits it), and sets their noise floors. options and the data are
+// checked by the caller.
+TeachingSet label_states(const TeacherOptions& options, std::unique_ptr<Estimator> teacher, FitReport teacher_report,
+                         const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y);
 
 }  // namespace gipdyn
