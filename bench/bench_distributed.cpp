@@ -16,7 +16,7 @@
 #include <cstdlib>
 #include <vector>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/distributed/distributed_nll.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"

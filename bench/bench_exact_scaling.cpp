@@ -12,7 +12,7 @@
 #include <cstdio>
 #include <cstdlib>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"

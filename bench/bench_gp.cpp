@@ -17,6 +17,7 @@
 #include <tuple>
 #include <vector>
 
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/features.hpp"
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"

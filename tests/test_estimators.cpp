@@ -213,8 +213,12 @@ TEST(EstimatorTable, EveryNameOnceAndEveryRowConsistent) {
     }
     defaults += e.default_estimator;
     teachers += e.default_teacher;
-    if (e.default_teacher) EXPECT_FALSE(e.needs_robot) << "a default teacher must teach without a robot";
-    if (!e.preset.empty()) EXPECT_EQ(preset_options(e.preset).name, name);
+    if (e.default_teacher) {
+      EXPECT_FALSE(e.needs_robot) << "a default teacher must teach without a robot";
+    }
+    if (!e.preset.empty()) {
+      EXPECT_EQ(preset_options(e.preset).name, name);
+    }
   }
   EXPECT_EQ(defaults, 1);
   EXPECT_EQ(teachers, 1);

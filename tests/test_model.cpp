@@ -20,7 +20,7 @@
 #endif
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/model/model_file.hpp"

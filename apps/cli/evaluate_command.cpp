@@ -13,7 +13,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/physics.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"

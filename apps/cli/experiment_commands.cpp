@@ -38,15 +38,10 @@ EstimatorOptions base_options(const EstimatorArgs& args) {
   return o;
 }
 
-}  // namespace
+using Subcommand = std::pair<CLI::App*, Command>;
 
-Command add_experiment(CLI::App& app) {
-  app.require_subcommand(1);
-  auto quiet = std::make_shared<bool>(false);
-  const std::string estimator_help = "Comma-separated estimators from: " + estimator_list() +
-                                     "; or STUDENT@TEACHER, e.g. gip@lip: the student trained on the teacher's torques "
-                                     "at 2000 states drawn from the training log's box (train --teacher)";
-
+// experiment accuracy (E1).
+Subcommand add_accuracy(CLI::App& app, const std::shared_ptr<bool>& quiet, const std::string& estimator_help) {
   struct AccuracyArgs {
     AccuracyConfig config;
     std::string estimators = "fe,pp,sp,gip,rbf,nn";
@@ -75,7 +70,15 @@ Command add_experiment(CLI::App& app) {
       ->capture_default_str();
   a->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   acc->est.add_to(*a, false, false);  // the experiment's --seed drives everything
+  return {a, [=]() -> int {
+    acc->config.estimators = split_list(acc->estimators);
+    acc->config.base = base_options(acc->est);
+    return report(run_accuracy_experiment(acc->config, printer(*quiet)), *quiet);
+  }};
+}
 
+// experiment data-efficiency (E2).
+Subcommand add_data_efficiency(CLI::App& app, const std::shared_ptr<bool>& quiet, const std::string& estimator_help) {
   struct EfficiencyArgs {
     DataEfficiencyConfig config;
     std::string estimators = "gip,rbf,nn,pp", sizes = "100,200,500,1000,2000,4000";
@@ -98,7 +101,16 @@ Command add_experiment(CLI::App& app) {
   d->add_option("--out", eff->config.out, "Output folder: gmse.csv, summary.md, gmse.png")->required();
   d->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   eff->est.add_to(*d, false, false);
+  return {d, [=]() -> int {
+    eff->config.estimators = split_list(eff->estimators);
+    eff->config.sizes = parse_int_list(eff->sizes, "--sizes", "100,200,500");
+    eff->config.base = base_options(eff->est);
+    return report(run_data_efficiency_experiment(eff->config, printer(*quiet)), *quiet);
+  }};
+}
 
+// experiment real (E3).
+Subcommand add_real(CLI::App& app, const std::shared_ptr<bool>& quiet, const std::string& estimator_help) {
   struct RealArgs {
     RealRobotConfig config;
     std::string estimators, protocol, train_rows, test_rows, sizes;
@@ -146,7 +158,29 @@ Command add_experiment(CLI::App& app) {
       ->required();
   r->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   real->est.add_to(*r, true);
+  return {r, [=]() -> int {
+    RealRobotConfig& c = real->config;
+    if (!real->train_rows.empty()) c.train_rows = parse_row_range(real->train_rows, "--train-rows");
+    if (!real->test_rows.empty()) c.test_rows = parse_row_range(real->test_rows, "--test-rows");
+    c.robot = real->est.robot;
+    c.robot_friction = real->est.robot_friction;
+    apply_protocol(real->protocol, c);
+    // As train reads them: without --joints, the joint types the log's sidecar records, else --robot's.
+    c.joints = joint_types_option(c.joints, c.data, c.mat_variable, c.robot).str();
+    if (!real->estimators.empty()) {
+      c.estimators = split_list(real->estimators);
+    } else if (!c.robot.empty()) {
+      c.estimators = default_compared_estimators(true);
+    }
+    if (!real->sizes.empty()) c.sizes = parse_int_list(real->sizes, "--sizes", "100,200,500");
+    c.base = base_options(real->est);
+    c.base.gp.seed = real->est.seed;
+    return report(run_real_robot_experiment(c, printer(*quiet)), *quiet);
+  }};
+}
 
+// experiment control: closed-loop tracking.
+Subcommand add_control(CLI::App& app, const std::shared_ptr<bool>& quiet) {
   struct ControlArgs {
     ControlConfig config;
     std::string models;
@@ -177,43 +211,31 @@ Command add_experiment(CLI::App& app) {
   k->add_option("--out", ctl->config.out, "Output folder: tracking.csv, errors.csv, summary.md, tracking.png")
       ->required();
   k->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
+  return {k, [=]() -> int {
+    if (!ctl->models.empty()) ctl->config.models = split_list(ctl->models);
+    std::vector<std::pair<std::string, std::string>> inputs;
+    for (const auto& m : ctl->config.models) inputs.emplace_back("--models", m);
+    refuse_overwrites(inputs, {{"--out", ctl->config.out}});
+    return report(run_control_experiment(ctl->config, printer(*quiet)), *quiet);
+  }};
+}
 
-  return [=]() -> int {
-    if (k->parsed()) {
-      if (!ctl->models.empty()) ctl->config.models = split_list(ctl->models);
-      std::vector<std::pair<std::string, std::string>> inputs;
-      for (const auto& m : ctl->config.models) inputs.emplace_back("--models", m);
-      refuse_overwrites(inputs, {{"--out", ctl->config.out}});
-      return report(run_control_experiment(ctl->config, printer(*quiet)), *quiet);
-    }
-    if (a->parsed()) {
-      acc->config.estimators = split_list(acc->estimators);
-      acc->config.base = base_options(acc->est);
-      return report(run_accuracy_experiment(acc->config, printer(*quiet)), *quiet);
-    }
-    if (d->parsed()) {
-      eff->config.estimators = split_list(eff->estimators);
-      eff->config.sizes = parse_int_list(eff->sizes, "--sizes", "100,200,500");
-      eff->config.base = base_options(eff->est);
-      return report(run_data_efficiency_experiment(eff->config, printer(*quiet)), *quiet);
-    }
-    RealRobotConfig& c = real->config;
-    if (!real->train_rows.empty()) c.train_rows = parse_row_range(real->train_rows, "--train-rows");
-    if (!real->test_rows.empty()) c.test_rows = parse_row_range(real->test_rows, "--test-rows");
-    c.robot = real->est.robot;
-    c.robot_friction = real->est.robot_friction;
-    apply_protocol(real->protocol, c);
-    // As train reads them: without --joints, the joint types the log's sidecar records, else --robot's.
-    c.joints = joint_types_option(c.joints, c.data, c.mat_variable, c.robot).str();
-    if (!real->estimators.empty()) {
-      c.estimators = split_list(real->estimators);
-    } else if (!c.robot.empty()) {
-      c.estimators = default_compared_estimators(true);
-    }
-    if (!real->sizes.empty()) c.sizes = parse_int_list(real->sizes, "--sizes", "100,200,500");
-    c.base = base_options(real->est);
-    c.base.gp.seed = real->est.seed;
-    return report(run_real_robot_experiment(c, printer(*quiet)), *quiet);
+}  // namespace
+
+Command add_experiment(CLI::App& app) {
+  app.require_subcommand(1);
+  auto quiet = std::make_shared<bool>(false);
+  const std::string estimator_help = "Comma-separated estimators from: " + estimator_list() +
+                                     "; or STUDENT@TEACHER, e.g. gip@lip: the student trained on the teacher's torques "
+                                     "at 2000 states drawn from the training log's box (train --teacher)";
+  const std::vector<Subcommand> subcommands{add_accuracy(app, quiet, estimator_help),
+                                            add_data_efficiency(app, quiet, estimator_help),
+                                            add_real(app, quiet, estimator_help),
+                                            add_control(app, quiet)};
+  return [subcommands]() -> int {
+    for (const auto& [subcommand, run] : subcommands)
+      if (subcommand->parsed()) return run();
+    throw Error("experiment: name one of its subcommands (see gipdyn experiment --help)");
   };
 }
 

@@ -19,7 +19,7 @@
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
-#include "gipdyn/io/json_numbers.hpp"
+#include "gipdyn/io/detail/json_numbers.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/training_data.hpp"
@@ -36,6 +36,257 @@ struct TrainArgs {
   bool quiet = false, distributed = false;
   EstimatorArgs estimator;
 };
+
+
+// The options, the teacher and the rows of a training, or the first error (thrown).
+struct TrainPlan {
+  EstimatorOptions o;
+  Dataset data;
+  // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
+  std::vector<std::string> data_warnings;
+  Eigen::Index total = 0;  // the log's rows, before --subsample
+};
+
+void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const JointTypes& joints, TrainPlan& plan) {
+  EstimatorOptions& o = plan.o;
+  Dataset& data = plan.data;
+  std::vector<std::string>& data_warnings = plan.data_warnings;
+  refuse_overwrites({{"--data", a.data}, {"--robot", a.estimator.robot}},
+                    {{"--out", a.out}, {"--teacher-out", a.teacher_out}});
+  o = a.preset.empty()
+          ? a.estimator.build(a.kernel)
+          : a.estimator.build_over(preset_options(a.preset), app, a.kernel, app.count("--kernel") > 0);
+  if (a.subsample < 0) throw Error("--subsample must be >= 0");
+  if (mpi) {
+    if (!is_gp_estimator(o.name))
+      throw Error("--distributed trains the exact GP of a GP kernel (" +
+                  joined(estimator_names_where([](const EstimatorSpec& e) { return e.kernel != nullptr; })) +
+                  "), not '" + o.name + "'");
+    o.gp.nll_backend = mpi->backend();
+  }
+  const bool automatic = a.teacher == kAutomaticTeacher;
+  TeacherOptions settings;
+  settings.states = a.teacher_states;
+  settings.hyperparameter_rows = a.teacher_hyperparameter_rows;
+  settings.student_hyperparameter_rows = a.student_hyperparameter_rows;
+  settings.seed = o.gp.seed;
+  o.teacher = choose_teacher(a.teacher, o, settings);
+  const bool teaches = o.teacher.has_value();
+  // The teacher's options where no teacher teaches: left over beside --teacher none, but a
+  // misunderstanding beside the default, which the user may have expected to teach.
+  if (!teaches && !a.teacher_out.empty())
+    throw Error(std::string("--teacher-out writes a teacher's model, and ") +
+                (automatic ? "--teacher auto does not teach " + o.name +
+                                 " with these options (--kernel gip alone, without --inducing, "
+                                 "--warm-start-rows, --mean, --robot or --distributed)"
+                           : std::string("--teacher none trains without one")) +
+                ": name a teacher (e.g. --teacher lip), or drop --teacher-out");
+  if (!teaches)
+    for (const char* name : {"--teacher-states", "--teacher-hyperparameter-rows", "--student-hyperparameter-rows"}) {
+      if (app.count(name) == 0) continue;
+      if (!automatic) {
+        data_warnings.push_back(std::string(name) + " has no effect: --teacher none trains without a teacher");
+        continue;
+      }
+      throw Error(std::string(name) + " sets up a teacher, and --teacher auto does not teach " + o.name +
+                  " with these options (--kernel gip alone, without --inducing, --warm-start-rows, "
+                  "--mean, --robot or --distributed): name a teacher (e.g. --teacher lip), or drop " + name);
+    }
+  if (teaches && mpi)
+    throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
+  if (!a.preset.empty() && app.count("--subsample") == 0) a.subsample = preset_max_training_rows(a.preset);
+  data = read_robot_log(a.data, a.mat_variable, joints, true);
+  for (const auto& w : training_input_warnings(data.X, joints, a.data)) data_warnings.push_back(w);
+  plan.total = data.rows();
+  if (a.subsample > 0) data = data.subset(constant_step_indices(plan.total, a.subsample));
+}
+
+// What train is about to do, before the minutes are spent.
+void print_plan(const TrainArgs& a, const TrainPlan& plan, const DistributedRun* mpi, const JointTypes& joints) {
+  const EstimatorOptions& o = plan.o;
+  const Dataset& data = plan.data;
+  const Eigen::Index total = plan.total;
+  std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
+              static_cast<long>(total), a.data.c_str(), joints.str().c_str(), o.name.c_str());
+  if (!a.preset.empty()) std::printf(" (preset %s)", a.preset.c_str());
+  if (is_kernel_estimator(o.name))
+    std::printf(", optimizer %s (max %d), %d restart(s)", a.estimator.optimizer.c_str(),
+                o.gp.optimizer.max_iterations, o.gp.restarts);
+  if (is_kernel_estimator(o.name) && o.gp.inducing_points > 0)
+    std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
+  if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
+  if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
+  if (o.teacher && !o.teacher->teaches(data.rows(), joints.size())) {
+    std::printf(", no teacher (%ld values: longer than the %ld that --teacher auto teaches)",
+                static_cast<long>(data.rows() * joints.size()), o.teacher->automatic_max_log_values);
+  } else if (o.teacher) {
+    const int student_rows = o.teacher->student_train_options(o.gp).hyperparameter_rows;
+    std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box "
+                "(the student's hyperparameters on %s of them)",
+                o.teacher->name.c_str(),
+                o.teacher->hyperparameter_rows > 0 && o.teacher->hyperparameter_rows < data.rows()
+                    ? std::to_string(o.teacher->hyperparameter_rows).c_str()
+                    : "all",
+                o.teacher->states,
+                student_rows > 0 && student_rows < o.teacher->states ? std::to_string(student_rows).c_str() : "all");
+    if (o.teacher->mode == TeachingMode::Automatic)
+      std::printf("; kept if it fits the log as %s does, else %s learns from the log (--teacher auto; none: no "
+                  "teacher)",
+                  o.teacher->name.c_str(), o.name.c_str());
+  }
+  std::printf("\n");
+  if (const std::string note = long_exact_fit_note(exact_hyperparameter_rows(o, data.rows(), joints.size()));
+      !note.empty())
+    std::printf("  %s\n", note.c_str());
+  // Where the log is not a simulated one, it may be a robot's: there the taught model is usually
+  // thrown away after the teacher's minutes, and gip alone runs away from the training motions
+  // (docs/real-robots.md). Say so before the minutes are spent.
+  if (a.preset.empty() && estimator_spec(o.name).default_estimator &&
+      sidecar_generator(a.data) != std::optional<std::string>(kSimulationGenerator)) {
+    const char* const recommendation =
+        "  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there";
+    const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
+    if (taught && o.teacher->mode == TeachingMode::Automatic)
+      std::printf("%s the model %s teaches is usually thrown away, after %s's fit\n",
+                  recommendation, o.teacher->name.c_str(), o.teacher->name.c_str());
+    else if (!taught)
+      std::printf("%s %s alone extrapolates its polynomial away from the training motions (docs/real-robots.md "
+                  "compares it with --preset real on the shared UR10 log)\n",
+                  recommendation, o.name.c_str());
+  }
+  std::fflush(stdout);
+}
+
+// The fit's reports, notes and warnings.
+void print_outcome(const TrainArgs& a, const TrainPlan& plan, const FitResult& r, bool teacher_written) {
+  const EstimatorOptions& o = plan.o;
+  const std::vector<std::string>& data_warnings = plan.data_warnings;
+  if (!a.quiet) {
+    if (r.teaching == TeachingOutcome::TeacherFailed) {
+      std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),
+                  describe(r.teaching, o.teacher->name).c_str());
+    } else if (r.teacher_report) {
+      std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
+      std::printf("label noise (the teacher's RMS residual on the log, the student's noise floor), per joint:");
+      for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
+      if (r.teaching == TeachingOutcome::Taught)
+        std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
+      else if (r.teaching == TeachingOutcome::StudentFailed)
+        std::printf("\n%s %s (%s); its time includes the teacher's:", o.name.c_str(),
+                    describe(r.teaching, o.teacher->name).c_str(), r.student_failure.c_str());
+      else
+        std::printf("\n%s %s; its time includes the teacher's:", o.name.c_str(),
+                    describe(r.teaching, o.teacher->name).c_str());
+    } else if (o.teacher) {
+      std::printf("\n%s %s:", o.name.c_str(), describe(r.teaching, o.teacher->name).c_str());
+    }
+    std::printf("\n%s", r.report.brief_report().c_str());
+    if (r.teaching_check) {
+      std::printf("nMSE on the logged rows, per joint, teacher / %s:",
+                  r.teaching == TeachingOutcome::Taught ? "student" : "the taught model, not kept");
+      for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
+        std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
+      std::printf("\n");
+      const std::vector<int> ahead = r.teaching_check->joints_teacher_far_ahead();
+      if (r.teaching == TeachingOutcome::Taught && !ahead.empty()) {
+        std::string joints_text;
+        for (int j : ahead) {
+          char buf[96];
+          std::snprintf(buf, sizeof buf, "%s%d (%.3g against %.3g)", joints_text.empty() ? "" : ", ", j + 1,
+                        r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
+          joints_text += buf;
+        }
+        std::printf("note: the teacher %s fits the logged rows of joint %s ten times better or more than its "
+                    "student: there it is likely the more accurate model, with a slower query (%s; "
+                    "docs/training.md)\n",
+                    o.teacher->name.c_str(), joints_text.c_str(),
+                    teacher_written ? ("written to " + a.teacher_out).c_str()
+                                    : "--teacher-out FILE writes it beside the student");
+      }
+    }
+    if (teacher_written) std::printf("saved the teacher's %s model to %s\n", r.teacher->name().c_str(), a.teacher_out.c_str());
+    const InverseDynamicsModel* gp = r.estimator->gp_model();
+    if (gp && gp->is_sparse())
+      std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
+                  static_cast<long>(gp->num_data_rows()),
+                  gp->num_training_samples() < o.gp.inducing_points
+                      ? " (fewer than asked: the rest would add no direction to the kernel's feature space)"
+                      : "");
+    std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a.out.c_str());
+    std::fflush(stdout);
+    print_warnings(data_warnings);
+    if (r.teacher_report && r.teaching == TeachingOutcome::Taught) {  // a teaching not kept has no say in the model
+      std::vector<std::string> lines = r.teacher_report->warnings();
+      for (auto& w : lines) w = "teacher " + o.teacher->name + ": " + w;
+      print_warnings(lines);
+    }
+    print_warnings(r.report.warnings());
+    if (r.teaching_check && r.teaching == TeachingOutcome::Taught) {
+      const std::string w = r.teaching_check->warning(o.teacher->name);
+      if (!w.empty()) print_warnings({w});
+    }
+  }
+}
+
+int run_train(TrainArgs& a, const CLI::App& app) {
+  std::unique_ptr<DistributedRun> mpi;
+  if (a.distributed) mpi = std::make_unique<DistributedRun>();
+  if (mpi && !mpi->is_root()) a.quiet = true;
+  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, a.estimator.robot);
+  TrainPlan plan;
+  std::string setup_error;
+  try {
+    plan_training(a, app, mpi.get(), joints, plan);
+  } catch (const std::exception& e) {
+    if (!mpi) throw;
+    setup_error = e.what();
+  }
+  if (mpi) mpi->agree(setup_error);
+  if (!a.quiet) print_plan(a, plan, mpi.get(), joints);
+  const EstimatorOptions& o = plan.o;
+  const Dataset& data = plan.data;
+  std::mutex mu;
+  ProgressCallback progress;
+  LongFitNotice notice(joints.size(), joints_trained_at_once(o.gp, data.rows(), joints.size()));
+  if (!a.quiet) {
+    progress = [&mu, &notice, sparse = o.gp.inducing_points > 0](const ProgressEvent& e) {
+      std::lock_guard<std::mutex> lock(mu);
+      if (const std::string note = sparse ? "" : notice.observe(e); !note.empty()) {
+        std::printf("  %s\n", note.c_str());
+        std::fflush(stdout);
+      }
+      // The optimiser reports every evaluation and a network every epoch: print a sample.
+      if (!e.finished && e.iteration != 1 && e.iteration % 10 != 0) return;
+      std::printf("  %s\n", describe(e).c_str());
+      std::fflush(stdout);
+    };
+  }
+  FitResult r;
+  try {
+    r = fit_estimator(o, data.X, data.tau, joints, progress);
+  } catch (...) {
+    if (!mpi) throw;
+    mpi->fail(std::current_exception());
+  }
+  // A distributed training's status is the same on every process: the first one reports it and writes.
+  if (mpi && !mpi->is_root()) {
+    if (!r.report.ok()) throw ExitQuietly();
+    return 0;
+  }
+  if (!r.report.ok()) throw Error("training failed: " + r.report.message);
+  save_estimator(*r.estimator, a.out);
+  // Whatever became of the taught model: the teacher's fit is the user's to keep.
+  const bool teacher_written = r.teacher && !a.teacher_out.empty();
+  if (teacher_written) save_estimator(*r.teacher, a.teacher_out);
+  // Even with --quiet: an output the user asked for is missing.
+  if (!a.teacher_out.empty() && !r.teacher)
+    print_warnings({"no teacher model written to " + a.teacher_out + ": " +
+                    (r.teaching == TeachingOutcome::LogTooLong
+                         ? "the log is longer than --teacher auto teaches, so no teacher was fitted"
+                         : "the teacher " + o.teacher->name + " failed to fit the log")});
+  if (!a.quiet) print_outcome(a, plan, r, teacher_written);
+  return 0;
+}
 
 }  // namespace
 
@@ -62,7 +313,7 @@ Command add_train(CLI::App& app) {
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
       "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
       "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by "
-      "LIP\"). auto: for --kernel gip without --preset real, --inducing, --warm-start-rows, --mean or --robot, lip on a "
+      "LIP\"). auto: for --kernel gip without --inducing, --warm-start-rows, --mean, --robot or --distributed, lip on a "
       "log of at most 14000 values (rows x joints), kept only if the taught model fits the log as LIP does (on a "
       "real robot's log it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
       ->capture_default_str()
@@ -98,228 +349,7 @@ Command add_train(CLI::App& app) {
                "Spread each joint's exact GP over MPI processes (ScaLAPACK): run `mpirun -np P gipdyn train "
                "--distributed ...`, every process with the same options and data; the first one prints and writes "
                "--out (docs/distributed.md)");
-  return [a, &app]() -> int {
-    std::unique_ptr<DistributedRun> mpi;
-    if (a->distributed) mpi = std::make_unique<DistributedRun>();
-    if (mpi && !mpi->is_root()) a->quiet = true;
-    const JointTypes joints = joint_types_option(a->joints, a->data, a->mat_variable, a->estimator.robot);
-    EstimatorOptions o;
-    Dataset data;
-    // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
-    std::vector<std::string> data_warnings;
-    Eigen::Index total = 0;
-    std::string setup_error;
-    try {
-      refuse_overwrites({{"--data", a->data}, {"--robot", a->estimator.robot}},
-                        {{"--out", a->out}, {"--teacher-out", a->teacher_out}});
-      o = a->preset.empty()
-              ? a->estimator.build(a->kernel)
-              : a->estimator.build_over(preset_options(a->preset), app, a->kernel, app.count("--kernel") > 0);
-      if (a->subsample < 0) throw Error("--subsample must be >= 0");
-      if (mpi) {
-        if (!is_gp_estimator(o.name))
-          throw Error("--distributed trains the exact GP of a GP kernel (" +
-                      joined(estimator_names_where([](const EstimatorSpec& e) { return e.kernel != nullptr; })) +
-                      "), not '" + o.name + "'");
-        o.gp.nll_backend = mpi->backend();
-      }
-      const bool automatic = a->teacher == kAutomaticTeacher;
-      TeacherOptions settings;
-      settings.states = a->teacher_states;
-      settings.hyperparameter_rows = a->teacher_hyperparameter_rows;
-      settings.student_hyperparameter_rows = a->student_hyperparameter_rows;
-      settings.seed = o.gp.seed;
-      o.teacher = choose_teacher(a->teacher, o, settings);
-      const bool teaches = o.teacher.has_value();
-      // The teacher's options where no teacher teaches: left over beside --teacher none, but a
-      // misunderstanding beside the default, which the user may have expected to teach.
-      if (!teaches && !a->teacher_out.empty())
-        throw Error(std::string("--teacher-out writes a teacher's model, and ") +
-                    (automatic ? "--teacher auto does not teach " + o.name +
-                                     " with these options (--kernel gip alone, without --preset real, --inducing, "
-                                     "--warm-start-rows, --mean, --robot or --distributed)"
-                               : std::string("--teacher none trains without one")) +
-                    ": name a teacher (e.g. --teacher lip), or drop --teacher-out");
-      if (!teaches)
-        for (const char* name : {"--teacher-states", "--teacher-hyperparameter-rows", "--student-hyperparameter-rows"}) {
-          if (app.count(name) == 0) continue;
-          if (!automatic) {
-            data_warnings.push_back(std::string(name) + " has no effect: --teacher none trains without a teacher");
-            continue;
-          }
-          throw Error(std::string(name) + " sets up a teacher, and --teacher auto does not teach " + o.name +
-                      " with these options (--kernel gip alone, without --preset real, --inducing, --warm-start-rows, "
-                      "--mean, --robot or --distributed): name a teacher (e.g. --teacher lip), or drop " + name);
-        }
-      if (teaches && mpi)
-        throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
-      if (!a->preset.empty() && app.count("--subsample") == 0) a->subsample = preset_max_training_rows(a->preset);
-      data = read_robot_log(a->data, a->mat_variable, joints, true);
-      for (const auto& w : training_input_warnings(data.X, joints, a->data)) data_warnings.push_back(w);
-      total = data.rows();
-      if (a->subsample > 0) data = data.subset(constant_step_indices(total, a->subsample));
-    } catch (const std::exception& e) {
-      if (!mpi) throw;
-      setup_error = e.what();
-    }
-    if (mpi) mpi->agree(setup_error);
-    if (!a->quiet) {
-      std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
-                  static_cast<long>(total), a->data.c_str(), joints.str().c_str(), o.name.c_str());
-      if (!a->preset.empty()) std::printf(" (preset %s)", a->preset.c_str());
-      if (is_kernel_estimator(o.name))
-        std::printf(", optimizer %s (max %d), %d restart(s)", a->estimator.optimizer.c_str(),
-                    o.gp.optimizer.max_iterations, o.gp.restarts);
-      if (is_kernel_estimator(o.name) && o.gp.inducing_points > 0)
-        std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
-      if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
-      if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
-      if (o.teacher && !o.teacher->teaches(data.rows(), joints.size())) {
-        std::printf(", no teacher (%ld values: longer than the %ld that --teacher auto teaches)",
-                    static_cast<long>(data.rows() * joints.size()), o.teacher->automatic_max_log_values);
-      } else if (o.teacher) {
-        const int student_rows = o.teacher->student_train_options(o.gp).hyperparameter_rows;
-        std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box "
-                    "(the student's hyperparameters on %s of them)",
-                    o.teacher->name.c_str(),
-                    o.teacher->hyperparameter_rows > 0 && o.teacher->hyperparameter_rows < data.rows()
-                        ? std::to_string(o.teacher->hyperparameter_rows).c_str()
-                        : "all",
-                    o.teacher->states,
-                    student_rows > 0 && student_rows < o.teacher->states ? std::to_string(student_rows).c_str() : "all");
-        if (o.teacher->mode == TeachingMode::Automatic)
-          std::printf("; kept if it fits the log as %s does, else %s learns from the log (--teacher auto; none: no "
-                      "teacher)",
-                      o.teacher->name.c_str(), o.name.c_str());
-      }
-      std::printf("\n");
-      if (const std::string note = long_exact_fit_note(exact_hyperparameter_rows(o, data.rows(), joints.size()));
-          !note.empty())
-        std::printf("  %s\n", note.c_str());
-      // Where the log is not a simulated one, it may be a robot's: there the taught model is usually
-      // thrown away after the teacher's minutes, and gip alone runs away from the training motions
-      // (docs/real-robots.md). Say so before the minutes are spent.
-      if (a->preset.empty() && estimator_spec(o.name).default_estimator &&
-          sidecar_generator(a->data) != std::optional<std::string>(kSimulationGenerator)) {
-        const char* const recommendation =
-            "  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there";
-        const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
-        if (taught && o.teacher->mode == TeachingMode::Automatic)
-          std::printf("%s the model %s teaches is usually thrown away, after %s's fit\n",
-                      recommendation, o.teacher->name.c_str(), o.teacher->name.c_str());
-        else if (!taught)
-          std::printf("%s %s alone extrapolates its polynomial away from the training motions (docs/real-robots.md "
-                      "compares it with --preset real on the shared UR10 log)\n",
-                      recommendation, o.name.c_str());
-      }
-      std::fflush(stdout);
-    }
-    std::mutex mu;
-    ProgressCallback progress;
-    LongFitNotice notice(joints.size(), joints_trained_at_once(o.gp, data.rows(), joints.size()));
-    if (!a->quiet) {
-      progress = [&mu, &notice, sparse = o.gp.inducing_points > 0](const ProgressEvent& e) {
-        std::lock_guard<std::mutex> lock(mu);
-        if (const std::string note = sparse ? "" : notice.observe(e); !note.empty()) {
-          std::printf("  %s\n", note.c_str());
-          std::fflush(stdout);
-        }
-        // The optimiser reports every evaluation and a network every epoch: print a sample.
-        if (!e.finished && e.iteration != 1 && e.iteration % 10 != 0) return;
-        std::printf("  %s\n", describe(e).c_str());
-        std::fflush(stdout);
-      };
-    }
-    FitResult r;
-    try {
-      r = fit_estimator(o, data.X, data.tau, joints, progress);
-    } catch (...) {
-      if (!mpi) throw;
-      mpi->fail(std::current_exception());
-    }
-    // A distributed training's status is the same on every process: the first one reports it and writes.
-    if (mpi && !mpi->is_root()) {
-      if (!r.report.ok()) throw ExitQuietly();
-      return 0;
-    }
-    if (!r.report.ok()) throw Error("training failed: " + r.report.message);
-    save_estimator(*r.estimator, a->out);
-    // Whatever became of the taught model: the teacher's fit is the user's to keep.
-    const bool teacher_written = r.teacher && !a->teacher_out.empty();
-    if (teacher_written) write_container(r.teacher->to_container(), a->teacher_out);
-    // Even with --quiet: an output the user asked for is missing.
-    if (!a->teacher_out.empty() && !r.teacher)
-      print_warnings({"no teacher model written to " + a->teacher_out + ": " +
-                      (r.teaching == TeachingOutcome::LogTooLong
-                           ? "the log is longer than --teacher auto teaches, so no teacher was fitted"
-                           : "the teacher " + o.teacher->name + " failed to fit the log")});
-    if (!a->quiet) {
-      if (r.teaching == TeachingOutcome::TeacherFailed) {
-        std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),
-                    describe(r.teaching, o.teacher->name).c_str());
-      } else if (r.teacher_report) {
-        std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
-        std::printf("label noise (the teacher's RMS residual on the log, the student's noise floor), per joint:");
-        for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
-        if (r.teaching == TeachingOutcome::Taught)
-          std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
-        else if (r.teaching == TeachingOutcome::StudentFailed)
-          std::printf("\n%s %s (%s); its time includes the teacher's:", o.name.c_str(),
-                      describe(r.teaching, o.teacher->name).c_str(), r.student_failure.c_str());
-        else
-          std::printf("\n%s %s; its time includes the teacher's:", o.name.c_str(),
-                      describe(r.teaching, o.teacher->name).c_str());
-      } else if (o.teacher) {
-        std::printf("\n%s %s:", o.name.c_str(), describe(r.teaching, o.teacher->name).c_str());
-      }
-      std::printf("\n%s", r.report.brief_report().c_str());
-      if (r.teaching_check) {
-        std::printf("nMSE on the logged rows, per joint, teacher / %s:",
-                    r.teaching == TeachingOutcome::Taught ? "student" : "the taught model, not kept");
-        for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
-          std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
-        std::printf("\n");
-        const std::vector<int> ahead = r.teaching_check->joints_teacher_far_ahead();
-        if (r.teaching == TeachingOutcome::Taught && !ahead.empty()) {
-          std::string joints_text;
-          for (int j : ahead) {
-            char buf[96];
-            std::snprintf(buf, sizeof buf, "%s%d (%.3g against %.3g)", joints_text.empty() ? "" : ", ", j + 1,
-                          r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
-            joints_text += buf;
-          }
-          std::printf("note: the teacher %s fits the logged rows of joint %s ten times better or more than its "
-                      "student: there it is likely the more accurate model, with a slower query (%s; "
-                      "docs/training.md)\n",
-                      o.teacher->name.c_str(), joints_text.c_str(),
-                      teacher_written ? ("written to " + a->teacher_out).c_str()
-                                      : "--teacher-out FILE writes it beside the student");
-        }
-      }
-      if (teacher_written) std::printf("saved the teacher's %s model to %s\n", r.teacher->name().c_str(), a->teacher_out.c_str());
-      const InverseDynamicsModel* gp = r.estimator->gp_model();
-      if (gp && gp->is_sparse())
-        std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
-                    static_cast<long>(gp->num_data_rows()),
-                    gp->num_training_samples() < o.gp.inducing_points
-                        ? " (fewer than asked: the rest would add no direction to the kernel's feature space)"
-                        : "");
-      std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a->out.c_str());
-      std::fflush(stdout);
-      print_warnings(data_warnings);
-      if (r.teacher_report && r.teaching == TeachingOutcome::Taught) {  // a teaching not kept has no say in the model
-        std::vector<std::string> lines = r.teacher_report->warnings();
-        for (auto& w : lines) w = "teacher " + o.teacher->name + ": " + w;
-        print_warnings(lines);
-      }
-      print_warnings(r.report.warnings());
-      if (r.teaching_check && r.teaching == TeachingOutcome::Taught) {
-        const std::string w = r.teaching_check->warning(o.teacher->name);
-        if (!w.empty()) print_warnings({w});
-      }
-    }
-    return 0;
-  };
+  return [a, &app]() -> int { return run_train(*a, app); };
 }
 
 }  // namespace gipdyn::cli

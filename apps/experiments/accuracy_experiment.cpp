@@ -9,9 +9,9 @@
 #include <thread>
 
 #include "experiments/experiment_runner.hpp"
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -43,6 +43,52 @@ nlohmann::json AccuracyConfig::to_json() const {
   if (warm_start_runs) j["warm_start_runs"] = true;
   return j;
 }
+
+namespace {
+
+// summary.md: median and quartiles per estimator and joint; its path.
+std::string write_summary(const AccuracyConfig& c, const RobotModel& nominal, const ResultTable& table) {
+  const JointTypes joints = nominal.joint_types();
+  const int n = joints.size();
+  const std::string summary = (fs::path(c.out) / "summary.md").string();
+  write_file_atomically(summary, [&](std::ostream& o) {
+    o << "# E1, accuracy under model bias: " << nominal.name() << " (" << joints.str() << ")\n\n";
+    o << c.runs << " runs, " << c.samples << " training and " << c.samples << " test samples per run, dt " << c.dt
+      << " s, noise std " << c.noise_std << ", seed " << c.seed
+      << ". nMSE on the noise-free test torque; median [first quartile, third quartile] over runs.\n\n";
+    o << "| estimator |";
+    for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
+    o << " runs < 1 % on every joint | mean fit time |\n|---|";
+    for (int j = 0; j <= n + 1; ++j) o << "---|";
+    o << "\n";
+    for (const auto& e : c.estimators) {
+      o << "| " << e << " |";
+      std::map<std::string, bool> below;
+      double seconds = 0.0;
+      int fits = 0;
+      for (int j = 1; j <= n; ++j) {
+        std::vector<double> v;
+        for (const auto& row : table.rows())
+          if (row[1] == e && row[2] == std::to_string(j)) {
+            const double x = std::stod(row[3]);
+            v.push_back(x);
+            below[row[0]] = (below.count(row[0]) ? below[row[0]] : true) && x < 0.01;
+            if (j == 1) {
+              seconds += std::stod(row[4]);
+              ++fits;
+            }
+          }
+        o << " " << sci(quantile(v, 0.5)) << " [" << sci(quantile(v, 0.25)) << ", " << sci(quantile(v, 0.75)) << "] |";
+      }
+      int good = 0;
+      for (const auto& [run, ok] : below) good += ok;
+      o << " " << good << "/" << below.size() << " | " << (fits ? duration(seconds / fits) : "n/a") << " |\n";
+    }
+  });
+  return summary;
+}
+
+}  // namespace
 
 ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const ProgressCallback& progress) {
   c.validate();
@@ -131,43 +177,7 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
 
-  // summary.md: median and quartiles per estimator and joint.
-  const std::string summary = (fs::path(c.out) / "summary.md").string();
-  write_file_atomically(summary, [&](std::ostream& o) {
-    o << "# E1, accuracy under model bias: " << nominal.name() << " (" << joints.str() << ")\n\n";
-    o << c.runs << " runs, " << c.samples << " training and " << c.samples << " test samples per run, dt " << c.dt
-      << " s, noise std " << c.noise_std << ", seed " << c.seed
-      << ". nMSE on the noise-free test torque; median [first quartile, third quartile] over runs.\n\n";
-    o << "| estimator |";
-    for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
-    o << " runs < 1 % on every joint | mean fit time |\n|---|";
-    for (int j = 0; j <= n + 1; ++j) o << "---|";
-    o << "\n";
-    for (const auto& e : c.estimators) {
-      o << "| " << e << " |";
-      std::map<std::string, bool> below;
-      double seconds = 0.0;
-      int fits = 0;
-      for (int j = 1; j <= n; ++j) {
-        std::vector<double> v;
-        for (const auto& row : table.rows())
-          if (row[1] == e && row[2] == std::to_string(j)) {
-            const double x = std::stod(row[3]);
-            v.push_back(x);
-            below[row[0]] = (below.count(row[0]) ? below[row[0]] : true) && x < 0.01;
-            if (j == 1) {
-              seconds += std::stod(row[4]);
-              ++fits;
-            }
-          }
-        o << " " << sci(quantile(v, 0.5)) << " [" << sci(quantile(v, 0.25)) << ", " << sci(quantile(v, 0.75)) << "] |";
-      }
-      int good = 0;
-      for (const auto& [run, ok] : below) good += ok;
-      o << " " << good << "/" << below.size() << " | " << (fits ? duration(seconds / fits) : "n/a") << " |\n";
-    }
-  });
-  outcome.files.push_back(summary);
+  outcome.files.push_back(write_summary(c, nominal, table));
   plot_into(outcome, "boxplot", (fs::path(c.out) / "nmse.csv").string(),
             (fs::path(c.out) / "nmse_boxplot.png").string());
   return outcome;

@@ -8,7 +8,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -59,6 +59,34 @@ void joint_table(std::ostream& o, int n, const std::vector<std::pair<std::string
     for (int j = 0; j < n; ++j) o << " diverged |";
     o << "\n";
   }
+}
+
+// summary.md: the set-up, then RMS error and torque per controller and joint; its path.
+std::string write_summary(const ControlConfig& c, const RobotModel& robot,
+                          const std::vector<std::pair<std::string, TrackingResult>>& results,
+                          const std::vector<std::pair<std::string, std::string>>& diverged) {
+  const int n = robot.num_joints();
+  const std::string summary = (fs::path(c.out) / "summary.md").string();
+  write_file_atomically(summary, [&](std::ostream& o) {
+    o << "# Closed-loop tracking: " << robot.name() << " (" << robot.joint_types().str() << ")\n\n"
+      << "The simulated robot" << (c.friction ? " (with friction)" : "") << " follows a " << c.seconds
+      << " s reference (seed " << c.seed << ") at " << 1.0 / c.dt << " Hz under PD feedback, critically damped at "
+      << c.bandwidth << " rad/s on each joint's inertia, plus each controller's feed-forward torque along the "
+      << "reference. Rows ending in -ct use computed-torque control instead: the model is asked, at the measured "
+      << "state, for the torque of the reference acceleration plus a critically damped correction at the same "
+      << "bandwidth.";
+    if (c.position_noise > 0.0 || c.velocity_noise > 0.0)
+      o << " Every controller measures the state with Gaussian sensor noise (std " << c.position_noise
+        << " on positions, " << c.velocity_noise << " on velocities; the same sequence for all, seed " << c.seed
+        << ").";
+    o << "\n\n"
+      << "RMS position error per joint (rad or m):\n\n";
+    joint_table(o, n, results, diverged, &TrackingResult::rms_error);
+    for (const auto& [name, why] : diverged) o << "\n- " << name << ": " << why << "\n";
+    o << "\nRMS torque per joint:\n\n";
+    joint_table(o, n, results, {}, &TrackingResult::rms_torque);
+  });
+  return summary;
 }
 
 }  // namespace
@@ -161,27 +189,7 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   write_csv(errors_csv, header, errors);
   outcome.files.push_back(errors_csv);
 
-  const std::string summary = (fs::path(c.out) / "summary.md").string();
-  write_file_atomically(summary, [&](std::ostream& o) {
-    o << "# Closed-loop tracking: " << robot.name() << " (" << robot.joint_types().str() << ")\n\n"
-      << "The simulated robot" << (c.friction ? " (with friction)" : "") << " follows a " << c.seconds
-      << " s reference (seed " << c.seed << ") at " << 1.0 / c.dt << " Hz under PD feedback, critically damped at "
-      << c.bandwidth << " rad/s on each joint's inertia, plus each controller's feed-forward torque along the "
-      << "reference. Rows ending in -ct use computed-torque control instead: the model is asked, at the measured "
-      << "state, for the torque of the reference acceleration plus a critically damped correction at the same "
-      << "bandwidth.";
-    if (c.position_noise > 0.0 || c.velocity_noise > 0.0)
-      o << " Every controller measures the state with Gaussian sensor noise (std " << c.position_noise
-        << " on positions, " << c.velocity_noise << " on velocities; the same sequence for all, seed " << c.seed
-        << ").";
-    o << "\n\n"
-      << "RMS position error per joint (rad or m):\n\n";
-    joint_table(o, n, results, diverged, &TrackingResult::rms_error);
-    for (const auto& [name, why] : diverged) o << "\n- " << name << ": " << why << "\n";
-    o << "\nRMS torque per joint:\n\n";
-    joint_table(o, n, results, {}, &TrackingResult::rms_torque);
-  });
-  outcome.files.push_back(summary);
+  outcome.files.push_back(write_summary(c, robot, results, diverged));
   const std::string png = (fs::path(c.out) / "tracking.png").string();
   const PlotResult p = render_plot("tracking", errors_csv, png);
   if (p.ok) outcome.files.push_back(png);

@@ -7,7 +7,7 @@
 
 #include "experiments/experiment_runner.hpp"
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 #include "gipdyn/sim/simulate.hpp"

@@ -5,7 +5,7 @@
 #include <fstream>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "reports/plots.hpp"
 #include "reports/result_table.hpp"
 #include "reports/text_format.hpp"

@@ -8,7 +8,7 @@
 #include "experiments/experiment_runner.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/metrics.hpp"
@@ -140,6 +140,40 @@ Eigen::MatrixXd test_inputs(const RealRobotConfig& c, const RealSplit& s, const 
   return X;
 }
 
+namespace {
+
+// test_window.csv: measured and predicted torque over the first plot_window test rows, the predictions of
+// fits recorded by an earlier invocation read back from their CSV; its path.
+std::string write_test_window(const RealRobotConfig& c, const RealSplit& s,
+                              std::map<std::string, Eigen::MatrixXd>& predictions) {
+  const Dataset& test = s.test;
+  const std::vector<Eigen::Index>& test_idx = s.test_rows;
+  const int n = s.joints.size();
+  const Eigen::Index window = std::min<Eigen::Index>(c.plot_window, test.rows());
+  std::vector<std::string> header{"row"};
+  for (const auto& t : torque_column_names(n)) header.push_back(t);
+  Eigen::MatrixXd P(window, 1 + n);
+  for (Eigen::Index k = 0; k < window; ++k) P(k, 0) = static_cast<double>(test_idx[static_cast<size_t>(k)] + 1);
+  P.rightCols(n) = test.tau.topRows(window);
+  for (const auto& e : c.estimators) {
+    const std::string file = (fs::path(c.out) / ("predictions_" + e + ".csv")).string();
+    if (!predictions.count(e) && fs::exists(file))
+      predictions[e] = read_csv_columns(file, torque_column_names(n, "_hat"));
+    if (!predictions.count(e)) continue;
+    const Eigen::MatrixXd& pred = predictions[e];
+    if (pred.rows() != test.rows()) continue;
+    Eigen::MatrixXd wider(window, P.cols() + n);
+    wider << P, pred.topRows(window);
+    P = wider;
+    for (const auto& t : torque_column_names(n)) header.push_back(e + "_" + t);
+  }
+  const std::string window_csv = (fs::path(c.out) / "test_window.csv").string();
+  write_csv(window_csv, header, P);
+  return window_csv;
+}
+
+}  // namespace
+
 ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const ProgressCallback& progress) {
   c.validate();
   if (!c.sizes.empty()) return run_real_learning_curve(c, progress);
@@ -147,7 +181,6 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
   const JointTypes& joints = s.joints;
   const int n = joints.size();
   const Dataset &train = s.train, &test = s.test;
-  const std::vector<Eigen::Index>& test_idx = s.test_rows;
   const std::string& split = s.description;
   const RobotPrior& prior = s.prior;
   const Dataset train_gp = train.subset(constant_step_indices(train.rows(), c.max_train));
@@ -201,27 +234,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
   }
   outcome.files.push_back((fs::path(c.out) / "nmse.csv").string());
 
-  // Measured and predicted torque over the first plot_window test rows.
-  const Eigen::Index window = std::min<Eigen::Index>(c.plot_window, test.rows());
-  std::vector<std::string> header{"row"};
-  for (const auto& t : torque_column_names(n)) header.push_back(t);
-  Eigen::MatrixXd P(window, 1 + n);
-  for (Eigen::Index k = 0; k < window; ++k) P(k, 0) = static_cast<double>(test_idx[static_cast<size_t>(k)] + 1);
-  P.rightCols(n) = test.tau.topRows(window);
-  for (const auto& e : c.estimators) {
-    const std::string file = (fs::path(c.out) / ("predictions_" + e + ".csv")).string();
-    if (!predictions.count(e) && fs::exists(file))
-      predictions[e] = read_csv_columns(file, torque_column_names(n, "_hat"));
-    if (!predictions.count(e)) continue;
-    const Eigen::MatrixXd& pred = predictions[e];
-    if (pred.rows() != test.rows()) continue;
-    Eigen::MatrixXd wider(window, P.cols() + n);
-    wider << P, pred.topRows(window);
-    P = wider;
-    for (const auto& t : torque_column_names(n)) header.push_back(e + "_" + t);
-  }
-  const std::string window_csv = (fs::path(c.out) / "test_window.csv").string();
-  write_csv(window_csv, header, P);
+  const std::string window_csv = write_test_window(c, s, predictions);
   outcome.files.push_back(window_csv);
 
   const std::string summary = (fs::path(c.out) / "summary.md").string();

@@ -8,7 +8,7 @@
 
 #include "experiments/experiment_runner.hpp"
 #include "experiments/real_robot_experiment.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/metrics.hpp"
 #include "reports/result_table.hpp"
 #include "reports/text_format.hpp"

@@ -7,7 +7,7 @@
 #include <sstream>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 
 namespace gipdyn {
 namespace {

@@ -1,7 +1,6 @@
 #pragma once
 // gipdyn: robot inverse dynamics with Gaussian processes and the GIP kernel.
 // The whole public API in one include; each header below holds one concept.
-#include "gipdyn/blas_threads.hpp"
 #include "gipdyn/data_consistency.hpp"
 #include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/error.hpp"
@@ -28,10 +27,8 @@
 #include "gipdyn/gp/nll_backend.hpp"
 // Distributed training (MPI + ScaLAPACK, gipdyn::distributed) is not included
 // here, so that this header never needs mpi.h: gipdyn/distributed/distributed_nll.hpp.
-#include "gipdyn/io/atomic_file.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
-#include "gipdyn/io/json_numbers.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
@@ -48,6 +45,7 @@
 #include "gipdyn/kernels/rbf_kernel.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/model/fit_report.hpp"
+#include "gipdyn/model/hyperparameter_search.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/model/training.hpp"

@@ -308,17 +308,10 @@ void string_property(Class& cls, const char* name, Enum TrainOptions::*field, En
 
 }  // namespace
 
-PYBIND11_MODULE(_core, m) {
-  m.doc() = "gipdyn C++ core: GP inverse dynamics with the GIP kernel";
-  static py::exception<Error> gipdyn_error(m, "GipdynError", PyExc_ValueError);
-  py::register_exception_translator([](std::exception_ptr p) {
-    try {
-      if (p) std::rethrow_exception(p);
-    } catch (const Error& e) {
-      gipdyn_error(rename_fields(e.what(), python_field_names()).c_str());
-    }
-  });
+namespace {
 
+// The robot models: built-in, URDF and JSON, their inverse dynamics and regressor.
+void bind_robots(py::module_& m) {
   py::class_<RobotModel, std::shared_ptr<RobotModel>>(m, "Robot")
       .def_static("from_urdf",
                   [](const std::string& p, const std::string& tip) {
@@ -348,7 +341,10 @@ PYBIND11_MODULE(_core, m) {
              bool friction) { return regressor(r, q, qd, qdd, friction); },
           py::arg("q"), py::arg("qd"), py::arg("qdd"), py::arg("friction") = false)
       .def("__repr__", [](const RobotModel& r) { return "<gipdyn.Robot '" + r.name() + "' " + r.joint_types().str() + ">"; });
+}
 
+// The library's options, presets, version and the MPI backend.
+void bind_options(py::module_& m) {
   py::class_<OptimizerOptions>(m, "OptimizerOptions")
       .def(py::init<>())
       .def_property(
@@ -452,7 +448,10 @@ PYBIND11_MODULE(_core, m) {
   string_property(train_options, "mean", &TrainOptions::mean, &parse_mean_kind, &to_string);
   string_property(train_options, "hyperparameter_objective", &TrainOptions::hyperparameter_objective,
                   &parse_hyperparameter_objective, &to_string);
+}
 
+// The fitted GP model: predictions, variances, online updates, model files.
+void bind_gp_model(py::module_& m) {
   py::class_<Model, std::shared_ptr<Model>> model_class(m, "Model");
   add_physics_methods(model_class);
   model_class
@@ -531,7 +530,10 @@ PYBIND11_MODULE(_core, m) {
       .def_static("from_bytes", [](const py::bytes& b) {
         return gp_model_from_container(unpack_container(std::string(b), "pickled model"), "pickled model");
       });
+}
 
+// The fitted LIP model and its training.
+void bind_lagrangian_model(py::module_& m) {
   py::class_<LagrangianModel, std::shared_ptr<LagrangianModel>> lagrangian_class(m, "LagrangianModel");
   add_physics_methods(lagrangian_class);
   lagrangian_class
@@ -604,6 +606,10 @@ PYBIND11_MODULE(_core, m) {
       });
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("verbose") = false, py::arg("friction") = false);
+}
+
+// Fitting: teachers, the estimator table, the fit and its warnings.
+void bind_fitting(py::module_& m) {
   py::enum_<TeachingMode>(m, "TeachingMode")
       .value("always", TeachingMode::Always)
       .value("automatic", TeachingMode::Automatic);
@@ -675,7 +681,10 @@ PYBIND11_MODULE(_core, m) {
       },
       "The library's table of estimators: one dict per estimator (name, help, gp_kernel, needs_robot, friction, "
       "rigid_body_terms, default, default_teacher)");
+}
 
+// Logs: consistency checks, reading, simulation.
+void bind_data(py::module_& m) {
   py::class_<NeighbourConsistencyOptions>(m, "NeighbourConsistencyOptions")
       .def(py::init<>())
       .def_readwrite("radius", &NeighbourConsistencyOptions::radius)
@@ -758,4 +767,25 @@ PYBIND11_MODULE(_core, m) {
         return simulation_to_dict(r, robot.num_joints());
       },
       py::arg("robot"), py::arg("options"));
+}
+
+}  // namespace
+
+PYBIND11_MODULE(_core, m) {
+  m.doc() = "gipdyn C++ core: GP inverse dynamics with the GIP kernel";
+  static py::exception<Error> gipdyn_error(m, "GipdynError", PyExc_ValueError);
+  py::register_exception_translator([](std::exception_ptr p) {
+    try {
+      if (p) std::rethrow_exception(p);
+    } catch (const Error& e) {
+      gipdyn_error(rename_fields(e.what(), python_field_names()).c_str());
+    }
+  });
+
+  bind_robots(m);
+  bind_options(m);
+  bind_gp_model(m);
+  bind_lagrangian_model(m);
+  bind_fitting(m);
+  bind_data(m);
 }

@@ -1,4 +1,4 @@
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 
 // Present when the BLAS is OpenBLAS; weak so that another BLAS still links.
 extern "C" void openblas_set_num_threads(int) __attribute__((weak));

@@ -103,6 +103,43 @@ void fingerprint(const Eigen::MatrixXd& M, std::vector<double>& out) {
   out.push_back((w.transpose() * M).sum());
 }
 
+// Whether every process evaluates the same hyperparameters on the same targets.
+bool same_evaluation_everywhere(const Kernel& kernel, double log_noise_variance, const Eigen::VectorXd& y,
+                                MPI_Comm comm) {
+  const Eigen::VectorXd p = kernel.log_params();
+  std::vector<double> v(p.data(), p.data() + p.size());
+  v.push_back(log_noise_variance);
+  v.push_back(static_cast<double>(y.size()));
+  v.push_back(y.sum());
+  return same_everywhere(v, comm);
+}
+
+// This process's share of the kernel's gradient contraction with W = alpha
+// alpha^T - K^-1, from the lower triangle of K^-1 in A (local rows x local
+// columns): below the diagonal W counts twice (W and dK are symmetric), the
+// diagonal once.
+void contract_lower_panels(const Kernel& kernel, const std::vector<Panel>& panels,
+                           const std::vector<Eigen::Index>& rows, const std::vector<Eigen::Index>& cols,
+                           const Eigen::MatrixXd& Zr, const Eigen::MatrixXd& Zc, const Eigen::VectorXd& alpha,
+                           const Eigen::MatrixXd& A, Eigen::Ref<Eigen::VectorXd> grad) {
+  const Eigen::Index mloc = static_cast<Eigen::Index>(rows.size());
+  KernelScratch scratch;
+  Eigen::MatrixXd W;
+  for (const Panel& p : panels) {
+    const Eigen::Index m = mloc - p.row;
+    W.resize(m, p.width);
+    for (Eigen::Index j = 0; j < p.width; ++j) {
+      const Eigen::Index gj = cols[static_cast<size_t>(p.col + j)];
+      for (Eigen::Index i = 0; i < m; ++i) {
+        const Eigen::Index gi = rows[static_cast<size_t>(p.row + i)];
+        const double w = alpha(gi) * alpha(gj) - A(p.row + i, p.col + j);
+        W(i, j) = gi > gj ? 2.0 * w : gi == gj ? w : 0.0;
+      }
+    }
+    kernel.contract_cross(Zr.bottomRows(m), Zc.middleRows(p.col, p.width), W, grad, scratch);
+  }
+}
+
 }  // namespace
 
 MpiSession::MpiSession(int* argc, char*** argv) {
@@ -189,17 +226,10 @@ NllEvaluation DistributedNll::evaluate(const Kernel& kernel, double log_noise_va
                                        const JitterPolicy& policy) {
   NllEvaluation out;
   const int P = kernel.num_params();
-  {
-    const Eigen::VectorXd p = kernel.log_params();
-    std::vector<double> v(p.data(), p.data() + p.size());
-    v.push_back(log_noise_variance);
-    v.push_back(static_cast<double>(y.size()));
-    v.push_back(y.sum());
-    if (!same_everywhere(v, comm_)) {
-      out.message = "the MPI processes disagree on the hyperparameters or targets of this evaluation; every process "
-                    "must run the same training";
-      return out;
-    }
+  if (!same_evaluation_everywhere(kernel, log_noise_variance, y, comm_)) {
+    out.message = "the MPI processes disagree on the hyperparameters or targets of this evaluation; every process "
+                  "must run the same training";
+    return out;
   }
   const int N = static_cast<int>(Z.rows());
   const double noise = std::exp(log_noise_variance);
@@ -290,21 +320,7 @@ NllEvaluation DistributedNll::evaluate(const Kernel& kernel, double log_noise_va
   double local_inverse_trace = 0.0;
   for (const auto& [i, j] : diag) local_inverse_trace += A(i, j);
   Eigen::VectorXd grad = Eigen::VectorXd::Zero(P + 1);
-  KernelScratch scratch;
-  Eigen::MatrixXd W;
-  for (const Panel& p : panels) {
-    const Eigen::Index m = mloc - p.row;
-    W.resize(m, p.width);
-    for (Eigen::Index j = 0; j < p.width; ++j) {
-      const Eigen::Index gj = cols[static_cast<size_t>(p.col + j)];
-      for (Eigen::Index i = 0; i < m; ++i) {
-        const Eigen::Index gi = rows[static_cast<size_t>(p.row + i)];
-        const double w = alpha(gi) * alpha(gj) - A(p.row + i, p.col + j);
-        W(i, j) = gi > gj ? 2.0 * w : gi == gj ? w : 0.0;
-      }
-    }
-    kernel.contract_cross(Zr.bottomRows(m), Zc.middleRows(p.col, p.width), W, grad.head(P), scratch);
-  }
+  contract_lower_panels(kernel, panels, rows, cols, Zr, Zc, alpha, A, grad.head(P));
   grad(P) = local_inverse_trace;
   MPI_Allreduce(MPI_IN_PLACE, grad.data(), P + 1, MPI_DOUBLE, MPI_SUM, comm_);
   out.gradient = Eigen::VectorXd(P + 1);

@@ -7,7 +7,7 @@
 #include <random>
 #include <vector>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
@@ -158,6 +158,59 @@ class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
   LagrangianWeightSpaceMean::Workspace workspace_;
 };
 
+// LIP's starts. The coupled likelihood has optima that explain whole joints
+// as noise (thousands of nats above the best, with test errors orders of
+// magnitude worse; docs/training.md), and which start reaches the better one
+// depends on the starting noise. So the data-driven start x0 is tried with the
+// starting noise at 1, 0.1 and 0.01 times TrainOptions::initial_noise_fraction
+// (never below the floor); the restarts perturb the first of them, seeded.
+std::vector<Eigen::VectorXd> lip_start_points(const Eigen::VectorXd& x0, const OptimizerOptions& bounds, int n,
+                                              const TrainOptions& o) {
+  std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  const int noise_starts = 3;
+  std::vector<Eigen::VectorXd> starts;
+  for (int r = 0; r < noise_starts + o.restarts; ++r) {
+    Eigen::VectorXd start = x0;
+    if (r > 0 && r < noise_starts) start.tail(n).array() += std::log(std::pow(0.1, r));
+    if (r >= noise_starts)
+      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
+    starts.push_back(start.cwiseMax(bounds.lower_bounds).cwiseMin(bounds.upper_bounds));
+  }
+  return starts;
+}
+
+// One start's NLL of the stacked torques y over the states X: its own kernel and workspace.
+Objective lip_objective(const LagrangianKernel& kernel, const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
+                        const JitterPolicy& jitter) {
+  const int P = kernel.num_params(), n = kernel.joints().size();
+  auto ws = std::make_shared<LikelihoodWorkspace>(X, y, n, jitter);
+  auto trial = std::make_shared<LagrangianKernel>(kernel);
+  return [ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+    trial->set_log_params(x.head(P));
+    const Evaluation e = ws->evaluate(*trial, x.tail(n).array().exp(), true);
+    if (!e.ok) return false;
+    f = e.nll;
+    g = e.gradient;
+    return true;
+  };
+}
+
+// The one coupled fit's report, per joint, with each joint's noise as a share
+// of its torque variance, as for GP joints.
+std::vector<JointReport> joint_reports(const JointReport& shared, const Eigen::VectorXd& noise,
+                                       const Eigen::VectorXd& joint_variance) {
+  std::vector<JointReport> joints;
+  for (Eigen::Index i = 0; i < noise.size(); ++i) {
+    JointReport j = shared;
+    j.joint = static_cast<int>(i);
+    j.noise_variance = noise(i) / joint_variance(i);
+    j.noise_share = j.noise_variance;
+    joints.push_back(j);
+  }
+  return joints;
+}
+
 }  // namespace
 
 std::unique_ptr<QueryWorkspace> LagrangianEstimator::make_query_workspace() const {
@@ -233,28 +286,10 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   kernel.restrict_log_params(X, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
   opt.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xh.rows()) * n;
 
-  std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
-  std::normal_distribution<double> normal(0.0, 1.0);
-
   FitOutcome out;
   JointReport shared;
   shared.coupled = true;
-  // The coupled likelihood has optima that explain whole joints as noise
-  // (thousands of nats above the best, with test errors orders of magnitude
-  // worse; docs/training.md), and which start reaches the better one depends
-  // on the starting noise. So the
-  // data-driven start is tried with the starting noise at 1, 0.1 and 0.01 times
-  // TrainOptions::initial_noise_fraction (never below the floor); the restarts
-  // perturb the first of them. The lowest NLL is kept.
-  const int noise_starts = 3;
-  std::vector<Eigen::VectorXd> start_points;
-  for (int r = 0; r < noise_starts + o.restarts; ++r) {
-    Eigen::VectorXd start = x0;
-    if (r > 0 && r < noise_starts) start.tail(n).array() += std::log(std::pow(0.1, r));
-    if (r >= noise_starts)
-      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    start_points.push_back(start.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds));
-  }
+  const std::vector<Eigen::VectorXd> start_points = lip_start_points(x0, opt, n, o);
   // One fit is a single coupled optimisation whose factorisations run on one
   // core, so the starts run side by side (TrainOptions::threads, 0: all at
   // once, sharing the cores) as far as memory allows. Each start depends on
@@ -271,20 +306,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   search.bytes_per_start = start_bytes;
   const std::string name = estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction);
   const SearchResult found = search_hyperparameters(
-      start_points,
-      [&](int) -> Objective {
-        auto ws = std::make_shared<LikelihoodWorkspace>(Xh, yh, n, o.jitter);
-        auto trial = std::make_shared<LagrangianKernel>(kernel);
-        return [ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-          trial->set_log_params(x.head(P));
-          const Evaluation e = ws->evaluate(*trial, x.tail(n).array().exp(), true);
-          if (!e.ok) return false;
-          f = e.nll;
-          g = e.gradient;
-          return true;
-        };
-      },
-      search,
+      start_points, [&](int) { return lip_objective(kernel, Xh, yh, o.jitter); }, search,
       [&](int r) -> ProgressCallback {
         if (!progress) return {};
         return [&, r](const ProgressEvent& optimizer_event) {
@@ -321,13 +343,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   shared.nll = final_fit.nll;
   shared.jitter = final_fit.jitter;
   shared.seconds = seconds();
-  for (int i = 0; i < n; ++i) {
-    JointReport j = shared;
-    j.joint = i;
-    j.noise_variance = noise(i) / joint_variance(i);  // a share of the joint's torque variance, as for GP joints
-    j.noise_share = j.noise_variance;
-    out.report.joints.push_back(j);
-  }
+  out.report.joints = joint_reports(shared, noise, joint_variance);
   out.report.status = combine_joint_statuses(out.report.joints);
   out.estimator = std::make_unique<LagrangianEstimator>(kernel, noise * scale * scale, scale, X, final_ws.alpha());
   return out;

@@ -6,7 +6,7 @@
 #include <numeric>
 #include <random>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/training_data.hpp"

@@ -1,4 +1,4 @@
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 
 #include <fcntl.h>
 #include <signal.h>

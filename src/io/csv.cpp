@@ -10,7 +10,7 @@
 #include <unordered_map>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 
 namespace gipdyn {
 namespace {

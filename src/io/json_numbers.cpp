@@ -1,4 +1,4 @@
-#include "gipdyn/io/json_numbers.hpp"
+#include "gipdyn/io/detail/json_numbers.hpp"
 
 #include <cmath>
 #include <limits>

@@ -8,7 +8,7 @@
 #include <iterator>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/atomic_file.hpp"
+#include "gipdyn/io/detail/atomic_file.hpp"
 #include "gipdyn/version.hpp"
 
 #if !defined(__BYTE_ORDER__) || __BYTE_ORDER__ != __ORDER_LITTLE_ENDIAN__

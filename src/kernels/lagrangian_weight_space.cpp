@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 
 namespace gipdyn {

@@ -3,7 +3,7 @@
 #include <algorithm>
 #include <cmath>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/floating_point.hpp"
 #include "gipdyn/training_data.hpp"

@@ -4,7 +4,7 @@
 #include <limits>
 
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/json_numbers.hpp"
+#include "gipdyn/io/detail/json_numbers.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
 

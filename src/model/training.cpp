@@ -14,6 +14,7 @@
 #include "gipdyn/memory.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/model/hyperparameter_search.hpp"
 
 namespace gipdyn {
@@ -95,208 +96,253 @@ struct RowSubset {
   }
 };
 
-// Zm: the inducing rows' features of a sparse GP, or null for the exact GP.
-// noise_variance_floor: TrainOptions::noise_std_floor of this joint, squared, in the scaled output's units.
-JointOutcome train_joint(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
-                         const Eigen::MatrixXd* Zm, const Eigen::VectorXd& y, const TrainOptions& o,
-                         double noise_variance_floor, const ProgressCallback& progress) {
-  using Clock = std::chrono::steady_clock;
-  const auto t0 = Clock::now();
-  auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
-  JointOutcome out;
-  out.report.joint = j;
-
-  const double target = std::max(y.squaredNorm() / static_cast<double>(y.size()), 1e-12);
-  std::unique_ptr<Kernel> kernel = make_kernel(o.kernel, features, j, o.robot_prior);
-  kernel->initialize(Z, target);
-  // The mean's coefficients are profiled out of the likelihood, not optimised.
-  MeanFunction mean(o.mean, static_cast<int>(X.cols()));
-  const int P = kernel->num_params();
-  Eigen::VectorXd x0(P + 1);
-  x0.head(P) = kernel->log_params();
-  x0(P) = std::log(o.initial_noise_fraction * target);
-  if (!o.initial_log_params.empty()) x0 = o.initial_log_params[static_cast<size_t>(j)];  // sizes checked by train_model
-
-  OptimizerOptions opt = o.optimizer;
-  // Box bounds keep exp() finite and the noise above its floor.
-  opt.lower_bounds = Eigen::VectorXd::Constant(P + 1, -30.0);
-  opt.upper_bounds = Eigen::VectorXd::Constant(P + 1, 30.0);
-  // A known noise floor above the whole variance would leave no room for the kernel: it stops at the variance.
-  opt.lower_bounds(P) = std::log(std::max(o.min_noise_fraction * target, std::min(noise_variance_floor, target)));
-  opt.upper_bounds(P) = std::log(10.0 * target);
-  kernel->restrict_log_params(Z, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
-  x0 = x0.cwiseMax(opt.lower_bounds).cwiseMin(opt.upper_bounds);
-
-  std::mt19937_64 rng(o.seed * 1000003ULL + static_cast<std::uint64_t>(j));
-  std::normal_distribution<double> normal(0.0, 1.0);
-  // The data-driven start, then the restarts perturbed from it (TrainOptions::restarts).
-  std::vector<Eigen::VectorXd> starts{x0};
-  for (int r = 1; r <= o.restarts; ++r) {
-    Eigen::VectorXd start = x0;
-    for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    starts.push_back(start);
+// One joint's training: its search space from the data, the search over its
+// hyperparameters (hyperparameter_search.hpp), and the final fit on every row.
+class JointTraining {
+ public:
+  // Zm: the inducing rows' features of a sparse GP, or null for the exact GP.
+  // noise_variance_floor: TrainOptions::noise_std_floor of this joint, squared, in the scaled output's units.
+  JointTraining(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
+                const Eigen::MatrixXd* Zm, const Eigen::VectorXd& y, const TrainOptions& o,
+                double noise_variance_floor, const ProgressCallback& progress)
+      : j_(j), X_(X), Z_(Z), Zm_(Zm), y_(y), o_(o), progress_(progress), t0_(Clock::now()),
+        target_(std::max(y.squaredNorm() / static_cast<double>(y.size()), 1e-12)),
+        kernel_(make_kernel(o.kernel, features, j, o.robot_prior)),
+        // The mean's coefficients are profiled out of the likelihood, not optimised.
+        mean_(o.mean, static_cast<int>(X.cols())),
+        exact_objective_(o.hyperparameter_objective == HyperparameterObjective::Exact && o.hyperparameter_rows > 0 &&
+                         X.rows() > o.hyperparameter_rows) {
+    out_.report.joint = j;
+    kernel_->initialize(Z, target_);
+    P_ = kernel_->num_params();
+    x0_.resize(P_ + 1);
+    x0_.head(P_) = kernel_->log_params();
+    x0_(P_) = std::log(o.initial_noise_fraction * target_);
+    if (!o.initial_log_params.empty()) x0_ = o.initial_log_params[static_cast<size_t>(j)];  // sizes checked by train_model
+    opt_ = o.optimizer;
+    // Box bounds keep exp() finite and the noise above its floor.
+    opt_.lower_bounds = Eigen::VectorXd::Constant(P_ + 1, -30.0);
+    opt_.upper_bounds = Eigen::VectorXd::Constant(P_ + 1, 30.0);
+    // A known noise floor above the whole variance would leave no room for the kernel: it stops at the variance.
+    opt_.lower_bounds(P_) = std::log(std::max(o.min_noise_fraction * target_, std::min(noise_variance_floor, target_)));
+    opt_.upper_bounds(P_) = std::log(10.0 * target_);
+    kernel_->restrict_log_params(Z, opt_.lower_bounds.head(P_), opt_.upper_bounds.head(P_));
+    x0_ = x0_.cwiseMax(opt_.lower_bounds).cwiseMin(opt_.upper_bounds);
   }
 
-  const bool exact_objective = o.hyperparameter_objective == HyperparameterObjective::Exact &&
-                               o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
-  // The search (hyperparameter_search.hpp) from `from` on the rows (Xr, Zr, yr).
-  // all_rows: (Xr, Zr, yr) are the hyperparameter rows, not the warm-start subsample.
-  auto search_on = [&](const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool all_rows,
-                       const std::vector<Eigen::VectorXd>& from) {
-    const bool sparse = Zm && all_rows && !exact_objective, distributed = o.nll_backend && all_rows;
-    // Each start evaluates with its own kernel and workspace: starts may run side by side (screening).
-    auto objective_for = [&, sparse, distributed](int) -> Objective {
-      struct State {
-        std::unique_ptr<Kernel> trial;
-        GpWorkspace ws;
-        SparseGpWorkspace sparse_ws;
-        // The exact NLL of a finite feature expansion (PP) in weight space: the
-        // same value and gradient without the O(N^3) factorisation.
-        std::optional<WeightSpaceNll> weight_space;
-      };
-      auto state = std::make_shared<State>();
-      state->trial = kernel->clone();
-      Eigen::MatrixXd Phi;
-      if (!sparse && !distributed && mean.kind() == MeanKind::Zero && kernel->weight_space_features(Zr, Phi))
-        state->weight_space.emplace(std::move(Phi), yr);
-      return [&, state, sparse, distributed](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-        Kernel& trial = *state->trial;
-        trial.set_log_params(x.head(P));
-        // A warm-start subsample is small: the exact NLL there, in this process;
-        // the sparse bound (unless asked for the exact NLL) or the backend on all rows.
-        NllEvaluation e =
-            state->weight_space ? state->weight_space->evaluate(x.head(P), x(P))
-            : sparse            ? evaluate_vfe(trial, x(P), Zr, yr, *Zm, true, state->sparse_ws, o.jitter)
-            : distributed       ? o.nll_backend->evaluate(trial, x(P), Zr, yr, true, nullptr, o.jitter)
-                          : evaluate_profiled_nll(trial, x(P), mean, Xr, Zr, yr, true, state->ws, nullptr, o.jitter);
-        if (!e.ok()) return false;
-        f = e.nll;
-        g = e.gradient;
-        if (o.prior.enabled) f += prior_penalty(x, x0, o.prior.width, &g);  // MAP
-        return true;
-      };
+  JointOutcome run() {
+    const Eigen::VectorXd best_x = search();
+    if (best_x.size() == 0) {
+      out_.report.message = "joint " + std::to_string(j_ + 1) + ": " + out_.report.message;
+    } else {
+      condition(best_x);
+    }
+    finish();
+    return std::move(out_);
+  }
+
+ private:
+  using Clock = std::chrono::steady_clock;
+
+  double seconds() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
+
+  // The data-driven start, then the restarts perturbed from it (TrainOptions::restarts).
+  std::vector<Eigen::VectorXd> start_points() const {
+    std::mt19937_64 rng(o_.seed * 1000003ULL + static_cast<std::uint64_t>(j_));
+    std::normal_distribution<double> normal(0.0, 1.0);
+    std::vector<Eigen::VectorXd> starts{x0_};
+    for (int r = 1; r <= o_.restarts; ++r) {
+      Eigen::VectorXd start = x0_;
+      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o_.restart_spread * normal(rng);
+      starts.push_back(start);
+    }
+    return starts;
+  }
+
+  // Start r's objective on the rows (Xr, Zr, yr), with its own kernel and
+  // workspace: starts may run side by side (screening).
+  Objective objective_on(const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr, bool sparse,
+                         bool distributed) const {
+    struct State {
+      std::unique_ptr<Kernel> trial;
+      // The exact NLL on these rows: the options' backend on all rows, or this process's.
+      std::shared_ptr<NllBackend> exact;
+      SparseGpWorkspace sparse_ws;
+      // The exact NLL of a finite feature expansion (PP) in weight space: the
+      // same value and gradient without the O(N^3) factorisation.
+      std::optional<WeightSpaceNll> weight_space;
     };
-    auto progress_for = [&](int restart) -> ProgressCallback {
-      if (!progress) return {};
-      return [&, restart](const ProgressEvent& optimizer_event) {
-        ProgressEvent e = optimizer_event;
-        e.estimator = o.kernel;
-        e.joint = j;
-        e.restart = restart;
-        e.rows = static_cast<long>(yr.size());
-        e.seconds = seconds();
-        progress(e);
-      };
+    auto state = std::make_shared<State>();
+    state->trial = kernel_->clone();
+    state->exact = distributed ? o_.nll_backend : std::make_shared<InProcessNll>(mean_, Xr);
+    Eigen::MatrixXd Phi;
+    if (!sparse && !distributed && mean_.kind() == MeanKind::Zero && kernel_->weight_space_features(Zr, Phi))
+      state->weight_space.emplace(std::move(Phi), yr);
+    return [this, &Xr, &Zr, &yr, state, sparse, distributed](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+      const int P = P_;
+      Kernel& trial = *state->trial;
+      trial.set_log_params(x.head(P));
+      // The sparse bound on all rows unless asked for the exact NLL; a
+      // warm-start subsample is small: the exact NLL there, in this process.
+      NllEvaluation e = state->weight_space ? state->weight_space->evaluate(x.head(P), x(P))
+                        : sparse ? evaluate_vfe(trial, x(P), Zr, yr, *Zm_, true, state->sparse_ws, o_.jitter)
+                                 : state->exact->evaluate(trial, x(P), Zr, yr, true, nullptr, o_.jitter);
+      if (!e.ok()) return false;
+      f = e.nll;
+      g = e.gradient;
+      if (o_.prior.enabled) f += prior_penalty(x, x0_, o_.prior.width, &g);  // MAP
+      return true;
     };
+  }
+
+  ProgressCallback progress_for(int restart, long rows) const {
+    if (!progress_) return {};
+    return [this, restart, rows](const ProgressEvent& optimizer_event) {
+      ProgressEvent e = optimizer_event;
+      e.estimator = o_.kernel;
+      e.joint = j_;
+      e.restart = restart;
+      e.rows = rows;
+      e.seconds = seconds();
+      progress_(e);
+    };
+  }
+
+  // The search from `from` on the rows (Xr, Zr, yr). all_rows: they are the
+  // hyperparameter rows, not the warm-start subsample.
+  SearchResult search_on(const Eigen::MatrixXd& Xr, const Eigen::MatrixXd& Zr, const Eigen::VectorXd& yr,
+                         bool all_rows, const std::vector<Eigen::VectorXd>& from) const {
+    const bool sparse = Zm_ && all_rows && !exact_objective_, distributed = o_.nll_backend && all_rows;
     SearchOptions search;
-    search.optimizer = opt;
-    search.optimizer.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(yr.size());
-    search.screening_evaluations = o.start_screening_evaluations;
+    search.optimizer = opt_;
+    search.optimizer.gradient_tolerance = o_.gradient_tolerance_per_row * static_cast<double>(yr.size());
+    search.screening_evaluations = o_.start_screening_evaluations;
     search.threads = 1;  // the joints are the parallel work
-    const double side = static_cast<double>(sparse ? Zm->rows() : yr.size());
+    const double side = static_cast<double>(sparse ? Zm_->rows() : yr.size());
     search.bytes_per_start = (sparse ? 10.0 : 2.0) * 8.0 * side * side;  // as training_memory's per joint
     search.concurrent_objectives = !distributed;
-    return search_hyperparameters(from, objective_for, search, progress_for);
-  };
+    return search_hyperparameters(
+        from, [&](int) { return objective_on(Xr, Zr, yr, sparse, distributed); }, search,
+        [&](int restart) { return progress_for(restart, static_cast<long>(yr.size())); });
+  }
 
-  // The rows the hyperparameters are learned on: all, or a constant-step subsample.
-  const bool subsampled = o.hyperparameter_rows > 0 && X.rows() > o.hyperparameter_rows;
-  RowSubset h;
-  if (subsampled) h = RowSubset(X, Z, y, o.hyperparameter_rows);
-  const Eigen::MatrixXd& Xo = subsampled ? h.X : X;
-  const Eigen::MatrixXd& Zo = subsampled ? h.Z : Z;
-  const Eigen::VectorXd& yo = subsampled ? h.y : y;
-  if (subsampled) out.report.hyperparameter_rows = static_cast<long>(yo.size());
+  // The best hyperparameters [kernel log-params, log noise], or empty where no
+  // start could be evaluated; fills the report's search fields.
+  Eigen::VectorXd search() {
+    // The rows the hyperparameters are learned on: all, or a constant-step subsample.
+    const bool subsampled = o_.hyperparameter_rows > 0 && X_.rows() > o_.hyperparameter_rows;
+    RowSubset h;
+    if (subsampled) h = RowSubset(X_, Z_, y_, o_.hyperparameter_rows);
+    const Eigen::MatrixXd& Xo = subsampled ? h.X : X_;
+    const Eigen::MatrixXd& Zo = subsampled ? h.Z : Z_;
+    const Eigen::VectorXd& yo = subsampled ? h.y : y_;
+    if (subsampled) out_.report.hyperparameter_rows = static_cast<long>(yo.size());
 
-  // Every start on the subsample when the data are large: the subsample's
-  // optimum is a start close to the full data's, and there restarts are cheap.
-  const bool warm = o.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o.warm_start_rows);
-  SearchResult found;
-  if (warm) {
-    const RowSubset w(Xo, Zo, yo, o.warm_start_rows);
-    found = search_on(w.X, w.Z, w.y, false, starts);
-    out.report.warm_start_evaluations = found.evaluations;
-  } else {
-    found = search_on(Xo, Zo, yo, true, starts);
-    out.report.evaluations = found.evaluations;
-  }
-  out.report.screening_evaluations = found.screening_evaluations;
-  out.report.restart_nlls = found.best.objectives;
-  OptimizerResult kept = found.best.kept;
-  Eigen::VectorXd best_x = found.best.found() ? kept.x : Eigen::VectorXd();
-  if (warm && best_x.size() > 0) {
-    const SearchResult full = search_on(Xo, Zo, yo, true, {best_x});
-    out.report.evaluations += full.evaluations;
-    kept = full.best.kept;
-    best_x = full.best.found() ? kept.x : Eigen::VectorXd();
-  }
-  out.report.status = kept.status;
-  out.report.message = kept.message;
-  out.report.grad_norm = kept.grad_norm;
-  // The joint's last event, whatever the outcome.
-  auto finish = [&] {
-    out.report.seconds = seconds();
-    if (!progress) return;
-    ProgressEvent e;
-    e.estimator = o.kernel;
-    e.joint = j;
-    e.iteration = out.report.evaluations;
-    e.objective = out.ok ? out.report.nll : std::numeric_limits<double>::quiet_NaN();
-    e.seconds = out.report.seconds;
-    e.finished = true;
-    e.message = out.ok ? to_string(out.report.status) : out.report.message;
-    progress(e);
-  };
-  if (best_x.size() == 0) {
-    out.report.message = "joint " + std::to_string(j + 1) + ": " + out.report.message;
-    finish();
-    return out;
-  }
-  kernel->set_log_params(best_x.head(P));
-  GpWorkspace ws;  // the final fit's
-  SparseGpWorkspace sparse_ws;
-  if (mean.kind() != MeanKind::Zero) {  // the coefficients that go with the chosen hyperparameters
-    Eigen::VectorXd beta;
-    const NllEvaluation at_best =
-        evaluate_profiled_nll(*kernel, best_x(P), mean, X, Z, y, false, ws, &beta, o.jitter);
-    if (!at_best.ok()) {
-      out.report.status = OptimizerResult::Status::Failed;
-      out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + at_best.message;
-      finish();
-      return out;
+    // Every start on the subsample when the data are large: the subsample's
+    // optimum is a start close to the full data's, and there restarts are cheap.
+    const bool warm = o_.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o_.warm_start_rows);
+    SearchResult found;
+    if (warm) {
+      const RowSubset w(Xo, Zo, yo, o_.warm_start_rows);
+      found = search_on(w.X, w.Z, w.y, false, start_points());
+      out_.report.warm_start_evaluations = found.evaluations;
+    } else {
+      found = search_on(Xo, Zo, yo, true, start_points());
+      out_.report.evaluations = found.evaluations;
     }
-    mean.set_params(beta);
+    out_.report.screening_evaluations = found.screening_evaluations;
+    out_.report.restart_nlls = found.best.objectives;
+    OptimizerResult kept = found.best.kept;
+    Eigen::VectorXd best_x = found.best.found() ? kept.x : Eigen::VectorXd();
+    if (warm && best_x.size() > 0) {
+      const SearchResult full = search_on(Xo, Zo, yo, true, {best_x});
+      out_.report.evaluations += full.evaluations;
+      kept = full.best.kept;
+      best_x = full.best.found() ? kept.x : Eigen::VectorXd();
+    }
+    out_.report.status = kept.status;
+    out_.report.message = kept.message;
+    out_.report.grad_norm = kept.grad_norm;
+    return best_x;
   }
-  out.mean = mean;
-  out.gp = GpRegressor(std::move(kernel), best_x(P));
-  CholeskyResult fit;
-  if (Zm) {
-    SparsePosterior post = fit_sparse(out.gp.kernel(), best_x(P), Z, y, *Zm, sparse_ws, o.jitter);
-    fit = post.status;
-    if (fit.ok())
-      out.gp.set_sparse_state(post.alpha, post.jitter, post.objective, std::move(post.inducing_factor),
-                              std::move(post.posterior_factor));
-  } else if (o.nll_backend) {  // the mean is zero there
-    Eigen::VectorXd alpha;
-    const NllEvaluation e = o.nll_backend->evaluate(out.gp.kernel(), best_x(P), Z, y, false, &alpha, o.jitter);
-    fit = fit_result(e);
-    if (e.ok()) out.gp.set_state(alpha, e.jitter, e.nll);
-  } else {
-    fit = out.gp.fit(Z, y - mean.evaluate(X), o.keep_factor, ws, o.jitter);
+
+  // The GP conditioned on every row at best_x (the mean's coefficients first).
+  void condition(const Eigen::VectorXd& best_x) {
+    const int P = P_;
+    kernel_->set_log_params(best_x.head(P));
+    GpWorkspace ws;
+    SparseGpWorkspace sparse_ws;
+    if (mean_.kind() != MeanKind::Zero) {  // the coefficients that go with the chosen hyperparameters
+      Eigen::VectorXd beta;
+      const NllEvaluation at_best =
+          evaluate_profiled_nll(*kernel_, best_x(P), mean_, X_, Z_, y_, false, ws, &beta, o_.jitter);
+      if (!at_best.ok()) {
+        out_.report.status = OptimizerResult::Status::Failed;
+        out_.report.message = "joint " + std::to_string(j_ + 1) + ": final fit failed: " + at_best.message;
+        return;
+      }
+      mean_.set_params(beta);
+    }
+    out_.mean = mean_;
+    out_.gp = GpRegressor(std::move(kernel_), best_x(P));
+    CholeskyResult fit;
+    if (Zm_) {
+      SparsePosterior post = fit_sparse(out_.gp.kernel(), best_x(P), Z_, y_, *Zm_, sparse_ws, o_.jitter);
+      fit = post.status;
+      if (fit.ok())
+        out_.gp.set_sparse_state(post.alpha, post.jitter, post.objective, std::move(post.inducing_factor),
+                                 std::move(post.posterior_factor));
+    } else if (o_.nll_backend) {  // the mean is zero there
+      Eigen::VectorXd alpha;
+      const NllEvaluation e = o_.nll_backend->evaluate(out_.gp.kernel(), best_x(P), Z_, y_, false, &alpha, o_.jitter);
+      fit = fit_result(e);
+      if (e.ok()) out_.gp.set_state(alpha, e.jitter, e.nll);
+    } else {
+      fit = out_.gp.fit(Z_, y_ - mean_.evaluate(X_), o_.keep_factor, ws, o_.jitter);
+    }
+    if (!fit.ok()) {
+      out_.report.status = OptimizerResult::Status::Failed;
+      out_.report.message = "joint " + std::to_string(j_ + 1) + ": final fit failed: " + fit.message;
+      return;
+    }
+    out_.ok = true;
+    out_.report.nll = out_.gp.nll();
+    out_.report.noise_variance = std::exp(best_x(P));
+    out_.report.noise_share = out_.report.noise_variance / target_;
+    out_.report.jitter = fit.jitter;
   }
-  if (!fit.ok()) {
-    out.report.status = OptimizerResult::Status::Failed;
-    out.report.message = "joint " + std::to_string(j + 1) + ": final fit failed: " + fit.message;
-  } else {
-    out.ok = true;
-    out.report.nll = out.gp.nll();
-    out.report.noise_variance = std::exp(best_x(P));
-    out.report.noise_share = out.report.noise_variance / target;
-    out.report.jitter = fit.jitter;
+
+  // The joint's last event, whatever the outcome.
+  void finish() {
+    out_.report.seconds = seconds();
+    if (!progress_) return;
+    ProgressEvent e;
+    e.estimator = o_.kernel;
+    e.joint = j_;
+    e.iteration = out_.report.evaluations;
+    e.objective = out_.ok ? out_.report.nll : std::numeric_limits<double>::quiet_NaN();
+    e.seconds = out_.report.seconds;
+    e.finished = true;
+    e.message = out_.ok ? to_string(out_.report.status) : out_.report.message;
+    progress_(e);
   }
-  finish();
-  return out;
-}
+
+  const int j_;
+  const Eigen::MatrixXd &X_, &Z_;
+  const Eigen::MatrixXd* Zm_;
+  const Eigen::VectorXd& y_;
+  const TrainOptions& o_;
+  const ProgressCallback& progress_;
+  const Clock::time_point t0_;
+  const double target_;
+  std::unique_ptr<Kernel> kernel_;
+  MeanFunction mean_;
+  const bool exact_objective_;
+  int P_ = 0;
+  Eigen::VectorXd x0_;
+  OptimizerOptions opt_;
+  JointOutcome out_;
+};
 
 // Every joint in flight holds two N x N matrices (the kernel, reused for its
 // inverse, and the gradient's scratch); kept factors add one per joint. A
@@ -394,7 +440,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
     const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
     const double noise_floor = options.noise_std_floor.size() > 0 ? options.noise_std_floor(j) / scale(j) : 0.0;
     outcomes[static_cast<size_t>(j)] =
-        train_joint(j, features, X, Z, sparse ? &Zm : nullptr, y, options, noise_floor * noise_floor, progress);
+        JointTraining(j, features, X, Z, sparse ? &Zm : nullptr, y, options, noise_floor * noise_floor, progress).run();
   });
 
   TrainResult result;

@@ -163,8 +163,21 @@ Eigen::MatrixXd PreprocessedLog::table() const {
   return T;
 }
 
-PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions& o) {
-  o.validate();
+namespace {
+
+// A log's columns as read, with its times (one per row, from its time column
+// or PreprocessOptions::log_period) checked to increase at a rate of seconds.
+struct RawLog {
+  int joints = 0;
+  bool has_qd = false, has_qdd = false;  // qd1..qdn given; qdd1 given (and ignored)
+  std::string time_column;               // empty: rows log_period apart
+  Eigen::MatrixXd table;                 // t, q, [qd,] tau
+  Eigen::VectorXd t;
+  std::vector<double> steps;             // t(i) - t(i - 1)
+  double median_step = 0.0;
+};
+
+RawLog read_raw_log(const std::string& path, const PreprocessOptions& o) {
   const CsvHeader header = read_csv_header(path);
   require_joints_counted_from_one(header, path);
   const int n = joint_column_count(header);
@@ -217,7 +230,20 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                 " per row (median), read as seconds; if it counts milli-, micro- or nanoseconds, divide it by 1e3, "
                 "1e6 or 1e9 (or give PreprocessOptions::log_period instead)");
   }
-  // 0. Segments: [first, end) data rows, 0-based.
+  RawLog log;
+  log.joints = n;
+  log.has_qd = has_qd;
+  log.has_qdd = header.has("qdd1");
+  log.time_column = time_column;
+  log.table = std::move(raw);
+  log.t = t;
+  log.steps = std::move(steps);
+  log.median_step = median_step;
+  return log;
+}
+
+// The segments of a log of `rows` rows: [first, end) data rows, 0-based, split at PreprocessOptions::segment_starts.
+std::vector<std::pair<Eigen::Index, Eigen::Index>> log_segments(const PreprocessOptions& o, Eigen::Index rows) {
   std::vector<std::pair<Eigen::Index, Eigen::Index>> segments;
   Eigen::Index first = 0;
   for (long start : o.segment_starts) {
@@ -228,62 +254,15 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
     first = start - 1;
   }
   segments.emplace_back(first, rows);
-  // Default: the mean step within segments (the pause between two segments is not
-  // a sampling step), so that a log already on a uniform grid keeps its samples
-  // (the median step, off by rounding, could lose the last one).
-  double span = 0.0;
-  Eigen::Index spanned_steps = 0;
-  for (const auto& [a, b] : segments) {
-    span += t(b - 1) - t(a);
-    spanned_steps += b - 1 - a;
-  }
-  const double mean_step = spanned_steps > 0 ? span / static_cast<double>(spanned_steps) : median_step;
-  const double dt = o.dt > 0.0 ? o.dt : mean_step;
-  nlohmann::json report;
-  report["input"] = path;
-  report["joints"] = n;
-  report["time_column"] = time_column.empty() ? "none: rows " + std::to_string(o.log_period) + " s apart (log_period)"
-                                              : time_column;
-  report["input_rows"] = rows;
-  report["input_time_span_s"] = {t(0), t(rows - 1)};
-  report["input_step_s"] = {{"mean", mean_step},
-                            {"median", median_step},
-                            {"min", *std::min_element(steps.begin(), steps.end())},
-                            {"max", *std::max_element(steps.begin(), steps.end())}};
+  return segments;
+}
 
-
-  for (const auto& [a, b] : segments)
-    for (Eigen::Index i = a + 1; i < b; ++i)
-      if (t(i) - t(i - 1) > o.max_gap_steps * median_step)
-        throw Error("'" + path + "' has a gap of " + std::to_string(t(i) - t(i - 1)) + " s before data row " +
-                    std::to_string(i + 1) + " (the median step is " + std::to_string(median_step) +
-                    " s); start a segment there (PreprocessOptions::segment_starts " + std::to_string(i + 1) +
-                    ") or raise PreprocessOptions::max_gap_steps");
-  nlohmann::json steps_done = nlohmann::json::array(), segment_report = nlohmann::json::array();
-  std::vector<Biquad> sections;
-  if (o.cutoff_hz > 0.0) sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);
-  std::vector<PreprocessedLog> parts;
-  SegmentCounts counts;
-  counts.unwrapped.assign(static_cast<size_t>(n), 0);
-  for (const auto& [a, b] : segments) {
-    const std::string where = segments.size() > 1 ? " (segment of data rows " + std::to_string(a + 1) + "-" +
-                                                        std::to_string(b) + ")"
-                                                  : "";
-    try {
-      parts.push_back(process_segment(t.segment(a, b - a), raw.block(a, 1, b - a, raw.cols() - 1), n, has_qd, dt,
-                                      sections, o, counts));
-    } catch (const Error& e) {
-      if (where.empty()) throw;
-      throw Error(std::string(e.what()) + where);
-    }
-    segment_report.push_back({{"input_rows", {a + 1, b}}, {"output_rows", parts.back().t.size()}});
-  }
-  PreprocessedLog out = concatenate(parts, n);
-  if (o.drop_rest && out.t.size() < 3)
-    throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(out.t.size()) +
-                " samples: every |qd| is below " + std::to_string(o.rest_velocity) +
-                "; lower PreprocessOptions::rest_velocity");
-
+// The report's "steps": what was done to the log, in order, with the rules and counts.
+nlohmann::json processing_steps(const PreprocessOptions& o, const RawLog& log, const SegmentCounts& counts, double dt,
+                                const std::vector<Biquad>& sections) {
+  const int n = log.joints;
+  const bool has_qd = log.has_qd;
+  nlohmann::json steps_done = nlohmann::json::array();
   nlohmann::json jumps = nlohmann::json::object();
   for (int j = 0; j < n; ++j)
     if (counts.unwrapped[static_cast<size_t>(j)] > 0) jumps["q" + std::to_string(j + 1)] = counts.unwrapped[static_cast<size_t>(j)];
@@ -327,7 +306,7 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                           : "second-order central differences (one-sided at the ends)"},
       {"qd", has_qd ? "from the log" + std::string(o.cutoff_hz > 0.0 ? ", filtered" : "") : "d/dt of the " + filtered + "q"},
       {"qdd", "d/dt of the " + filtered + "qd" +
-                  std::string(header.has("qdd1") ? " (the log's qdd columns are ignored)" : "")}};
+                  std::string(log.has_qdd ? " (the log's qdd columns are ignored)" : "")}};
   if (o.causal)
     derivatives["delay_s"] = {{"q", delay * dt},
                               {"qd", (delay + (has_qd ? 0.0 : 0.5)) * dt},
@@ -340,8 +319,78 @@ PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions&
                           {"rest_duration_s", o.rest_duration},
                           {"stretches_dropped", counts.rest_stretches},
                           {"dropped_rows", counts.dropped}});
+  return steps_done;
+}
+
+}  // namespace
+
+PreprocessedLog preprocess_log(const std::string& path, const PreprocessOptions& o) {
+  o.validate();
+  const RawLog log = read_raw_log(path, o);
+  const int n = log.joints;
+  const Eigen::MatrixXd& raw = log.table;
+  const Eigen::VectorXd& t = log.t;
+  const Eigen::Index rows = raw.rows();
+  const double median_step = log.median_step;
+  const std::vector<std::pair<Eigen::Index, Eigen::Index>> segments = log_segments(o, rows);
+  // Default: the mean step within segments (the pause between two segments is not
+  // a sampling step), so that a log already on a uniform grid keeps its samples
+  // (the median step, off by rounding, could lose the last one).
+  double span = 0.0;
+  Eigen::Index spanned_steps = 0;
+  for (const auto& [a, b] : segments) {
+    span += t(b - 1) - t(a);
+    spanned_steps += b - 1 - a;
+  }
+  const double mean_step = spanned_steps > 0 ? span / static_cast<double>(spanned_steps) : median_step;
+  const double dt = o.dt > 0.0 ? o.dt : mean_step;
+  nlohmann::json report;
+  report["input"] = path;
+  report["joints"] = n;
+  report["time_column"] = log.time_column.empty()
+                              ? "none: rows " + std::to_string(o.log_period) + " s apart (log_period)"
+                              : log.time_column;
+  report["input_rows"] = rows;
+  report["input_time_span_s"] = {t(0), t(rows - 1)};
+  report["input_step_s"] = {{"mean", mean_step},
+                            {"median", median_step},
+                            {"min", *std::min_element(log.steps.begin(), log.steps.end())},
+                            {"max", *std::max_element(log.steps.begin(), log.steps.end())}};
+
+  for (const auto& [a, b] : segments)
+    for (Eigen::Index i = a + 1; i < b; ++i)
+      if (t(i) - t(i - 1) > o.max_gap_steps * median_step)
+        throw Error("'" + path + "' has a gap of " + std::to_string(t(i) - t(i - 1)) + " s before data row " +
+                    std::to_string(i + 1) + " (the median step is " + std::to_string(median_step) +
+                    " s); start a segment there (PreprocessOptions::segment_starts " + std::to_string(i + 1) +
+                    ") or raise PreprocessOptions::max_gap_steps");
+  nlohmann::json segment_report = nlohmann::json::array();
+  std::vector<Biquad> sections;
+  if (o.cutoff_hz > 0.0) sections = butterworth_lowpass(o.filter_order, o.cutoff_hz, 1.0 / dt);
+  std::vector<PreprocessedLog> parts;
+  SegmentCounts counts;
+  counts.unwrapped.assign(static_cast<size_t>(n), 0);
+  for (const auto& [a, b] : segments) {
+    const std::string where = segments.size() > 1 ? " (segment of data rows " + std::to_string(a + 1) + "-" +
+                                                        std::to_string(b) + ")"
+                                                  : "";
+    try {
+      parts.push_back(process_segment(t.segment(a, b - a), raw.block(a, 1, b - a, raw.cols() - 1), n, log.has_qd, dt,
+                                      sections, o, counts));
+    } catch (const Error& e) {
+      if (where.empty()) throw;
+      throw Error(std::string(e.what()) + where);
+    }
+    segment_report.push_back({{"input_rows", {a + 1, b}}, {"output_rows", parts.back().t.size()}});
+  }
+  PreprocessedLog out = concatenate(parts, n);
+  if (o.drop_rest && out.t.size() < 3)
+    throw Error("PreprocessOptions::drop_rest would leave " + std::to_string(out.t.size()) +
+                " samples: every |qd| is below " + std::to_string(o.rest_velocity) +
+                "; lower PreprocessOptions::rest_velocity");
+
   if (segments.size() > 1) report["segments"] = segment_report;
-  report["steps"] = steps_done;
+  report["steps"] = processing_steps(o, log, counts, dt, sections);
   report["dt_s"] = dt;
   report["output_rows"] = out.t.size();
   out.report = report;

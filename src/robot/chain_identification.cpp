@@ -11,7 +11,7 @@
 #include <random>
 #include <sstream>
 
-#include "gipdyn/blas_threads.hpp"
+#include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/robot/dynamics.hpp"

@@ -15,6 +15,15 @@ test -f "$work/prefix/include/gipdyn/gipdyn.hpp"
 test -x "$work/prefix/bin/gipdyn"
 test -f "$work/prefix/share/doc/gipdyn/LICENSE"
 test -f "$work/prefix/share/doc/gipdyn/CITATION.cff"
+# Internal headers (detail/ folders) are not part of the installed API, and no installed header needs one.
+if find "$work/prefix/include/gipdyn" -type d -name detail | grep -q .; then
+  echo "install_test: detail/ headers were installed" >&2
+  exit 1
+fi
+if grep -rl '#include "gipdyn/\(.*/\)\?detail/' "$work/prefix/include/gipdyn" | grep -q .; then
+  echo "install_test: an installed header includes a detail/ header" >&2
+  exit 1
+fi
 cmake -S "$here/consumer" -B "$work/consumer" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/configure.log"
 cmake --build "$work/consumer" -j"$(nproc)" > "$work/build.log"
 "$work/consumer/consumer"

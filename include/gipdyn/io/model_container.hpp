@@ -32,7 +32,7 @@ struct ModelContainer {
 };
 
 // Throws gipdyn::Error, naming the array or header field, where a number is NaN or Inf: JSON cannot
-// hold one, and no model of ours needs one (a missing number is a null: io/json_numbers.hpp).
+// hold one, and no model of ours needs one (a missing number is a null: io/detail/json_numbers.hpp).
 std::string pack_container(const ModelContainer& container);
 // Throws gipdyn::Error naming `what` for bad magic, a newer version, truncation or a checksum mismatch.
 ModelContainer unpack_container(const std::string& bytes, const std::string& what);

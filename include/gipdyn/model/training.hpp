@@ -7,7 +7,6 @@
 #include <string>
 #include <vector>
 
-#include "gipdyn/blas_threads.hpp"
 #include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
