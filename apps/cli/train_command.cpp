@@ -29,7 +29,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, mat_variable, joints, kernel = default_estimator_name(), out, preset, teacher = "auto", teacher_out;
+  std::string data, mat_variable, joints, kernel = default_estimator_name(), out, preset, teacher = kAutomaticTeacher, teacher_out;
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -37,6 +37,9 @@ struct TrainArgs {
   EstimatorArgs estimator;
 };
 
+// Where --teacher auto teaches (the library's automatic_teaching_applies), in train's flags.
+const char* const kAutomaticTeachingConditions =
+    "(--kernel gip alone, without --inducing, --warm-start-rows, --mean, --robot or --distributed)";
 
 // The options, the teacher and the rows of a training, or the first error (thrown).
 struct TrainPlan {
@@ -60,7 +63,7 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
   if (mpi) {
     if (!is_gp_estimator(o.name))
       throw Error("--distributed trains the exact GP of a GP kernel (" +
-                  joined(estimator_names_where([](const EstimatorSpec& e) { return e.kernel != nullptr; })) +
+                  joined(kernel_names()) +
                   "), not '" + o.name + "'");
     o.gp.nll_backend = mpi->backend();
   }
@@ -76,9 +79,8 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
   // misunderstanding beside the default, which the user may have expected to teach.
   if (!teaches && !a.teacher_out.empty())
     throw Error(std::string("--teacher-out writes a teacher's model, and ") +
-                (automatic ? "--teacher auto does not teach " + o.name +
-                                 " with these options (--kernel gip alone, without --inducing, "
-                                 "--warm-start-rows, --mean, --robot or --distributed)"
+                (automatic ? "--teacher auto does not teach " + o.name + " with these options " +
+                                 kAutomaticTeachingConditions
                            : std::string("--teacher none trains without one")) +
                 ": name a teacher (e.g. --teacher lip), or drop --teacher-out");
   if (!teaches)
@@ -89,8 +91,8 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
         continue;
       }
       throw Error(std::string(name) + " sets up a teacher, and --teacher auto does not teach " + o.name +
-                  " with these options (--kernel gip alone, without --inducing, --warm-start-rows, "
-                  "--mean, --robot or --distributed): name a teacher (e.g. --teacher lip), or drop " + name);
+                  " with these options " + kAutomaticTeachingConditions +
+                  ": name a teacher (e.g. --teacher lip), or drop " + name);
     }
   if (teaches && mpi)
     throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
@@ -161,70 +163,68 @@ void print_plan(const TrainArgs& a, const TrainPlan& plan, const DistributedRun*
 void print_outcome(const TrainArgs& a, const TrainPlan& plan, const FitResult& r, bool teacher_written) {
   const EstimatorOptions& o = plan.o;
   const std::vector<std::string>& data_warnings = plan.data_warnings;
-  if (!a.quiet) {
-    if (r.teaching == TeachingOutcome::TeacherFailed) {
-      std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),
+  if (r.teaching == TeachingOutcome::TeacherFailed) {
+    std::printf("\n%s\n%s %s:", r.teacher_report->message.c_str(), o.name.c_str(),
+                describe(r.teaching, o.teacher->name).c_str());
+  } else if (r.teacher_report) {
+    std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
+    std::printf("label noise (the teacher's RMS residual on the log, the student's noise floor), per joint:");
+    for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
+    if (r.teaching == TeachingOutcome::Taught)
+      std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
+    else if (r.teaching == TeachingOutcome::StudentFailed)
+      std::printf("\n%s %s (%s); its time includes the teacher's:", o.name.c_str(),
+                  describe(r.teaching, o.teacher->name).c_str(), r.student_failure.c_str());
+    else
+      std::printf("\n%s %s; its time includes the teacher's:", o.name.c_str(),
                   describe(r.teaching, o.teacher->name).c_str());
-    } else if (r.teacher_report) {
-      std::printf("\nteacher %s: %s", o.teacher->name.c_str(), r.teacher_report->brief_report().c_str());
-      std::printf("label noise (the teacher's RMS residual on the log, the student's noise floor), per joint:");
-      for (Eigen::Index j = 0; j < r.label_noise_std.size(); ++j) std::printf(" %.3g", r.label_noise_std(j));
-      if (r.teaching == TeachingOutcome::Taught)
-        std::printf("\nstudent %s on the teacher's torques (its time includes the teacher's):", o.name.c_str());
-      else if (r.teaching == TeachingOutcome::StudentFailed)
-        std::printf("\n%s %s (%s); its time includes the teacher's:", o.name.c_str(),
-                    describe(r.teaching, o.teacher->name).c_str(), r.student_failure.c_str());
-      else
-        std::printf("\n%s %s; its time includes the teacher's:", o.name.c_str(),
-                    describe(r.teaching, o.teacher->name).c_str());
-    } else if (o.teacher) {
-      std::printf("\n%s %s:", o.name.c_str(), describe(r.teaching, o.teacher->name).c_str());
-    }
-    std::printf("\n%s", r.report.brief_report().c_str());
-    if (r.teaching_check) {
-      std::printf("nMSE on the logged rows, per joint, teacher / %s:",
-                  r.teaching == TeachingOutcome::Taught ? "student" : "the taught model, not kept");
-      for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
-        std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
-      std::printf("\n");
-      const std::vector<int> ahead = r.teaching_check->joints_teacher_far_ahead();
-      if (r.teaching == TeachingOutcome::Taught && !ahead.empty()) {
-        std::string joints_text;
-        for (int j : ahead) {
-          char buf[96];
-          std::snprintf(buf, sizeof buf, "%s%d (%.3g against %.3g)", joints_text.empty() ? "" : ", ", j + 1,
-                        r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
-          joints_text += buf;
-        }
-        std::printf("note: the teacher %s fits the logged rows of joint %s ten times better or more than its "
-                    "student: there it is likely the more accurate model, with a slower query (%s; "
-                    "docs/training.md)\n",
-                    o.teacher->name.c_str(), joints_text.c_str(),
-                    teacher_written ? ("written to " + a.teacher_out).c_str()
-                                    : "--teacher-out FILE writes it beside the student");
+  } else if (o.teacher) {
+    std::printf("\n%s %s:", o.name.c_str(), describe(r.teaching, o.teacher->name).c_str());
+  }
+  std::printf("\n%s", r.report.brief_report().c_str());
+  if (r.teaching_check) {
+    std::printf("nMSE on the logged rows, per joint, teacher / %s:",
+                r.teaching == TeachingOutcome::Taught ? "student" : "the taught model, not kept");
+    for (Eigen::Index j = 0; j < r.teaching_check->student_nmse.size(); ++j)
+      std::printf(" %.3g/%.3g", r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
+    std::printf("\n");
+    const std::vector<int> ahead = r.teaching_check->joints_teacher_far_ahead();
+    if (r.teaching == TeachingOutcome::Taught && !ahead.empty()) {
+      std::string joints_text;
+      for (int j : ahead) {
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "%s%d (%.3g against %.3g)", joints_text.empty() ? "" : ", ", j + 1,
+                      r.teaching_check->teacher_nmse(j), r.teaching_check->student_nmse(j));
+        joints_text += buf;
       }
+      std::printf("note: the teacher %s fits the logged rows of joint %s ten times better or more than its "
+                  "student: there it is likely the more accurate model, with a slower query (%s; "
+                  "docs/training.md)\n",
+                  o.teacher->name.c_str(), joints_text.c_str(),
+                  teacher_written ? ("written to " + a.teacher_out).c_str()
+                                  : "--teacher-out FILE writes it beside the student");
     }
-    if (teacher_written) std::printf("saved the teacher's %s model to %s\n", r.teacher->name().c_str(), a.teacher_out.c_str());
-    const InverseDynamicsModel* gp = r.estimator->gp_model();
-    if (gp && gp->is_sparse())
-      std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
-                  static_cast<long>(gp->num_data_rows()),
-                  gp->num_training_samples() < o.gp.inducing_points
-                      ? " (fewer than asked: the rest would add no direction to the kernel's feature space)"
-                      : "");
-    std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a.out.c_str());
-    std::fflush(stdout);
-    print_warnings(data_warnings);
-    if (r.teacher_report && r.teaching == TeachingOutcome::Taught) {  // a teaching not kept has no say in the model
-      std::vector<std::string> lines = r.teacher_report->warnings();
-      for (auto& w : lines) w = "teacher " + o.teacher->name + ": " + w;
-      print_warnings(lines);
-    }
-    print_warnings(r.report.warnings());
-    if (r.teaching_check && r.teaching == TeachingOutcome::Taught) {
-      const std::string w = r.teaching_check->warning(o.teacher->name);
-      if (!w.empty()) print_warnings({w});
-    }
+  }
+  if (teacher_written) std::printf("saved the teacher's %s model to %s\n", r.teacher->name().c_str(), a.teacher_out.c_str());
+  const InverseDynamicsModel* gp = r.estimator->gp_model();
+  if (gp && gp->is_sparse())
+    std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
+                static_cast<long>(gp->num_data_rows()),
+                gp->num_training_samples() < o.gp.inducing_points
+                    ? " (fewer than asked: the rest would add no direction to the kernel's feature space)"
+                    : "");
+  std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a.out.c_str());
+  std::fflush(stdout);
+  print_warnings(data_warnings);
+  if (r.teacher_report && r.teaching == TeachingOutcome::Taught) {  // a teaching not kept has no say in the model
+    std::vector<std::string> lines = r.teacher_report->warnings();
+    for (auto& w : lines) w = "teacher " + o.teacher->name + ": " + w;
+    print_warnings(lines);
+  }
+  print_warnings(r.report.warnings());
+  if (r.teaching_check && r.teaching == TeachingOutcome::Taught) {
+    const std::string w = r.teaching_check->warning(o.teacher->name);
+    if (!w.empty()) print_warnings({w});
   }
 }
 
@@ -313,9 +313,10 @@ Command add_train(CLI::App& app) {
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
       "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
       "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by "
-      "LIP\"). auto: for --kernel gip without --inducing, --warm-start-rows, --mean, --robot or --distributed, lip on a "
-      "log of at most 14000 values (rows x joints), kept only if the taught model fits the log as LIP does (on a "
-      "real robot's log it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
+      "LIP\"). auto: lip " + std::string(kAutomaticTeachingConditions) + " on a log of at most " +
+          std::to_string(TeacherOptions{}.automatic_max_log_values) +
+          " values (rows x joints), kept only if the taught model fits the log as LIP does (on a real robot's log "
+          "it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")
       ->capture_default_str()
       ->group(kTeacherOptions);
   app.add_option("--teacher-states", a->teacher_states,

@@ -1,7 +1,5 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 
-#include <algorithm>
-
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
@@ -19,9 +17,8 @@ std::unique_ptr<Estimator> read_estimator(const ModelContainer& c, const std::st
   try {
     kind = c.header.value("estimator", "gp");  // format 1 files hold GP models only
     if (kind == "gp") return std::make_unique<GpEstimator>(model_from_container(c, what));
-    const auto& names = estimator_names();
-    if (std::find(names.begin(), names.end(), kind) != names.end()) {
-      switch (estimator_spec(kind).family) {
+    if (const EstimatorSpec* spec = find_estimator_spec(kind)) {
+      switch (spec->family) {
         case EstimatorFamily::Lagrangian:
           return std::make_unique<LagrangianEstimator>(LagrangianEstimator::from_container(c, what));
         case EstimatorFamily::Fisherian:

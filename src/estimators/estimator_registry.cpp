@@ -80,9 +80,14 @@ std::vector<std::string> estimator_names_where(bool (*keep)(const EstimatorSpec&
   return names;
 }
 
-const EstimatorSpec& estimator_spec(const std::string& name) {
+const EstimatorSpec* find_estimator_spec(const std::string& name) {
   for (const EstimatorSpec& e : estimator_table())
-    if (e.name == name) return e;
+    if (e.name == name) return &e;
+  return nullptr;
+}
+
+const EstimatorSpec& estimator_spec(const std::string& name) {
+  if (const EstimatorSpec* e = find_estimator_spec(name)) return *e;
   require_one_of(name, estimator_names(), "estimator");  // throws, listing the names
   throw Error("estimator '" + name + "' is not in the estimator table");
 }

@@ -6,8 +6,6 @@
 #include <optional>
 #include <string>
 
-#include <algorithm>
-
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/detail/json_numbers.hpp"
 #include "gipdyn/training_data.hpp"
@@ -159,10 +157,9 @@ std::optional<TeacherOptions> choose_teacher(const std::string& choice, const Es
     settings.mode = TeachingMode::Automatic;
     return settings;
   }
-  const auto& names = estimator_names();
-  if (std::find(names.begin(), names.end(), choice) == names.end())
+  if (!find_estimator_spec(choice))
     throw Error("unknown teacher '" + choice + "'; choose " + std::string(kAutomaticTeacher) + ", " + kNoTeacher +
-                " or one of: " + joined(names));
+                " or one of: " + joined(estimator_names()));
   settings.name = choice;
   settings.mode = TeachingMode::Always;
   return settings;

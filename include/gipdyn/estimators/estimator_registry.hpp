@@ -44,6 +44,8 @@ struct EstimatorSpec {
 
 // Every estimator, the GP kernels first.
 const std::vector<EstimatorSpec>& estimator_table();
+// The row of `name`, or null where no estimator has that name.
+const EstimatorSpec* find_estimator_spec(const std::string& name);
 // The row of `name`; throws gipdyn::Error listing the valid names otherwise.
 const EstimatorSpec& estimator_spec(const std::string& name);
 // The table's names, in order; those whose row satisfies `keep`.
