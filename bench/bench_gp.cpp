@@ -217,7 +217,7 @@ const InverseDynamicsModel& quick_model(int robot, int N, const std::string& ker
   const Problem& p = problem(robot, N);
   TrainOptions o;
   o.kernel = kernel;
-  o.optimizer.max_iterations = 3;  // latency does not depend on the hyperparameter values
+  o.search.optimizer.max_iterations = 3;  // latency does not depend on the hyperparameter values
   TrainResult r = train_model(p.X, p.Y, p.joints, o);
   return cache.emplace(std::make_tuple(robot, N, kernel), std::move(r.model)).first->second;
 }
@@ -305,8 +305,8 @@ void BM_AddOneSampleSparse(benchmark::State& state) {
   const int robot = static_cast<int>(state.range(0)), N = static_cast<int>(state.range(1));
   const Problem& p = problem(robot, N);
   TrainOptions o;
-  o.inducing_points = static_cast<int>(state.range(2));
-  o.optimizer.max_iterations = 3;  // the cost does not depend on the hyperparameter values
+  o.sparse.inducing_points = static_cast<int>(state.range(2));
+  o.search.optimizer.max_iterations = 3;  // the cost does not depend on the hyperparameter values
   InverseDynamicsModel m = train_model(p.X, p.Y, p.joints, o).model.with_variance();
   const Problem& stream = problem(robot, 1000);
   Eigen::Index row = 0;
@@ -324,7 +324,7 @@ void BM_Train(benchmark::State& state) {
   std::vector<int> per_joint(p.joints.size(), 0);
   for (auto _ : state) {
     TrainOptions o;  // the defaults: gip, L-BFGS to convergence, joints in parallel
-    o.keep_factor = false;
+    o.gp.keep_factor = false;
     const TrainResult r = train_model(p.X, p.Y, p.joints, o);
     if (!r.report.ok()) state.SkipWithError(r.report.message.c_str());
     for (std::size_t j = 0; j < r.report.joints.size() && j < per_joint.size(); ++j) {

@@ -18,7 +18,7 @@ inline std::unique_ptr<Estimator> fit_on_scara(const std::string& name, const Si
                                                bool robot_friction = false) {
   EstimatorOptions o;
   o.name = name;
-  o.gp.optimizer.max_iterations = 100;
+  o.search.optimizer.max_iterations = 100;
   if (estimator_needs_robot(name)) o.robot_prior = {std::make_shared<const RobotModel>(scara_robot()), robot_friction};
   FitResult r = fit_estimator(o, d.X, d.tau, scara_robot().joint_types());
   EXPECT_TRUE(r.report.ok()) << r.report.message;

@@ -38,7 +38,7 @@ Trained train_and_save(const std::string& kernel) {
   const Eigen::MatrixXd X = test::random_inputs(joints, 120, 71);
   TrainOptions o;
   o.kernel = kernel;
-  o.optimizer.max_iterations = 40;
+  o.search.optimizer.max_iterations = 40;
   TrainResult r = train_model(X, test::two_link_torques(X) + 0.01 * test::random_matrix(120, 2, -1.0, 1.0, 901), joints, o);
   EXPECT_TRUE(r.report.ok()) << r.report.message;
   const std::string path = temp_file(kernel + ".gipdyn").string();
@@ -181,7 +181,7 @@ TEST(CApi, EveryEstimatorPredictsAsTheCppApi) {
     EstimatorOptions o;
     o.name = c.name;
     o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
-    o.gp.optimizer.max_iterations = 15;
+    o.search.optimizer.max_iterations = 15;
     o.nn.epochs = 3;
     const bool lip = c.name == "lip";
     const Eigen::MatrixXd X = lip ? Eigen::MatrixXd(sim.X.topRows(60)) : sim.X;

@@ -124,10 +124,10 @@ TEST(DistributedNll, TrainingGivesTheSingleProcessModel) {
   for (const int max_evaluations : {12, 300}) {
     const double tol = max_evaluations == 12 ? 1e-8 : 1e-4;
     TrainOptions o;
-    o.keep_factor = false;
-    o.threads = 1;
-    o.optimizer.max_iterations = max_evaluations;
-    o.min_noise_fraction = 1e-3;
+    o.gp.keep_factor = false;
+    o.search.threads = 1;
+    o.search.optimizer.max_iterations = max_evaluations;
+    o.search.min_noise_fraction = 1e-3;
     const TrainResult single = train_model(X, Y, joints, o);
     ASSERT_TRUE(single.report.ok()) << single.report.message;
     o.nll_backend = std::make_shared<DistributedNll>(MPI_COMM_WORLD, 16);
@@ -145,10 +145,10 @@ TEST(DistributedNll, TrainingGivesTheSingleProcessModel) {
     }
   }
   TrainOptions o;
-  o.keep_factor = false;
+  o.gp.keep_factor = false;
   o.nll_backend = std::make_shared<DistributedNll>(MPI_COMM_WORLD, 16);
   // A warm start stays in the process, the rest is collective.
-  o.warm_start_rows = 40;
+  o.gp.warm_start_rows = 40;
   const TrainResult warm = train_model(X, Y, joints, o);
   ASSERT_TRUE(warm.report.ok()) << warm.report.message;
   EXPECT_GT(warm.report.joints[0].warm_start_evaluations, 0);
@@ -162,7 +162,7 @@ TEST(DistributedNll, EveryProcessRefusesDataTheyDisagreeOn) {
   if (rank == world_size() - 1) X(17, 2) += 1e-9;  // one value on one process
   const Eigen::MatrixXd Y = test::two_link_torques(X);
   TrainOptions o;
-  o.keep_factor = false;
+  o.gp.keep_factor = false;
   o.nll_backend = std::make_shared<DistributedNll>(MPI_COMM_WORLD);
   const std::string error = test::error_of([&] { train_model(X, Y, joints, o); });
   EXPECT_NE(error.find("different training data"), std::string::npos) << error;
@@ -174,11 +174,11 @@ TEST(DistributedNll, OptionsThatCannotBeDistributedAreRefused) {
   const Eigen::MatrixXd Y = test::two_link_torques(X);
   TrainOptions o;
   o.nll_backend = std::make_shared<DistributedNll>(MPI_COMM_WORLD);
-  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); }).find("TrainOptions::keep_factor"),
+  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); }).find("GpOptions::keep_factor"),
             std::string::npos);
-  o.keep_factor = false;
-  o.inducing_points = 20;
-  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); }).find("TrainOptions::inducing_points"),
+  o.gp.keep_factor = false;
+  o.sparse.inducing_points = 20;
+  EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); }).find("SparseOptions::inducing_points"),
             std::string::npos);
 }
 

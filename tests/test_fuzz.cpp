@@ -106,7 +106,7 @@ TEST(Fuzz, ModelFiles) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = test::random_inputs(joints, 15, 4);
   TrainOptions o;
-  o.optimizer.max_iterations = 3;
+  o.search.optimizer.max_iterations = 3;
   const TrainResult r = train_model(X, test::two_link_torques(X), joints, o);
   ASSERT_TRUE(r.report.ok());
   const std::string bytes = serialize_model(r.model);

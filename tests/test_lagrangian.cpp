@@ -4,6 +4,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <functional>
 #include <map>
 #include <mutex>
 #include <set>
@@ -21,6 +22,7 @@
 #include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/training_data.hpp"
 #include "test_util.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 namespace {
@@ -272,7 +274,7 @@ TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {
   const SimulationResult train = small_scara(1, 60), test = small_scara(2, 10);
   EstimatorOptions o;
   o.name = "lip";
-  o.gp.optimizer.max_iterations = 30;
+  o.search.optimizer.max_iterations = 30;
   const FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   ASSERT_EQ(r.report.joints.size(), 4u);
@@ -310,8 +312,8 @@ TEST(LagrangianEstimator, SerialChainInertiaIgnoresEarlierJointsAndIsSaved) {
   auto fit = [&](bool serial_chain) {
     EstimatorOptions o;
     o.name = "lip";
-    o.gp.optimizer.max_iterations = 30;
-    o.gp.serial_chain = serial_chain;
+    o.search.optimizer.max_iterations = 30;
+    o.serial_chain = serial_chain;
     FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
     EXPECT_TRUE(r.report.ok()) << r.report.message;
     return r;
@@ -377,7 +379,7 @@ TEST(LagrangianEstimator, ScaraModelAnswersInWeightSpaceWithTheKernelSumsTorques
     SCOPED_TRACE(name);
     EstimatorOptions o;
     o.name = name;
-    o.gp.optimizer.max_iterations = 30;
+    o.search.optimizer.max_iterations = 30;
     const FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
     ASSERT_TRUE(r.report.ok()) << r.report.message;
     const auto& model = dynamic_cast<const LagrangianEstimator&>(*r.estimator);
@@ -409,7 +411,7 @@ TEST(LagrangianEstimator, WithFrictionSavesAndLoadsAndKeepsFrictionOutOfTheEnerg
   const SimulationResult train = simulate(scara_robot(), so), test = small_scara(2, 10);
   EstimatorOptions o;
   o.name = "lip+friction";
-  o.gp.optimizer.max_iterations = 30;
+  o.search.optimizer.max_iterations = 30;
   const FitResult r = fit_estimator(o, train.X, train.tau, JointTypes::parse("RRPR"));
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   ASSERT_EQ(r.estimator->name(), "lip+friction");
@@ -440,13 +442,13 @@ TEST(LagrangianEstimator, WithFrictionSavesAndLoadsAndKeepsFrictionOutOfTheEnerg
 TEST(LagrangianEstimator, HyperparametersFromASubsampleConditionOnEveryRow) {
   const SimulationResult train = small_scara(3, 90), test = small_scara(4, 10);
   const JointTypes joints = JointTypes::parse("RRPR");
-  TrainOptions o;
-  o.optimizer.max_iterations = 30;
-  o.hyperparameter_rows = 30;
+  LagrangianOptions o;
+  o.search.optimizer.max_iterations = 30;
+  o.search.hyperparameter_rows = 30;
   const auto full = LagrangianEstimator::fit(train.X, train.tau, joints, o);
   ASSERT_TRUE(full.report.ok()) << full.report.message;
   const std::vector<Eigen::Index> rows = constant_step_indices(90, 30);
-  o.hyperparameter_rows = 0;
+  o.search.hyperparameter_rows = 0;
   const auto sub = LagrangianEstimator::fit(train.X(rows, Eigen::all), train.tau(rows, Eigen::all), joints, o);
   ASSERT_TRUE(sub.report.ok()) << sub.report.message;
   const LagrangianEstimator& m = *full.estimator;
@@ -490,16 +492,16 @@ TEST(LagrangianEstimator, HyperparametersFromASubsampleConditionOnEveryRow) {
 }
 
 // The starts (three noise levels plus the restarts) run side by side on
-// TrainOptions::threads threads, and the kept optimum, every start's NLL and
+// SearchSettings::threads threads, and the kept optimum, every start's NLL and
 // the evaluation count are those of the starts run one after another.
 TEST(LagrangianEstimator, StartsRunSideBySideWithTheSequentialResult) {
   const SimulationResult train = small_scara(5, 40), test = small_scara(6, 10);
   const JointTypes joints = JointTypes::parse("RRPR");
-  TrainOptions o;
-  o.optimizer.max_iterations = 25;
-  o.restarts = 2;
+  LagrangianOptions o;
+  o.search.optimizer.max_iterations = 25;
+  o.search.restarts = 2;
   auto fit_on = [&](int threads, std::set<std::thread::id>& ids, std::set<int>& restarts) {
-    o.threads = threads;
+    o.search.threads = threads;
     std::mutex mu;
     return LagrangianEstimator::fit(train.X, train.tau, joints, o, [&](const ProgressEvent& e) {
       const std::lock_guard<std::mutex> lock(mu);
@@ -529,8 +531,8 @@ TEST(LagrangianEstimator, StartsRunSideBySideWithTheSequentialResult) {
 // of that fit once, with each joint's own noise, not once per joint.
 TEST(LagrangianEstimator, ReportsItsOneCoupledFitOnce) {
   const SimulationResult train = small_scara(5, 40);
-  TrainOptions o;
-  o.optimizer.max_iterations = 5;
+  LagrangianOptions o;
+  o.search.optimizer.max_iterations = 5;
   const auto fit = LagrangianEstimator::fit(train.X, train.tau, JointTypes::parse("RRPR"), o);
   ASSERT_TRUE(fit.report.ok()) << fit.report.message;
   ASSERT_EQ(fit.report.joints.size(), 4u);
@@ -568,17 +570,17 @@ TEST(LagrangianEstimator, ScreenedStartsContinueOnlyTheLeaderOnItsOwnPath) {
   const SimulationResult train = small_scara(5, 40);
   const JointTypes joints = JointTypes::parse("RRPR");
   constexpr int kBudget = 10;
-  TrainOptions o;
-  o.optimizer.max_iterations = 400;
-  o.restarts = 2;
+  LagrangianOptions o;
+  o.search.optimizer.max_iterations = 400;
+  o.search.restarts = 2;
   struct Run {
     LagrangianEstimator::FitOutcome fit;
     std::map<int, int> last_iteration;
     std::map<int, double> best_within_budget;
   };
   auto fit_with = [&](int screening, int threads) {
-    o.start_screening_evaluations = screening;
-    o.threads = threads;
+    o.search.start_screening_evaluations = screening;
+    o.search.threads = threads;
     Run run;
     std::mutex mu;
     run.fit = LagrangianEstimator::fit(train.X, train.tau, joints, o, [&](const ProgressEvent& e) {
@@ -621,19 +623,27 @@ TEST(LagrangianEstimator, ScreenedStartsContinueOnlyTheLeaderOnItsOwnPath) {
 TEST(LagrangianEstimator, RefusesOptionsItCannotHonourAndBadInput) {
   const SimulationResult train = small_scara(1, 20);
   const JointTypes joints = JointTypes::parse("RRPR");
-  TrainOptions o;
-  o.warm_start_rows = 10;
-  EXPECT_NE(test::error_of([&] { LagrangianEstimator::fit(train.X, train.tau, joints, o); }).find("warm_start_rows"),
+  LagrangianOptions o;
+  o.search.restarts = -1;
+  EXPECT_NE(test::error_of([&] { LagrangianEstimator::fit(train.X, train.tau, joints, o); }).find("SearchSettings::restarts"),
             std::string::npos);
-  o = TrainOptions();
-  o.mean = MeanKind::Constant;
-  EXPECT_NE(test::error_of([&] { LagrangianEstimator::fit(train.X, train.tau, joints, o); }).find("mean"),
-            std::string::npos);
-  o = TrainOptions();
+  // The per-joint GPs' settings that would change the model are refused, not ignored.
+  for (const auto& [set, field] : std::vector<std::pair<std::function<void(EstimatorOptions&)>, std::string>>{
+           {[](EstimatorOptions& e) { e.gp.mean = MeanKind::Constant; }, "GpOptions::mean"},
+           {[](EstimatorOptions& e) { e.gp.prior.enabled = true; }, "GpOptions::prior"},
+           {[](EstimatorOptions& e) { e.gp.warm_start_rows = 10; }, "GpOptions::warm_start_rows"},
+           {[](EstimatorOptions& e) { e.sparse.inducing_points = 10; }, "SparseOptions::inducing_points"}}) {
+    EstimatorOptions e;
+    e.name = "lip";
+    set(e);
+    EXPECT_NE(test::error_of([&] { fit_estimator(e, train.X, train.tau, joints); }).find(field), std::string::npos)
+        << field;
+  }
+  o = LagrangianOptions();
   Eigen::MatrixXd bad = train.X;
   bad(3, 2) = std::nan("");
   EXPECT_FALSE(test::error_of([&] { LagrangianEstimator::fit(bad, train.tau, joints, o); }).empty());
-  o.optimizer.max_iterations = 5;
+  o.search.optimizer.max_iterations = 5;
   const auto fitted = LagrangianEstimator::fit(train.X, train.tau, joints, o);
   ASSERT_TRUE(fitted.report.ok());
   EXPECT_NE(test::error_of([&] { fitted.estimator->predict(train.X.leftCols(6)); }).find("12 expected"),

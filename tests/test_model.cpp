@@ -33,6 +33,7 @@
 #include "gipdyn/version.hpp"
 #include "gipdyn/progress.hpp"
 #include "test_util.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 namespace {
@@ -61,8 +62,8 @@ InverseDynamicsModel small_model(const std::string& kernel, int rows, unsigned s
   const Eigen::MatrixXd X = random_inputs(joints, rows, seed);
   TrainOptions o;
   o.kernel = kernel;
-  o.mean = mean;
-  o.optimizer.max_iterations = max_iter;
+  o.gp.mean = mean;
+  o.search.optimizer.max_iterations = max_iter;
   // Measurement noise keeps the model well conditioned, as on real data; with
   // noise-free data the noise variance sits at its floor and alpha is huge.
   const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * test::random_matrix(rows, 2, -1.0, 1.0, 909);
@@ -96,19 +97,19 @@ TEST(Training, SameSeedSameModelWhateverTheThreads) {
   const Eigen::MatrixXd X = random_inputs(joints, 60, 43);
   const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * test::random_matrix(60, 2, -1.0, 1.0, 910);
   TrainOptions o;
-  o.optimizer.max_iterations = 30;
-  o.restarts = 2;
-  o.seed = 5;
-  o.threads = 1;
+  o.search.optimizer.max_iterations = 30;
+  o.search.restarts = 2;
+  o.search.seed = 5;
+  o.search.threads = 1;
   const TrainResult a = train_model(X, Y, joints, o);
-  o.threads = 2;
+  o.search.threads = 2;
   const TrainResult b = train_model(X, Y, joints, o);
   ASSERT_TRUE(a.report.ok() && b.report.ok());
   for (int j = 0; j < 2; ++j) {
     EXPECT_EQ(a.model.joint_gp(j).kernel().log_params(), b.model.joint_gp(j).kernel().log_params());
     EXPECT_EQ(a.report.joints[static_cast<size_t>(j)].restart_nlls.size(), 3u);
   }
-  o.seed = 6;
+  o.search.seed = 6;
   const TrainResult c = train_model(X, Y, joints, o);
   EXPECT_NE(a.report.joints[0].restart_nlls[1], c.report.joints[0].restart_nlls[1]);  // restarts depend on the seed
 }
@@ -122,7 +123,7 @@ TEST(Training, EveryJointTrainsAtOnceByDefault) {
   const Eigen::MatrixXd X = random_inputs(joints, 300, 44);
   const Eigen::MatrixXd Y = test::random_matrix(300, 3, -1.0, 1.0, 911);
   TrainOptions o;
-  o.optimizer.max_iterations = 30;
+  o.search.optimizer.max_iterations = 30;
   std::mutex m;
   std::map<int, std::set<std::thread::id>> threads_of_joint;
   const TrainResult a = train_model(X, Y, joints, o, [&](const ProgressEvent& e) {
@@ -140,7 +141,7 @@ TEST(Training, EveryJointTrainsAtOnceByDefault) {
   EXPECT_EQ(gipdyn::sharing_threads(0, 6), 6);
   EXPECT_EQ(gipdyn::sharing_threads(2, 6), 2);
   // The same model as one joint after another.
-  o.threads = 1;
+  o.search.threads = 1;
   const TrainResult b = train_model(X, Y, joints, o);
   for (int j = 0; j < 3; ++j)
     EXPECT_EQ(a.model.joint_gp(j).kernel().log_params(), b.model.joint_gp(j).kernel().log_params());
@@ -152,9 +153,9 @@ TEST(Training, EveryJointTrainsAtOnceByDefault) {
 TEST(Training, SaysHowManyJointsTrainAtOnce) {
   TrainOptions o;
   EXPECT_EQ(joints_trained_at_once(o, 300, 3), 3);
-  o.threads = 2;
+  o.search.threads = 2;
   EXPECT_EQ(joints_trained_at_once(o, 300, 3), 2);
-  o.threads = 0;
+  o.search.threads = 0;
   // Two N x N matrices a joint: at this N one joint takes two thirds of the memory.
   const double available = static_cast<double>(gipdyn::available_memory_bytes());
   const auto rows = static_cast<Eigen::Index>(std::sqrt(available / 1.5 / 16.0));
@@ -171,8 +172,8 @@ TEST(Training, LeavesTheCallersFloatingPointModeAsItWas) {
   const Eigen::MatrixXd X = random_inputs(joints, 40, 44);
   const Eigen::MatrixXd Y = two_link_torques(X);
   TrainOptions o;
-  o.optimizer.max_iterations = 10;
-  o.threads = 1;
+  o.search.optimizer.max_iterations = 10;
+  o.search.threads = 1;
   const unsigned before = _mm_getcsr();
   ASSERT_EQ(before & 0x8040u, 0u);
   EXPECT_TRUE(train_model(X, Y, joints, o).report.ok());
@@ -215,14 +216,14 @@ TEST(Training, AdamLowersTheNll) {
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = random_inputs(joints, 50, 44);
   TrainOptions o;
-  o.optimizer.kind = OptimizerKind::Adam;
-  o.optimizer.max_iterations = 60;
-  o.optimizer.adam_learning_rate = 0.05;
+  o.search.optimizer.kind = OptimizerKind::Adam;
+  o.search.optimizer.max_iterations = 60;
+  o.search.optimizer.adam_learning_rate = 0.05;
   std::vector<double> first(2, 0.0);
   ProgressCallback cb = [&](const ProgressEvent& p) {
     if (p.iteration == 1 && !p.finished) first[static_cast<size_t>(p.joint)] = p.objective;
   };
-  o.threads = 1;
+  o.search.threads = 1;
   const TrainResult r = train_model(X, two_link_torques(X), joints, o, cb);
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   for (int j = 0; j < 2; ++j) EXPECT_LT(r.report.joints[static_cast<size_t>(j)].nll, first[static_cast<size_t>(j)] - 10.0);
@@ -233,7 +234,7 @@ TEST(Training, ReportsEachJointsStopAndWarnsAboutTheCap) {
   const Eigen::MatrixXd X = random_inputs(joints, 40, 44);
   const Eigen::MatrixXd Y = two_link_torques(X) + 0.01 * test::random_matrix(40, 2, -1.0, 1.0, 911);
   TrainOptions o;
-  o.optimizer.max_iterations = 3;  // far too few: every joint stops at the cap
+  o.search.optimizer.max_iterations = 3;  // far too few: every joint stops at the cap
   const TrainResult r = train_model(X, Y, joints, o);
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   EXPECT_EQ(r.report.status, FitStatus::NotConverged);
@@ -262,7 +263,7 @@ TEST(Training, NamesJointsWhoseFitCallsTheTorqueNoise) {
   Y.col(1) *= 1e-3;
   Y += 0.05 * test::random_matrix(80, 2, -1.0, 1.0, 49);
   TrainOptions o;
-  o.scaling = OutputScaling::None;
+  o.gp.scaling = OutputScaling::None;
   const TrainResult r = train_model(X, Y, joints, o);
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   for (int j = 0; j < 2; ++j) {
@@ -301,7 +302,7 @@ TEST(FitReport, SaysWhenTheJitterSmoothsTheModelBeyondItsNoise) {
   EXPECT_EQ(jitter[1].rfind("joint 2 needed a jitter of 8.7 on the kernel diagonal, 8.7e+04 times the noise", 0), 0u)
       << jitter[1];
   EXPECT_NE(jitter[1].find("smoothed more than its data ask"), std::string::npos) << jitter[1];
-  EXPECT_NE(jitter[1].find("TrainOptions::min_noise_fraction"), std::string::npos) << jitter[1];
+  EXPECT_NE(jitter[1].find("SearchSettings::min_noise_fraction"), std::string::npos) << jitter[1];
 }
 
 TEST(Training, RejectsBadData) {
@@ -324,12 +325,12 @@ TEST(Training, OptionErrorsNameTheFieldAndFrontEndsRenameIt) {
     std::string field;
   };
   const std::vector<Case> cases{
-      {[](TrainOptions& o) { o.restarts = -1; }, "TrainOptions::restarts"},
-      {[](TrainOptions& o) { o.min_noise_fraction = -1; }, "TrainOptions::min_noise_fraction"},
-      {[](TrainOptions& o) { o.threads = -2; }, "TrainOptions::threads"},
-      {[](TrainOptions& o) { o.optimizer.max_iterations = 0; }, "OptimizerOptions::max_iterations"},
-      {[](TrainOptions& o) { o.optimizer.lbfgs_memory = 0; }, "OptimizerOptions::lbfgs_memory"},
-      {[](TrainOptions& o) { o.prior.width = 0; }, "HyperparameterPrior::width"},
+      {[](TrainOptions& o) { o.search.restarts = -1; }, "SearchSettings::restarts"},
+      {[](TrainOptions& o) { o.search.min_noise_fraction = -1; }, "SearchSettings::min_noise_fraction"},
+      {[](TrainOptions& o) { o.search.threads = -2; }, "SearchSettings::threads"},
+      {[](TrainOptions& o) { o.search.optimizer.max_iterations = 0; }, "OptimizerOptions::max_iterations"},
+      {[](TrainOptions& o) { o.search.optimizer.lbfgs_memory = 0; }, "OptimizerOptions::lbfgs_memory"},
+      {[](TrainOptions& o) { o.gp.prior.width = 0; }, "HyperparameterPrior::width"},
       {[](TrainOptions& o) { o.kernel = "pp"; }, "TrainOptions::robot_prior"},
   };
   for (const auto& c : cases) {
@@ -339,11 +340,11 @@ TEST(Training, OptionErrorsNameTheFieldAndFrontEndsRenameIt) {
     EXPECT_NE(message.find(c.field), std::string::npos) << message;
     EXPECT_EQ(message.find("--"), std::string::npos) << message;
   }
-  const FieldNames cli{{"TrainOptions::min_noise_fraction", "--min-noise"},
-                       {"TrainOptions::initial_noise_fraction", "--initial-noise"},
+  const FieldNames cli{{"SearchSettings::min_noise_fraction", "--min-noise"},
+                       {"SearchSettings::initial_noise_fraction", "--initial-noise"},
                        {"TrainOptions::min", "WRONG"}};
   TrainOptions o;
-  o.min_noise_fraction = 0.5;  // above the initial fraction: the message names both fields
+  o.search.min_noise_fraction = 0.5;  // above the initial fraction: the message names both fields
   EXPECT_EQ(rename_fields(error_of([&] { o.validate(); }), cli),
             "--min-noise must be > 0 and not above --initial-noise (0.010000)");
   // A replacement is never rewritten again, even when it contains another field's name.
@@ -519,7 +520,7 @@ TEST(EnvelopeKernel, KeepsInRangeAccuracyAndRevertsToThePriorFarAway) {
   const Eigen::MatrixXd Xtr = random_inputs(joints, 300, 91), Xte = random_inputs(joints, 500, 92);
   const Eigen::MatrixXd Ytr = torques(Xtr) + 0.01 * test::random_vector(300, -1, 1, 93).replicate(1, 2);
   TrainOptions o;
-  o.keep_factor = true;
+  o.gp.keep_factor = true;
   o.kernel = "gip";
   const TrainResult gip = train_model(Xtr, Ytr, joints, o);
   o.kernel = "gip-envelope";
@@ -582,8 +583,8 @@ TEST(MeanFunction, DecidesTheExtrapolationOfALocalKernel) {
   auto fit = [&](MeanKind mean) {
     TrainOptions o;
     o.kernel = "rbf";
-    o.scaling = OutputScaling::None;
-    o.mean = mean;
+    o.gp.scaling = OutputScaling::None;
+    o.gp.mean = mean;
     TrainResult r = train_model(X, Y, joints, o);
     EXPECT_TRUE(r.report.ok()) << r.report.message;
     return std::move(r.model);

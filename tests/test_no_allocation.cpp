@@ -124,7 +124,7 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
     const Eigen::MatrixXd Y = test::random_matrix(80, 4, -1.0, 1.0, 912);
     TrainOptions o;
     o.kernel = kernel;
-    o.optimizer.max_iterations = 5;
+    o.search.optimizer.max_iterations = 5;
     TrainResult r = train_model(X, Y, joints, o);
     ASSERT_TRUE(r.report.ok()) << r.report.message;
     PredictionWorkspace ws(r.model);
@@ -155,7 +155,7 @@ TEST(NoAllocation, ModelBasedKernelQueriesUseOneRegressorAndDoNotAllocate) {
     TrainOptions o;
     o.kernel = kernel;
     o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
-    o.optimizer.max_iterations = 5;
+    o.search.optimizer.max_iterations = 5;
     TrainResult r = train_model(X, Y, joints, o);
     ASSERT_TRUE(r.report.ok()) << r.report.message;
     PredictionWorkspace ws(r.model);
@@ -209,7 +209,7 @@ TEST(NoAllocation, CApiQueriesDoNotAllocate) {
   const JointTypes joints = JointTypes::parse("RRPR");
   const Eigen::MatrixXd X = test::random_inputs(joints, 80, 63);
   TrainOptions o;
-  o.optimizer.max_iterations = 5;
+  o.search.optimizer.max_iterations = 5;
   TrainResult r = train_model(X, test::random_matrix(80, 4, -1.0, 1.0, 913), joints, o);
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   const std::string path =
@@ -322,7 +322,7 @@ TEST(NoAllocation, CApiLagrangianAndFisherianQueriesDoNotAllocate) {
     const Eigen::MatrixXd X = test::random_inputs(joints, rows, 65);
     EstimatorOptions o;
     o.name = name;
-    o.gp.optimizer.max_iterations = 5;
+    o.search.optimizer.max_iterations = 5;
     o.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara"));
     const FitResult fitted =
         fit_estimator(o, X, test::random_matrix(rows, joints.size(), -1.0, 1.0, 915), joints);

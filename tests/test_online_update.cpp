@@ -26,9 +26,9 @@ Eigen::MatrixXd noisy_torques(const Eigen::MatrixXd& X, unsigned seed) {
 
 InverseDynamicsModel trained(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, MeanKind mean = MeanKind::Zero) {
   TrainOptions o;
-  o.optimizer.max_iterations = 60;
-  o.threads = 1;
-  o.mean = mean;
+  o.search.optimizer.max_iterations = 60;
+  o.search.threads = 1;
+  o.gp.mean = mean;
   TrainResult r = train_model(X, Y, kJoints, o);
   EXPECT_TRUE(r.report.ok()) << r.report.message;
   return std::move(r.model);
@@ -123,7 +123,7 @@ TEST(OnlineUpdate, RefitStartsFromTheCurrentHyperparametersAndOnlyImproves) {
   const InverseDynamicsModel base = trained(s.X.topRows(60), s.Y.topRows(60));
   const InverseDynamicsModel moved = base.updated(s.X.bottomRows(60), 1.5 * s.Y.bottomRows(60), 60);
   TrainOptions o;
-  o.threads = 1;
+  o.search.threads = 1;
   const TrainResult refit = refit_model(moved, o);
   ASSERT_TRUE(refit.report.ok()) << refit.report.message;
   EXPECT_EQ(refit.model.num_training_samples(), 60);
@@ -147,13 +147,13 @@ TEST(OnlineUpdate, RefitStartsFromTheCurrentHyperparametersAndOnlyImproves) {
   const double err_base = (base.predict(Xq) - 1.5 * two_link_torques(Xq)).squaredNorm();
   EXPECT_LT(err, 0.01 * err_base);
   TrainOptions sparse_options;
-  sparse_options.inducing_points = 20;
-  sparse_options.threads = 1;
+  sparse_options.sparse.inducing_points = 20;
+  sparse_options.search.threads = 1;
   const TrainResult sparse = train_model(s.X, s.Y, kJoints, sparse_options);
   ASSERT_TRUE(sparse.report.ok());
   EXPECT_NE(error_of([&] { refit_model(sparse.model, o); }).find("sparse"), std::string::npos);
-  o.initial_log_params = {Eigen::VectorXd::Zero(3), Eigen::VectorXd::Zero(3)};
-  EXPECT_NE(error_of([&] { train_model(s.X, s.Y, kJoints, o); }).find("TrainOptions::initial_log_params of joint 1 needs"),
+  o.gp.initial_log_params = {Eigen::VectorXd::Zero(3), Eigen::VectorXd::Zero(3)};
+  EXPECT_NE(error_of([&] { train_model(s.X, s.Y, kJoints, o); }).find("GpOptions::initial_log_params of joint 1 needs"),
             std::string::npos);
 }
 

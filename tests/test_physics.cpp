@@ -15,6 +15,7 @@
 #include "gipdyn/sim/simulate.hpp"
 #include "scara_fit.hpp"
 #include "test_util.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 using namespace gipdyn;
 using test::error_of;
@@ -308,7 +309,7 @@ TEST(Physics, ModelsWithoutTheStructureAreRefused) {
   const SimulationResult train = scara_data(11, 60, 0.01, false);
   EstimatorOptions o;
   o.name = "rbf";
-  o.gp.optimizer.max_iterations = 5;
+  o.search.optimizer.max_iterations = 5;
   const FitResult r = fit_estimator(o, train.X, train.tau, scara_robot().joint_types());
   ASSERT_TRUE(r.report.ok());
   const Eigen::MatrixXd Q = train.X.leftCols(4);

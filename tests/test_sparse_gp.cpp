@@ -226,7 +226,7 @@ TEST(SparseGp, AddingRowsOnlineEqualsTheBatchFitOnAllRows) {
   EXPECT_NE(error_of([&] { exact.add_rows_sparse(Zm, p.Z.topRows(2), p.y.head(2)); }).find("sparse"), std::string::npos);
 }
 
-// TrainOptions::hyperparameter_rows: the optimiser sees a constant-step
+// SearchSettings::hyperparameter_rows: the optimiser sees a constant-step
 // subsample, the model every row. For the exact and the sparse GP: the weights
 // are those of every row at the learned hyperparameters, and the learned
 // hyperparameters are an optimum of the subsample's objective: the exact NLL,
@@ -246,10 +246,10 @@ TEST(HyperparameterRows, LearnOnASubsampleAndConditionOnEveryRow) {
                        Case{40, HyperparameterObjective::Exact}}) {
     const std::string label = "inducing " + std::to_string(c.inducing) + " objective " + to_string(c.objective);
     TrainOptions o;
-    o.hyperparameter_rows = 80;
-    o.inducing_points = c.inducing;
-    o.hyperparameter_objective = c.objective;
-    o.min_noise_fraction = 1e-4;  // keeps the optimum away from the noise bound
+    o.search.hyperparameter_rows = 80;
+    o.sparse.inducing_points = c.inducing;
+    o.sparse.hyperparameter_objective = c.objective;
+    o.search.min_noise_fraction = 1e-4;  // keeps the optimum away from the noise bound
     const TrainResult r = train_model(X, Y, joints, o);
     ASSERT_TRUE(r.report.ok()) << r.report.message;
     const InverseDynamicsModel& m = r.model;
@@ -286,7 +286,7 @@ TEST(HyperparameterRows, LearnOnASubsampleAndConditionOnEveryRow) {
       EXPECT_LT((alpha - gp.alpha()).norm(), 1e-8 * gp.alpha().norm()) << label << " joint " << j;
       // The reported gradient is the subsample objective's, so that is the one optimised.
       const Eigen::VectorXd& g = on_subsample.gradient;
-      const double noise_floor = o.min_noise_fraction * y.squaredNorm() / static_cast<double>(y.size());
+      const double noise_floor = o.search.min_noise_fraction * y.squaredNorm() / static_cast<double>(y.size());
       const bool pushed_into_floor = g(P) > 0 && jr.noise_variance <= noise_floor * (1 + 1e-9);
       const double projected = std::max(g.head(P).cwiseAbs().maxCoeff(), pushed_into_floor ? 0.0 : std::abs(g(P)));
       EXPECT_NEAR(jr.grad_norm, projected, 1e-8) << label << " joint " << j;
@@ -311,13 +311,13 @@ TEST(HyperparameterRows, LearnOnASubsampleAndConditionOnEveryRow) {
     }
   }
   TrainOptions exact_on_all_rows;
-  exact_on_all_rows.inducing_points = 40;
-  exact_on_all_rows.hyperparameter_objective = HyperparameterObjective::Exact;
-  EXPECT_NE(error_of([&] { train_model(X, Y, joints, exact_on_all_rows); }).find("TrainOptions::hyperparameter_rows"),
+  exact_on_all_rows.sparse.inducing_points = 40;
+  exact_on_all_rows.sparse.hyperparameter_objective = HyperparameterObjective::Exact;
+  EXPECT_NE(error_of([&] { train_model(X, Y, joints, exact_on_all_rows); }).find("SearchSettings::hyperparameter_rows"),
             std::string::npos);
   TrainOptions bad;
-  bad.hyperparameter_rows = 3;
-  EXPECT_NE(error_of([&] { train_model(X, Y, joints, bad); }).find("TrainOptions::hyperparameter_rows"),
+  bad.search.hyperparameter_rows = 3;
+  EXPECT_NE(error_of([&] { train_model(X, Y, joints, bad); }).find("SearchSettings::hyperparameter_rows"),
             std::string::npos);
 }
 

@@ -50,12 +50,12 @@ TEST(Teacher, SaysWhichFitsLearnOnTheLogWithAnExactGp) {
   o.name = "rbf";  // short, but automatic teaching is for gip only: rbf learns from the log
   EXPECT_FALSE(teaches(o, 8000, 1));
   EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 8000);
-  o.gp.hyperparameter_rows = 2000;
+  o.search.hyperparameter_rows = 2000;
   EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 2000);
-  o.gp.hyperparameter_rows = 0;
-  o.gp.inducing_points = 300;
+  o.search.hyperparameter_rows = 0;
+  o.sparse.inducing_points = 300;
   EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 0);
-  o.gp.inducing_points = 0;
+  o.sparse.inducing_points = 0;
   for (const char* other : {"pp", "lip", "nn", "fe"}) {
     o.name = other;
     EXPECT_EQ(exact_hyperparameter_rows(o, 8000, 1), 0) << other;
@@ -74,7 +74,7 @@ TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledWithTheTeachersTorques) {
   o.states = 400;
   o.hyperparameter_rows = 0;
   o.seed = 5;
-  const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  const TeachingSet set = teach(o, EstimatorOptions{}, X, Y, kTwoLink);
   ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
   ASSERT_TRUE(set.teacher);
   EXPECT_EQ(set.teacher->name(), "lip");
@@ -107,11 +107,11 @@ TEST(Teacher, DrawsSeededStatesInTheLogsBoxLabelledWithTheTeachersTorques) {
   }
 
   // The same seed draws the same states and labels; another seed others.
-  const TeachingSet again = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  const TeachingSet again = teach(o, EstimatorOptions{}, X, Y, kTwoLink);
   EXPECT_TRUE(again.X == set.X);
   EXPECT_TRUE(again.Y == set.Y);
   o.seed = 6;
-  const TeachingSet other = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  const TeachingSet other = teach(o, EstimatorOptions{}, X, Y, kTwoLink);
   EXPECT_GT((other.X - set.X).cwiseAbs().maxCoeff(), 0.1);
 }
 
@@ -123,7 +123,7 @@ TEST(Teacher, AJointWhoseLoggedTorqueNeverChangesIsLabelledWithThatTorque) {
   Y.col(1).setConstant(0.25);
   TeacherOptions o;
   o.states = 100;
-  const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  const TeachingSet set = teach(o, EstimatorOptions{}, X, Y, kTwoLink);
   ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
   EXPECT_TRUE((set.Y.col(1).array() == 0.25).all());
   EXPECT_EQ(set.student_noise_std_floor(1), 0.0) << "a constant is known exactly";
@@ -140,7 +140,7 @@ TEST(Teacher, AJointWhoseTorqueTheTeacherCallsNoiseIsLabelledWithItsLoggedMean) 
   Y.col(1) = test::with_noise(Eigen::MatrixXd::Constant(X.rows(), 1, 0.25), 0.01, 3);
   TeacherOptions o;
   o.states = 100;
-  const TeachingSet set = teach(o, TrainOptions{}, X, Y, kTwoLink);
+  const TeachingSet set = teach(o, EstimatorOptions{}, X, Y, kTwoLink);
   ASSERT_TRUE(set.teacher_report.ok()) << set.teacher_report.message;
   const double variance = (Y.col(1).array() - Y.col(1).mean()).square().mean();
   EXPECT_GE(set.label_noise_std(1) * set.label_noise_std(1), kTeacherNoiseShareForMeanLabels * variance)
@@ -327,7 +327,7 @@ TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {
   const Eigen::MatrixXd X = two_link_trajectory(80, 0.1, 11);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
   EstimatorOptions o;
-  o.gp.optimizer.max_iterations = 30;
+  o.search.optimizer.max_iterations = 30;
   o.teacher = TeacherOptions{};
   o.teacher->hyperparameter_rows = 0;
   o.teacher->states = 300;
@@ -346,12 +346,12 @@ TEST(Teacher, TheStudentLearnsItsHyperparametersOnASubsampleOfTheDrawnStates) {
     return r.report.joints.at(0).hyperparameter_rows;
   };
   EXPECT_EQ(student_rows(), 120);
-  o.gp.hyperparameter_rows = 150;  // the student's own option wins
+  o.search.hyperparameter_rows = 150;  // the student's own option wins
   EXPECT_EQ(student_rows(), 150);
-  o.gp.hyperparameter_rows = 0;
+  o.search.hyperparameter_rows = 0;
   o.teacher->student_hyperparameter_rows = 0;  // every drawn state
   EXPECT_EQ(student_rows(), 0);
-  EXPECT_EQ(TeacherOptions{}.student_train_options(TrainOptions{}).hyperparameter_rows, 500);
+  EXPECT_EQ(TeacherOptions{}.student_search(SearchSettings{}).hyperparameter_rows, 500);
 }
 
 TEST(Teacher, AutomaticTeachingIsForTheGipKernelsExactGpAlone) {
@@ -364,7 +364,7 @@ TEST(Teacher, AutomaticTeachingIsForTheGipKernelsExactGpAlone) {
   };
   EXPECT_TRUE(refused([](EstimatorOptions& c) { c.name = "rbf"; }));
   EXPECT_TRUE(refused([](EstimatorOptions& c) { c.name = "gip-envelope+friction"; }));
-  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.gp.inducing_points = 100; }));
+  EXPECT_TRUE(refused([](EstimatorOptions& c) { c.sparse.inducing_points = 100; }));
   EXPECT_TRUE(refused([](EstimatorOptions& c) { c.gp.warm_start_rows = 100; }));
   EXPECT_TRUE(refused([](EstimatorOptions& c) { c.gp.mean = MeanKind::Linear; }));
   EXPECT_TRUE(refused([](EstimatorOptions& c) { c.robot_prior.robot = std::make_shared<const RobotModel>(load_robot("scara")); }));
@@ -373,7 +373,7 @@ TEST(Teacher, AutomaticTeachingIsForTheGipKernelsExactGpAlone) {
   const Eigen::MatrixXd X = two_link_trajectory(60, 0.1, 11);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 12);
   o.name = "rbf";
-  o.gp.optimizer.max_iterations = 20;
+  o.search.optimizer.max_iterations = 20;
   const FitResult own = fit_estimator(o, X, Y, kTwoLink);
   o.teacher = TeacherOptions{};
   o.teacher->mode = TeachingMode::Automatic;
@@ -398,56 +398,60 @@ TEST(Teacher, AutomaticTeachingIsForTheGipKernelsExactGpAlone) {
 // Every search setting of the student reaches the teacher; what describes the
 // student's own model does not.
 TEST(Teacher, TheTeacherSearchesAsTheStudentDoesForItsOwnModel) {
-  TrainOptions student;
-  student.kernel = "gip-friction";
-  student.optimizer.max_iterations = 77;
-  student.optimizer.lbfgs_memory = 13;
-  student.gradient_tolerance_per_row = 3e-6;
-  student.restarts = 2;
-  student.restart_spread = 0.5;
-  student.seed = 41;
-  student.initial_noise_fraction = 0.05;
-  student.min_noise_fraction = 1e-6;
-  student.jitter.max_relative = 1e-3;
-  student.threads = 3;
+  EstimatorOptions student;
+  student.name = "gip-friction";
+  student.search.optimizer.max_iterations = 77;
+  student.search.optimizer.lbfgs_memory = 13;
+  student.search.gradient_tolerance_per_row = 3e-6;
+  student.search.restarts = 2;
+  student.search.restart_spread = 0.5;
+  student.search.seed = 41;
+  student.search.initial_noise_fraction = 0.05;
+  student.search.min_noise_fraction = 1e-6;
+  student.search.jitter.max_relative = 1e-3;
+  student.search.threads = 3;
   student.serial_chain = false;
-  student.start_screening_evaluations = 25;
-  student.scaling = OutputScaling::None;
-  student.mean = MeanKind::Linear;
-  student.prior.enabled = true;
-  student.warm_start_rows = 100;
-  student.inducing_points = 50;
-  student.hyperparameter_objective = HyperparameterObjective::Exact;
-  student.noise_std_floor = Eigen::VectorXd::Ones(4);
-  student.initial_log_params = {Eigen::VectorXd::Zero(3)};
+  student.search.start_screening_evaluations = 25;
+  student.gp.scaling = OutputScaling::None;
+  student.gp.mean = MeanKind::Linear;
+  student.gp.prior.enabled = true;
+  student.gp.warm_start_rows = 100;
+  student.sparse.inducing_points = 50;
+  student.sparse.hyperparameter_objective = HyperparameterObjective::Exact;
+  student.gp.noise_std_floor = Eigen::VectorXd::Ones(4);
+  student.gp.initial_log_params = {Eigen::VectorXd::Zero(3)};
   student.robot_prior.robot = std::make_shared<const RobotModel>(scara_robot());
+  student.nll_backend = std::make_shared<InProcessNll>(MeanFunction(MeanKind::Zero, 12), Eigen::MatrixXd());
   TeacherOptions t;
   t.hyperparameter_rows = 123;
-  const TrainOptions o = t.teacher_train_options(student);
-  EXPECT_EQ(o.kernel, t.name);
-  EXPECT_EQ(o.hyperparameter_rows, 123);
-  EXPECT_FALSE(o.keep_factor);
-  EXPECT_EQ(o.optimizer.max_iterations, 77);
-  EXPECT_EQ(o.optimizer.lbfgs_memory, 13);
-  EXPECT_EQ(o.gradient_tolerance_per_row, 3e-6);
-  EXPECT_EQ(o.restarts, 2);
-  EXPECT_EQ(o.restart_spread, 0.5);
-  EXPECT_EQ(o.seed, 41u);
-  EXPECT_EQ(o.initial_noise_fraction, 0.05);
-  EXPECT_EQ(o.min_noise_fraction, 1e-6);
-  EXPECT_EQ(o.jitter.max_relative, 1e-3);
-  EXPECT_EQ(o.threads, 3);
+  const EstimatorOptions o = teacher_estimator_options(t, student);
+  EXPECT_EQ(o.name, t.name);
+  EXPECT_EQ(o.search.hyperparameter_rows, 123);
+  EXPECT_FALSE(o.gp.keep_factor);
+  EXPECT_EQ(o.search.optimizer.max_iterations, 77);
+  EXPECT_EQ(o.search.optimizer.lbfgs_memory, 13);
+  EXPECT_EQ(o.search.gradient_tolerance_per_row, 3e-6);
+  EXPECT_EQ(o.search.restarts, 2);
+  EXPECT_EQ(o.search.restart_spread, 0.5);
+  EXPECT_EQ(o.search.seed, 41u);
+  EXPECT_EQ(o.search.initial_noise_fraction, 0.05);
+  EXPECT_EQ(o.search.min_noise_fraction, 1e-6);
+  EXPECT_EQ(o.search.jitter.max_relative, 1e-3);
+  EXPECT_EQ(o.search.threads, 3);
   EXPECT_FALSE(o.serial_chain);
-  EXPECT_EQ(o.start_screening_evaluations, 25);
-  const TrainOptions defaults;
-  EXPECT_EQ(o.scaling, defaults.scaling);
-  EXPECT_EQ(o.mean, defaults.mean);
-  EXPECT_EQ(o.prior.enabled, defaults.prior.enabled);
-  EXPECT_EQ(o.warm_start_rows, defaults.warm_start_rows);
-  EXPECT_EQ(o.inducing_points, defaults.inducing_points);
-  EXPECT_EQ(o.hyperparameter_objective, defaults.hyperparameter_objective);
-  EXPECT_EQ(o.noise_std_floor.size(), 0);
-  EXPECT_TRUE(o.initial_log_params.empty());
+  EXPECT_EQ(o.search.start_screening_evaluations, 25);
+  EXPECT_EQ(o.nn.seed, 41u);
+  EXPECT_EQ(o.chain.seed, 41u);
+  EXPECT_EQ(o.chain.threads, 3);
+  const EstimatorOptions defaults;
+  EXPECT_EQ(o.gp.scaling, defaults.gp.scaling);
+  EXPECT_EQ(o.gp.mean, defaults.gp.mean);
+  EXPECT_EQ(o.gp.prior.enabled, defaults.gp.prior.enabled);
+  EXPECT_EQ(o.gp.warm_start_rows, defaults.gp.warm_start_rows);
+  EXPECT_EQ(o.sparse.inducing_points, defaults.sparse.inducing_points);
+  EXPECT_EQ(o.sparse.hyperparameter_objective, defaults.sparse.hyperparameter_objective);
+  EXPECT_EQ(o.gp.noise_std_floor.size(), 0);
+  EXPECT_TRUE(o.gp.initial_log_params.empty());
   EXPECT_EQ(o.robot_prior.robot, nullptr);
   EXPECT_EQ(o.nll_backend, nullptr);
 }
@@ -477,7 +481,7 @@ TEST(Teacher, BadOptionsAreNamedBeforeAnyWork) {
   o.teacher->name = "lap";
   EXPECT_NE(test::error_of([&] { fit_estimator(o, X, Y, kTwoLink); }).find("lip"), std::string::npos);
   o.teacher->name = "lip";
-  EXPECT_NE(test::error_of([&] { teach(*o.teacher, TrainOptions{}, X, Y.leftCols(1), kTwoLink); }), "");
+  EXPECT_NE(test::error_of([&] { teach(*o.teacher, EstimatorOptions{}, X, Y.leftCols(1), kTwoLink); }), "");
 }
 
 }  // namespace

@@ -38,12 +38,12 @@ Eigen::MatrixXd test_states() { return two_link_trajectory(400, 0.25, 99); }
 
 TEST(TrainingQuality, DefaultFitsConvergeByTheirStoppingRuleNotTheCap) {
   TrainOptions o;
-  o.threads = 1;
+  o.search.threads = 1;
   const Fit f = fit_and_test(two_link_trajectory(400, 0.1, 1), o, test_states());
   for (const JointReport& j : f.result.report.joints) {
     EXPECT_EQ(j.status, OptimizerResult::Status::Converged) << "joint " << j.joint + 1 << ": " << j.message;
-    EXPECT_LT(j.evaluations, o.optimizer.max_iterations);
-    EXPECT_LE(j.grad_norm, o.gradient_tolerance_per_row * 400);
+    EXPECT_LT(j.evaluations, o.search.optimizer.max_iterations);
+    EXPECT_LE(j.grad_norm, o.search.gradient_tolerance_per_row * 400);
   }
   EXPECT_EQ(f.result.report.status, FitStatus::Converged);
 }
@@ -52,7 +52,7 @@ TEST(TrainingQuality, DefaultFitsConvergeByTheirStoppingRuleNotTheCap) {
 // along the same trajectory may cost a little (another optimum), not a factor.
 TEST(TrainingQuality, DoublingTheDataAlongTheTrajectoryDoesNotHurt) {
   TrainOptions o;
-  o.threads = 1;
+  o.search.threads = 1;
   const Eigen::MatrixXd trajectory = two_link_trajectory(800, 0.15, 2);
   const Eigen::MatrixXd Xtest = test_states();
   double previous = 0.0;
@@ -69,13 +69,13 @@ TEST(TrainingQuality, DoublingTheDataAlongTheTrajectoryDoesNotHurt) {
 
 TEST(TrainingQuality, RestartsWithDifferentSeedsReachTheSameNll) {
   TrainOptions o;
-  o.threads = 1;
-  o.restarts = 2;
-  o.warm_start_rows = 0;
+  o.search.threads = 1;
+  o.search.restarts = 2;
+  o.gp.warm_start_rows = 0;
   const Eigen::MatrixXd X = two_link_trajectory(300, 0.1, 3);
-  o.seed = 1;
+  o.search.seed = 1;
   const Fit a = fit_and_test(X, o, test_states());
-  o.seed = 2;
+  o.search.seed = 2;
   const Fit b = fit_and_test(X, o, test_states());
   for (int j = 0; j < 2; ++j) {
     const double na = a.result.report.joints[static_cast<size_t>(j)].nll;
@@ -92,9 +92,9 @@ TEST(TrainingQuality, RestartsWithDifferentSeedsReachTheSameNll) {
 TEST(TrainingQuality, ScreenedRestartsContinueOnlyTheLeaderOnItsOwnPath) {
   constexpr int kBudget = 10;
   TrainOptions o;
-  o.threads = 1;
-  o.restarts = 3;
-  o.restart_spread = 1.0;
+  o.search.threads = 1;
+  o.search.restarts = 3;
+  o.search.restart_spread = 1.0;
   const JointTypes joints = JointTypes::parse("RR");
   const Eigen::MatrixXd X = two_link_trajectory(200, 0.1, 5);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 8);
@@ -104,7 +104,7 @@ TEST(TrainingQuality, ScreenedRestartsContinueOnlyTheLeaderOnItsOwnPath) {
     std::map<std::pair<int, int>, double> best_within_budget;  // (joint, restart)
   };
   auto fit_with = [&](int screening) {
-    o.start_screening_evaluations = screening;
+    o.search.start_screening_evaluations = screening;
     Run run;
     run.fit = train_model(X, Y, joints, o, [&](const ProgressEvent& e) {
       if (e.finished || e.iteration <= 0) return;
@@ -126,14 +126,14 @@ TEST(TrainingQuality, ScreenedRestartsContinueOnlyTheLeaderOnItsOwnPath) {
                       &s = screened.fit.report.joints[static_cast<size_t>(j)];
     double lead = std::numeric_limits<double>::infinity();
     int leader = -1;
-    for (int r = 0; r <= o.restarts; ++r) {
+    for (int r = 0; r <= o.search.restarts; ++r) {
       const double at_budget = full.best_within_budget.at({j, r});
       if (at_budget < lead) {
         lead = at_budget;
         leader = r;
       }
     }
-    for (int r = 0; r <= o.restarts; ++r) {
+    for (int r = 0; r <= o.search.restarts; ++r) {
       if (r == leader) {
         EXPECT_EQ(screened.last_iteration.at({j, r}), full.last_iteration.at({j, r})) << "joint " << j << " start " << r;
         EXPECT_EQ(s.restart_nlls[static_cast<size_t>(r)], f.restart_nlls[static_cast<size_t>(r)]);
@@ -155,15 +155,15 @@ TEST(TrainingQuality, ScreenedRestartsContinueOnlyTheLeaderOnItsOwnPath) {
 
 TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {
   TrainOptions o;
-  o.threads = 1;
+  o.search.threads = 1;
   // At the default 1e-5 this noise-free-like 2R problem ends in a line-search
   // stall at rounding level (reported as such); 1e-4 is the rule this test was
   // written for, and warm and cold must meet it alike.
-  o.gradient_tolerance_per_row = 1e-4;
+  o.search.gradient_tolerance_per_row = 1e-4;
   const Eigen::MatrixXd X = two_link_trajectory(800, 0.15, 4);
-  o.warm_start_rows = 0;
+  o.gp.warm_start_rows = 0;
   const Fit cold = fit_and_test(X, o, test_states());
-  o.warm_start_rows = 200;
+  o.gp.warm_start_rows = 200;
   const Fit warm = fit_and_test(X, o, test_states());
   for (int j = 0; j < 2; ++j) {
     const JointReport& c = cold.result.report.joints[static_cast<size_t>(j)];
@@ -182,10 +182,10 @@ TEST(TrainingQuality, WarmStartReachesTheColdStartsOptimum) {
 // online rows (no window).
 TEST(TrainingQuality, SparseGpMatchesTheExactGpAndSurvivesItsModelFile) {
   TrainOptions o;
-  o.threads = 1;
+  o.search.threads = 1;
   const Eigen::MatrixXd X = two_link_trajectory(800, 0.15, 5);
   const Fit exact = fit_and_test(X, o, test_states());
-  o.inducing_points = 100;
+  o.sparse.inducing_points = 100;
   const Fit sparse = fit_and_test(X, o, test_states());
   ASSERT_TRUE(sparse.result.report.ok());
   const InverseDynamicsModel& m = sparse.result.model;
@@ -243,16 +243,16 @@ TEST(TrainingQuality, SparseGpMatchesTheExactGpAndSurvivesItsModelFile) {
 
 TEST(TrainingQuality, BadSparseOptionsAreNamed) {
   TrainOptions o;
-  o.inducing_points = -1;
-  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::inducing_points"), std::string::npos);
-  o.inducing_points = 10;
-  o.mean = MeanKind::Constant;
-  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::mean"), std::string::npos);
-  o.mean = MeanKind::Zero;
-  o.inducing_points = 61;
+  o.sparse.inducing_points = -1;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("SparseOptions::inducing_points"), std::string::npos);
+  o.sparse.inducing_points = 10;
+  o.gp.mean = MeanKind::Constant;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("GpOptions::mean"), std::string::npos);
+  o.gp.mean = MeanKind::Zero;
+  o.sparse.inducing_points = 61;
   const Eigen::MatrixXd X = two_link_trajectory(60, 0.1, 6);
   const std::string e = test::error_of([&] { train_model(X, two_link_torques(X), JointTypes::parse("RR"), o); });
-  EXPECT_NE(e.find("TrainOptions::inducing_points (61) exceeds the 60 training rows"), std::string::npos) << e;
+  EXPECT_NE(e.find("SparseOptions::inducing_points (61) exceeds the 60 training rows"), std::string::npos) << e;
 }
 
 // Where the targets are known to be no more precise than a floor (a teacher's
@@ -264,45 +264,45 @@ TEST(TrainingQuality, AKnownNoiseFloorBoundsTheLearnedNoise) {
   const Eigen::MatrixXd X = two_link_trajectory(150, 0.15, 3);
   const Eigen::MatrixXd Y = test::with_noise(two_link_torques(X), 0.01, 4);
   TrainOptions o;
-  o.threads = 1;
+  o.search.threads = 1;
   const auto learned_noise_std = [&](const TrainResult& r, int j) {
     const double sd = std::sqrt((Y.col(j).array() - Y.col(j).mean()).square().mean());
     return std::sqrt(r.report.joints[static_cast<size_t>(j)].noise_variance) * sd;
   };
   const TrainResult free = train_model(X, Y, joints, o);
   ASSERT_TRUE(free.report.ok()) << free.report.message;
-  o.noise_std_floor = Eigen::Vector2d(0.05, 0.0);
+  o.gp.noise_std_floor = Eigen::Vector2d(0.05, 0.0);
   const TrainResult floored = train_model(X, Y, joints, o);
   ASSERT_TRUE(floored.report.ok()) << floored.report.message;
   EXPECT_LT(learned_noise_std(free, 0), 0.03) << "the data's noise is 0.01: the floor must be what binds";
   EXPECT_NEAR(learned_noise_std(floored, 0), 0.05, 1e-9);
   EXPECT_EQ(floored.report.joints[1].noise_variance, free.report.joints[1].noise_variance) << "no floor on joint 2";
-  o.noise_std_floor = Eigen::Vector2d(1e3, 0.0);  // far above the torque's standard deviation
+  o.gp.noise_std_floor = Eigen::Vector2d(1e3, 0.0);  // far above the torque's standard deviation
   const TrainResult noise_only = train_model(X, Y, joints, o);
   ASSERT_TRUE(noise_only.report.ok()) << noise_only.report.message;
   EXPECT_NEAR(noise_only.report.joints[0].noise_variance, 1.0, 1e-9) << "the whole (scaled) variance";
 
-  o.noise_std_floor = Eigen::Vector3d(0.01, 0.01, 0.01);
+  o.gp.noise_std_floor = Eigen::Vector3d(0.01, 0.01, 0.01);
   EXPECT_NE(test::error_of([&] { train_model(X, Y, joints, o); })
-                .find("TrainOptions::noise_std_floor needs one value per joint (2)"),
+                .find("GpOptions::noise_std_floor needs one value per joint (2)"),
             std::string::npos);
-  o.noise_std_floor = Eigen::Vector2d(0.01, -1.0);
-  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::noise_std_floor must hold finite values >= 0"),
+  o.gp.noise_std_floor = Eigen::Vector2d(0.01, -1.0);
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("GpOptions::noise_std_floor must hold finite values >= 0"),
             std::string::npos);
 }
 
 TEST(TrainingQuality, BadConvergenceOptionsAreNamed) {
   TrainOptions o;
-  o.warm_start_rows = -1;
-  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::warm_start_rows"), std::string::npos);
+  o.gp.warm_start_rows = -1;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("GpOptions::warm_start_rows"), std::string::npos);
   o = TrainOptions();
-  o.start_screening_evaluations = -1;
-  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::start_screening_evaluations"), std::string::npos);
+  o.search.start_screening_evaluations = -1;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("SearchSettings::start_screening_evaluations"), std::string::npos);
   o = TrainOptions();
-  o.gradient_tolerance_per_row = -1e-3;
-  EXPECT_NE(test::error_of([&] { o.validate(); }).find("TrainOptions::gradient_tolerance_per_row"), std::string::npos);
+  o.search.gradient_tolerance_per_row = -1e-3;
+  EXPECT_NE(test::error_of([&] { o.validate(); }).find("SearchSettings::gradient_tolerance_per_row"), std::string::npos);
   o = TrainOptions();
-  o.optimizer.f_relative_tolerance = -1.0;
+  o.search.optimizer.f_relative_tolerance = -1.0;
   EXPECT_NE(test::error_of([&] { o.validate(); }).find("OptimizerOptions::f_relative_tolerance"), std::string::npos);
 }
 

@@ -167,34 +167,34 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   auto given = [app](const char* flag) {
     return !app || (app->get_option_no_throw(flag) != nullptr && app->count(flag) > 0);
   };
-  if (given("--optimizer")) o.gp.optimizer.kind = parse_optimizer(optimizer);
-  if (given("--max-iter")) o.gp.optimizer.max_iterations = max_iter;
-  if (given("--lbfgs-memory")) o.gp.optimizer.lbfgs_memory = lbfgs_memory;
-  if (given("--lr")) o.gp.optimizer.adam_learning_rate = learning_rate;
-  if (given("--restarts")) o.gp.restarts = restarts;
+  if (given("--optimizer")) o.search.optimizer.kind = parse_optimizer(optimizer);
+  if (given("--max-iter")) o.search.optimizer.max_iterations = max_iter;
+  if (given("--lbfgs-memory")) o.search.optimizer.lbfgs_memory = lbfgs_memory;
+  if (given("--lr")) o.search.optimizer.adam_learning_rate = learning_rate;
+  if (given("--restarts")) o.search.restarts = restarts;
   if (given("--warm-start-rows")) o.gp.warm_start_rows = warm_start_rows;
-  if (given("--inducing")) o.gp.inducing_points = inducing;
-  if (given("--hyperparameter-rows")) o.gp.hyperparameter_rows = hyperparameter_rows;
+  if (given("--inducing")) o.sparse.inducing_points = inducing;
+  if (given("--hyperparameter-rows")) o.search.hyperparameter_rows = hyperparameter_rows;
   if (given("--hyperparameter-objective"))
-    o.gp.hyperparameter_objective = parse_hyperparameter_objective(hyperparameter_objective);
-  if (given("--gradient-tolerance")) o.gp.gradient_tolerance_per_row = gradient_tolerance;
+    o.sparse.hyperparameter_objective = parse_hyperparameter_objective(hyperparameter_objective);
+  if (given("--gradient-tolerance")) o.search.gradient_tolerance_per_row = gradient_tolerance;
   if (given("--seed")) {
-    o.gp.seed = seed;
+    o.search.seed = seed;
     o.nn.seed = seed;
     o.chain.seed = seed;
   }
   if (given("--scaling")) o.gp.scaling = parse_output_scaling(scaling);
   if (given("--mean")) o.gp.mean = parse_mean_kind(mean);
-  if (given("--min-noise")) o.gp.min_noise_fraction = min_noise;
+  if (given("--min-noise")) o.search.min_noise_fraction = min_noise;
   if (given("--threads")) {
-    o.gp.threads = threads;
+    o.search.threads = threads;
     o.chain.threads = threads;
   }
   if (given("--chain-starts")) o.chain.starts = chain.starts;
   if (given("--chain-rows")) o.chain.rows = chain.rows;
   if (given("--chain-length-scale")) o.chain.length_scale = chain.length_scale;
-  if (given("--no-serial-chain")) o.gp.serial_chain = !no_serial_chain;
-  if (given("--start-screening")) o.gp.start_screening_evaluations = start_screening;
+  if (given("--no-serial-chain")) o.serial_chain = !no_serial_chain;
+  if (given("--start-screening")) o.search.start_screening_evaluations = start_screening;
   if (given("--prior") || given("--prior-width")) o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
   if (given("--nn-epochs")) o.nn.epochs = nn.epochs;
   if (given("--nn-batch")) o.nn.batch_size = nn.batch_size;

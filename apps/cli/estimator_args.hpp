@@ -14,16 +14,16 @@ struct EstimatorArgs {
   double prior_width = 2.0;
   // Library defaults, so that --help shows what the library does.
   int max_iter = OptimizerOptions{}.max_iterations, lbfgs_memory = OptimizerOptions{}.lbfgs_memory;
-  int restarts = TrainOptions{}.restarts, threads = 0;
-  int warm_start_rows = TrainOptions{}.warm_start_rows, inducing = TrainOptions{}.inducing_points;
-  int hyperparameter_rows = TrainOptions{}.hyperparameter_rows;
-  std::string hyperparameter_objective = to_string(TrainOptions{}.hyperparameter_objective);
-  double gradient_tolerance = TrainOptions{}.gradient_tolerance_per_row;
+  int restarts = SearchSettings{}.restarts, threads = 0;
+  int warm_start_rows = GpOptions{}.warm_start_rows, inducing = SparseOptions{}.inducing_points;
+  int hyperparameter_rows = SearchSettings{}.hyperparameter_rows;
+  std::string hyperparameter_objective = to_string(SparseOptions{}.hyperparameter_objective);
+  double gradient_tolerance = SearchSettings{}.gradient_tolerance_per_row;
   std::uint64_t seed = 0;
   double min_noise = 1e-8, learning_rate = 0.01;
   bool robot_friction = false;
   bool no_serial_chain = false;
-  int start_screening = TrainOptions{}.start_screening_evaluations;
+  int start_screening = SearchSettings{}.start_screening_evaluations;
   NeuralNetworkOptions nn;
   ChainIdentificationOptions chain;
 

@@ -44,7 +44,7 @@ using Subcommand = std::pair<CLI::App*, Command>;
 Subcommand add_accuracy(CLI::App& app, const std::shared_ptr<bool>& quiet, const std::string& estimator_help) {
   struct AccuracyArgs {
     AccuracyConfig config;
-    std::string estimators = "fe,pp,sp,gip,rbf,nn";
+    std::string estimators = joined(paper_accuracy_estimators(), ",");
     EstimatorArgs est;
   };
   auto acc = std::make_shared<AccuracyArgs>();
@@ -81,7 +81,7 @@ Subcommand add_accuracy(CLI::App& app, const std::shared_ptr<bool>& quiet, const
 Subcommand add_data_efficiency(CLI::App& app, const std::shared_ptr<bool>& quiet, const std::string& estimator_help) {
   struct EfficiencyArgs {
     DataEfficiencyConfig config;
-    std::string estimators = "gip,rbf,nn,pp", sizes = "100,200,500,1000,2000,4000";
+    std::string estimators = joined(paper_data_efficiency_estimators(), ","), sizes = "100,200,500,1000,2000,4000";
     EstimatorArgs est;
   };
   auto eff = std::make_shared<EfficiencyArgs>();
@@ -174,7 +174,7 @@ Subcommand add_real(CLI::App& app, const std::shared_ptr<bool>& quiet, const std
     }
     if (!real->sizes.empty()) c.sizes = parse_int_list(real->sizes, "--sizes", "100,200,500");
     c.base = base_options(real->est);
-    c.base.gp.seed = real->est.seed;
+    c.base.search.seed = real->est.seed;
     return report(run_real_robot_experiment(c, printer(*quiet)), *quiet);
   }};
 }

@@ -1,6 +1,6 @@
 #pragma once
 // The command line's names for the library's fields: library errors name
-// `TrainOptions::min_noise_fraction`, the user typed `--min-noise`.
+// `SearchSettings::min_noise_fraction`, the user typed `--min-noise`.
 #include <string>
 #include <vector>
 

@@ -11,7 +11,7 @@
 #include "distributed_run.hpp"
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
-#include "gipdyn/io/model_container.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 #include "gipdyn/version.hpp"
 
 namespace {

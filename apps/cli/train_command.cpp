@@ -65,14 +65,14 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
       throw Error("--distributed trains the exact GP of a GP kernel (" +
                   joined(kernel_names()) +
                   "), not '" + o.name + "'");
-    o.gp.nll_backend = mpi->backend();
+    o.nll_backend = mpi->backend();
   }
   const bool automatic = a.teacher == kAutomaticTeacher;
   TeacherOptions settings;
   settings.states = a.teacher_states;
   settings.hyperparameter_rows = a.teacher_hyperparameter_rows;
   settings.student_hyperparameter_rows = a.student_hyperparameter_rows;
-  settings.seed = o.gp.seed;
+  settings.seed = o.search.seed;
   o.teacher = choose_teacher(a.teacher, o, settings);
   const bool teaches = o.teacher.has_value();
   // The teacher's options where no teacher teaches: left over beside --teacher none, but a
@@ -113,16 +113,16 @@ void print_plan(const TrainArgs& a, const TrainPlan& plan, const DistributedRun*
   if (!a.preset.empty()) std::printf(" (preset %s)", a.preset.c_str());
   if (is_kernel_estimator(o.name))
     std::printf(", optimizer %s (max %d), %d restart(s)", a.estimator.optimizer.c_str(),
-                o.gp.optimizer.max_iterations, o.gp.restarts);
-  if (is_kernel_estimator(o.name) && o.gp.inducing_points > 0)
-    std::printf(", sparse GP with %d inducing rows", o.gp.inducing_points);
+                o.search.optimizer.max_iterations, o.search.restarts);
+  if (is_kernel_estimator(o.name) && o.sparse.inducing_points > 0)
+    std::printf(", sparse GP with %d inducing rows", o.sparse.inducing_points);
   if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());
-  if (mpi) std::printf(", distributed over %s", o.gp.nll_backend->describe().c_str());
+  if (mpi) std::printf(", distributed over %s", o.nll_backend->describe().c_str());
   if (o.teacher && !o.teacher->teaches(data.rows(), joints.size())) {
     std::printf(", no teacher (%ld values: longer than the %ld that --teacher auto teaches)",
                 static_cast<long>(data.rows() * joints.size()), o.teacher->automatic_max_log_values);
   } else if (o.teacher) {
-    const int student_rows = o.teacher->student_train_options(o.gp).hyperparameter_rows;
+    const int student_rows = o.teacher->student_search(o.search).hyperparameter_rows;
     std::printf(", taught by %s (hyperparameters on %s rows) at %d states drawn from the log's box "
                 "(the student's hyperparameters on %s of them)",
                 o.teacher->name.c_str(),
@@ -210,7 +210,7 @@ void print_outcome(const TrainArgs& a, const TrainPlan& plan, const FitResult& r
   if (gp && gp->is_sparse())
     std::printf("sparse GP: %d inducing rows for %ld training rows%s\n", gp->num_training_samples(),
                 static_cast<long>(gp->num_data_rows()),
-                gp->num_training_samples() < o.gp.inducing_points
+                gp->num_training_samples() < o.sparse.inducing_points
                     ? " (fewer than asked: the rest would add no direction to the kernel's feature space)"
                     : "");
   std::printf("saved %s model to %s\n", r.estimator->name().c_str(), a.out.c_str());
@@ -247,9 +247,9 @@ int run_train(TrainArgs& a, const CLI::App& app) {
   const Dataset& data = plan.data;
   std::mutex mu;
   ProgressCallback progress;
-  LongFitNotice notice(joints.size(), joints_trained_at_once(o.gp, data.rows(), joints.size()));
+  LongFitNotice notice(joints.size(), joints_trained_at_once(o.train_options(), data.rows(), joints.size()));
   if (!a.quiet) {
-    progress = [&mu, &notice, sparse = o.gp.inducing_points > 0](const ProgressEvent& e) {
+    progress = [&mu, &notice, sparse = o.sparse.inducing_points > 0](const ProgressEvent& e) {
       std::lock_guard<std::mutex> lock(mu);
       if (const std::string note = sparse ? "" : notice.observe(e); !note.empty()) {
         std::printf("  %s\n", note.c_str());

@@ -82,9 +82,9 @@ Command add_update(CLI::App& app) {
                   a->window > 0 ? (", window " + std::to_string(a->window)).c_str() : "");
     if (a->refit) {
       TrainOptions o;
-      o.optimizer.max_iterations = a->max_iter;
-      o.threads = a->threads;
-      o.keep_factor = false;
+      o.search.optimizer.max_iterations = a->max_iter;
+      o.search.threads = a->threads;
+      o.gp.keep_factor = false;
       if (!a->quiet) std::printf("refitting the hyperparameters on %d rows, from the current ones\n", updated.num_training_samples());
       TrainResult r = refit_model(updated, o);
       if (!r.report.ok()) throw Error("refit failed: " + r.report.message);

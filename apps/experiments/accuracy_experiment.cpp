@@ -123,8 +123,8 @@ ExperimentOutcome run_accuracy_experiment(const AccuracyConfig& c, const Progres
   // thread a fit with every joint at once).
   std::mutex shared;
   EstimatorOptions base = c.base;
-  if (c.concurrent_runs > 1 && base.gp.threads == 0)
-    base.gp.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / c.concurrent_runs);
+  if (c.concurrent_runs > 1 && base.search.threads == 0)
+    base.search.threads = std::max(1, static_cast<int>(std::thread::hardware_concurrency()) / c.concurrent_runs);
   auto fit_run = [&](int r) {
     nlohmann::json drawn;
     const RobotModel truth = nominal.with_perturbed_kinematics(mix_seed(c.seed, r, 0), 0.05, 5.0 * M_PI / 180.0, &drawn);

@@ -21,13 +21,13 @@ struct AccuracyConfig {
   std::uint64_t seed = 0;
   double dt = 0.01;
   double noise_std = 0.01;
-  std::vector<std::string> estimators{"fe", "pp", "sp", "gip", "rbf", "nn"};
+  std::vector<std::string> estimators = paper_accuracy_estimators();
   EstimatorOptions base;    // options of every estimator (name and robot prior are set per fit)
   // GP estimators: runs after the first start from the first run's learned
   // hyperparameters (OUT/warm_starts.json) instead of the data-driven start.
   bool warm_start_runs = false;
   // Runs fitted at the same time, each fit on its share of the cores (unless
-  // base.gp.threads is set): no core waits for a fit's last joint or its
+  // base.search.threads is set): no core waits for a fit's last joint or its
   // single-threaded network. The results do not depend on it; the wall time
   // and each fit's recorded seconds do.
   int concurrent_runs = 1;

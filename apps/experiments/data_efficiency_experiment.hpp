@@ -21,7 +21,7 @@ struct DataEfficiencyConfig {
   std::uint64_t seed = 0;
   double dt = 0.01;
   double noise_std = 0.01;
-  std::vector<std::string> estimators{"gip", "rbf", "nn", "pp"};
+  std::vector<std::string> estimators = paper_data_efficiency_estimators();
   EstimatorOptions base;
   std::string out;
   void validate() const;

@@ -138,7 +138,7 @@ EstimatorOptions options_for(const EstimatorOptions& base, const std::string& na
   EstimatorOptions o = base;
   o.name = spec.student;
   if (estimator_needs_robot(spec.student)) o.robot_prior = prior;
-  o.gp.seed = seed;
+  o.search.seed = seed;
   o.nn.seed = seed;
   if (!spec.teacher.empty()) {
     o.teacher = TeacherOptions{};
@@ -149,16 +149,16 @@ EstimatorOptions options_for(const EstimatorOptions& base, const std::string& na
 }
 
 nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<std::string>& estimators) {
-  nlohmann::json j = {{"optimizer", b.gp.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
-          {"max_iter", b.gp.optimizer.max_iterations},
+  nlohmann::json j = {{"optimizer", b.search.optimizer.kind == OptimizerKind::Adam ? "adam" : "lbfgs"},
+          {"max_iter", b.search.optimizer.max_iterations},
           // Always written: a folder from before the option existed ran with 10 pairs and must not resume
           // with another optimiser's fits mixed into its tables.
-          {"lbfgs_memory", b.gp.optimizer.lbfgs_memory},
-          {"restarts", b.gp.restarts},
+          {"lbfgs_memory", b.search.optimizer.lbfgs_memory},
+          {"restarts", b.search.restarts},
           {"warm_start_rows", b.gp.warm_start_rows},
-          {"gradient_tolerance", b.gp.gradient_tolerance_per_row},
+          {"gradient_tolerance", b.search.gradient_tolerance_per_row},
           {"scaling", to_string(b.gp.scaling)},
-          {"min_noise", b.gp.min_noise_fraction},
+          {"min_noise", b.search.min_noise_fraction},
           {"prior", b.gp.prior.enabled ? "lognormal" : "none"},
           {"prior_width", b.gp.prior.width},
           {"nn_hidden", b.nn.hidden},
@@ -167,17 +167,17 @@ nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<st
           {"nn_lr", b.nn.learning_rate}};
   // Only when set, so folders written before mean functions existed still resume.
   if (b.gp.mean != MeanKind::Zero) j["mean"] = to_string(b.gp.mean);
-  if (b.gp.inducing_points > 0) j["inducing"] = b.gp.inducing_points;
-  if (b.gp.hyperparameter_rows > 0) j["hyperparameter_rows"] = b.gp.hyperparameter_rows;
-  if (b.gp.hyperparameter_objective != HyperparameterObjective::SparseBound)
-    j["hyperparameter_objective"] = to_string(b.gp.hyperparameter_objective);
+  if (b.sparse.inducing_points > 0) j["inducing"] = b.sparse.inducing_points;
+  if (b.search.hyperparameter_rows > 0) j["hyperparameter_rows"] = b.search.hyperparameter_rows;
+  if (b.sparse.hyperparameter_objective != HyperparameterObjective::SparseBound)
+    j["hyperparameter_objective"] = to_string(b.sparse.hyperparameter_objective);
   // Only with a teacher, so folders without one still resume.
   for (const auto& e : estimators)
     if (!parse_estimator_spec(e).teacher.empty()) {
       const TeacherOptions teacher;  // what options_for uses
       j["teacher_states"] = teacher.states;
       j["teacher_hyperparameter_rows"] = teacher.hyperparameter_rows;
-      j["student_hyperparameter_rows"] = teacher.student_train_options(b.gp).hyperparameter_rows;
+      j["student_hyperparameter_rows"] = teacher.student_search(b.search).hyperparameter_rows;
       break;
     }
   return j;
@@ -201,9 +201,9 @@ void validate_estimators(const std::vector<std::string>& estimators) {
 }
 
 void validate_base_options(const EstimatorOptions& base) {
-  TrainOptions gp = base.gp;
-  gp.kernel = default_kernel_name();  // the model-based kernels' robot is checked per estimator
-  gp.validate();
+  EstimatorOptions gp = base;
+  gp.name = default_estimator_name();  // a GP; the model-based kernels' robot is checked per estimator
+  gp.train_options().validate();
   base.nn.validate();
 }
 

@@ -64,7 +64,7 @@ nlohmann::json RealRobotConfig::to_json() const {
           {"estimators", estimators},
           {"robot", robot},
           {"robot_friction", robot_friction},
-          {"seed", base.gp.seed},
+          {"seed", base.search.seed},
           {"options", base_options_json(base, estimators)}};
   // Only when set, so folders written before these options existed still resume.
   if (alternate_blocks > 0) j["alternate_blocks"] = alternate_blocks;
@@ -216,7 +216,7 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
     if (c.saturate >= 0.0)
       note(progress, "  " + std::to_string(InputBox::of(d.X).rows_outside(test.X, joints, c.saturate)) + " of " +
                          std::to_string(test.rows()) + " test rows saturated into the training box");
-    const FitAndPredict f = fit_and_predict(options_for(c.base, e, prior, c.base.gp.seed), d.X, d.tau, joints, Xtest);
+    const FitAndPredict f = fit_and_predict(options_for(c.base, e, prior, c.base.search.seed), d.X, d.tau, joints, Xtest);
     Eigen::VectorXd nmse = Eigen::VectorXd::Constant(n, std::nan(""));
     if (f.ok) {
       nmse = compute_accuracy(test.tau, f.prediction).nmse;

@@ -83,7 +83,7 @@ ExperimentOutcome run_real_learning_curve(const RealRobotConfig& c, const Progre
                            std::to_string(c.repeats) + "] " + e + ": fitting (elapsed " +
                            duration(std::chrono::duration<double>(Clock::now() - t0).count()) + ", " + eta.left() +
                            ")");
-        const std::uint64_t seed = mix_seed(c.base.gp.seed, static_cast<std::uint64_t>(size), r);
+        const std::uint64_t seed = mix_seed(c.base.search.seed, static_cast<std::uint64_t>(size), r);
         const Eigen::MatrixXd Xtest = test_inputs(c, s, d);
         const FitAndPredict f = fit_and_predict(options_for(c.base, e, s.prior, seed), d.X, d.tau, s.joints, Xtest);
         Eigen::VectorXd nmse = Eigen::VectorXd::Constant(n, std::nan(""));

@@ -23,7 +23,7 @@ int main(int argc, char** argv) {
   const gipdyn::SimulationResult test = gipdyn::simulate(scara, sim);
 
   gipdyn::TrainOptions options;  // kernel "gip", L-BFGS
-  options.optimizer.max_iterations = max_iter;
+  options.search.optimizer.max_iterations = max_iter;
   const gipdyn::TrainResult result = gipdyn::train_model(train.X, train.tau, scara.joint_types(), options);
   if (!result.report.ok()) {
     std::fprintf(stderr, "training failed: %s\n", result.report.message.c_str());

@@ -60,7 +60,7 @@ int main(int argc, char** argv) {
     }
     gipdyn::EstimatorOptions preset = gipdyn::preset_options("real");
     const long train_rows = argc > 4 ? std::atol(argv[4]) : gipdyn::preset_max_training_rows("real");
-    if (argc > 5 && std::atoi(argv[5]) != 0) preset.gp.optimizer.max_iterations = std::atoi(argv[5]);
+    if (argc > 5 && std::atoi(argv[5]) != 0) preset.search.optimizer.max_iterations = std::atoi(argv[5]);
     const bool skip_gip = argc > 6 && std::atoi(argv[6]) != 0;
     if (train_rows < 0) {
       std::fprintf(stderr, "real_log: TRAIN_ROWS must be at least 0 (0: every row before SPLIT_ROW), got %ld\n",
@@ -91,7 +91,7 @@ int main(int argc, char** argv) {
     if (!fit_and_test(("preset real (" + preset.name + ")").c_str(), preset, train, test, joints)) return 1;
     if (!skip_gip) {
       gipdyn::EstimatorOptions gip;  // the library's default: gip on the rows, no teacher
-      gip.gp.optimizer.max_iterations = preset.gp.optimizer.max_iterations;
+      gip.search.optimizer.max_iterations = preset.search.optimizer.max_iterations;
       if (!fit_and_test("gip", gip, train, test, joints)) return 1;
     }
   } catch (const gipdyn::Error& e) {

@@ -57,7 +57,7 @@ int main(int argc, char** argv) {
   if (argc > 2) teacher.hyperparameter_rows = std::atoi(argv[2]);
   if (argc > 3) teacher.states = std::atoi(argv[3]);
   gipdyn::EstimatorOptions gip;  // "gip" on the log
-  if (argc > 4) gip.gp.optimizer.max_iterations = std::atoi(argv[4]);
+  if (argc > 4) gip.search.optimizer.max_iterations = std::atoi(argv[4]);
 
   try {
     // One 20 s motion at 100 Hz to learn from, another to test on.

@@ -9,7 +9,7 @@ import sys
 import gipdyn
 
 samples = int(sys.argv[1]) if len(sys.argv) > 1 else 2000
-max_iter = int(sys.argv[2]) if len(sys.argv) > 2 else gipdyn.TrainOptions().optimizer.max_iterations
+max_iter = int(sys.argv[2]) if len(sys.argv) > 2 else gipdyn.SearchSettings().optimizer.max_iterations
 
 train = gipdyn.simulate("scara", samples=samples, seed=1)
 test = gipdyn.simulate("scara", samples=samples, seed=2)

@@ -33,8 +33,8 @@ import gipdyn
 samples = int(sys.argv[1]) if len(sys.argv) > 1 else 2000
 hyperparameter_rows = int(sys.argv[2]) if len(sys.argv) > 2 else 300
 virtual = int(sys.argv[3]) if len(sys.argv) > 3 else 2000
-max_iter = int(sys.argv[4]) if len(sys.argv) > 4 else gipdyn.TrainOptions().optimizer.max_iterations
-if max_iter < gipdyn.TrainOptions().optimizer.max_iterations:
+max_iter = int(sys.argv[4]) if len(sys.argv) > 4 else gipdyn.SearchSettings().optimizer.max_iterations
+if max_iter < gipdyn.SearchSettings().optimizer.max_iterations:
     warnings.simplefilter("ignore", gipdyn.ConvergenceWarning)  # a short smoke run stops at its cap
 
 # One 20 s motion at 100 Hz to learn from, another to test on.

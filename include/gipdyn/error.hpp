@@ -2,7 +2,7 @@
 // Errors that reach a user: one line that names the problem and the fix.
 //
 // The library's messages name the field or argument at fault in C++ terms
-// (`TrainOptions::min_noise_fraction must be > 0`), never a front end's
+// (`SearchSettings::min_noise_fraction must be > 0`), never a front end's
 // spelling: the command line and the Python module translate those names into
 // their own (`--min-noise`, `min_noise=`) with rename_fields.
 #include <cstddef>
@@ -28,7 +28,7 @@ std::string joint_numbers(const std::vector<std::ptrdiff_t>& zero_based);
 // Throws "unknown WHAT 'name'; choose one of: a, b, c" unless name is in names.
 void require_one_of(const std::string& name, const std::vector<std::string>& names, const std::string& what);
 
-// A library field name and a front end's name for it, e.g. {"TrainOptions::restarts", "--restarts"}.
+// A library field name and a front end's name for it, e.g. {"SearchSettings::restarts", "--restarts"}.
 using FieldNames = std::vector<std::pair<std::string, std::string>>;
 
 // The message with every library field name of `names` replaced by the front

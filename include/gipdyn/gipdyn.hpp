@@ -30,7 +30,6 @@
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
-#include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"

@@ -15,10 +15,11 @@ import numpy as np
 
 from . import _core
 from ._core import __version__, build_info
-from ._core import (GipdynError, HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot,
-                    SimulationOptions, TeacherOptions, TrainOptions, mpi_rank, mpi_size)
+from ._core import (EstimatorOptions, GipdynError, GpOptions, HyperparameterPrior, NeighbourConsistencyOptions,
+                    OptimizerOptions, Robot, SearchSettings, SimulationOptions, SparseOptions, TeacherOptions,
+                    mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "TrainOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "EstimatorOptions", "SearchSettings", "GpOptions", "SparseOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size", "build_info"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
@@ -131,7 +132,7 @@ def _estimator_row(name):
     raise ValueError(f"unknown estimator {name!r}; one of {', '.join(_core.estimator_names())}")
 
 
-_DEFAULTS = TrainOptions()
+_DEFAULTS = EstimatorOptions()
 _TEACHER_DEFAULTS = TeacherOptions()
 
 
@@ -188,8 +189,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     and distributed (the exact GP's N x N matrix spread over the MPI processes
     of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
     script.py`, every process with the same data; mpi_rank() tells the first
-    one, which should be the one that writes). They fill in the library's TrainOptions
-    (train_options()). The non-GP estimators fe and nn are available from the CLI.
+    one, which should be the one that writes). They fill in the library's EstimatorOptions
+    (estimator_options()). The non-GP estimators fe and nn are available from the CLI.
 
     preset ("default", "real"; see gipdyn/estimators/presets.hpp) starts from a
     named set of options; kernel and subsample given explicitly override it.
@@ -202,19 +203,19 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
     """
 
-    def __init__(self, joints=None, kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
-                 restarts=_DEFAULTS.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
+    def __init__(self, joints=None, kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
+                 restarts=_DEFAULTS.search.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
-                 prior_width=2.0, warm_start_rows=_DEFAULTS.warm_start_rows,
-                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row, preset=None, subsample=None,
-                 inducing=_DEFAULTS.inducing_points, distributed=False,
-                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows,
-                 hyperparameter_objective=_DEFAULTS.hyperparameter_objective, teacher="auto",
+                 prior_width=2.0, warm_start_rows=_DEFAULTS.gp.warm_start_rows,
+                 gradient_tolerance=_DEFAULTS.search.gradient_tolerance_per_row, preset=None, subsample=None,
+                 inducing=_DEFAULTS.sparse.inducing_points, distributed=False,
+                 hyperparameter_rows=_DEFAULTS.search.hyperparameter_rows,
+                 hyperparameter_objective=_DEFAULTS.sparse.hyperparameter_objective, teacher="auto",
                  teacher_states=_TEACHER_DEFAULTS.states,
                  teacher_hyperparameter_rows=_TEACHER_DEFAULTS.hyperparameter_rows,
                  student_hyperparameter_rows=_TEACHER_DEFAULTS.student_hyperparameter_rows,
                  serial_chain=_DEFAULTS.serial_chain,
-                 start_screening=_DEFAULTS.start_screening_evaluations):
+                 start_screening=_DEFAULTS.search.start_screening_evaluations):
         self.joints = joints
         self.kernel = kernel
         self.optimizer = optimizer
@@ -247,7 +248,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.start_screening = start_screening
 
     def teacher_options(self, options=None):
-        """The library's TeacherOptions for these parameters (options: train_options(), made when not given),
+        """The library's TeacherOptions for these parameters (options: estimator_options(), made when not given),
         or None without a teacher: the library's choose_teacher, as `gipdyn train --teacher` follows it."""
         choice = "none" if self.teacher is None else str(self.teacher)
         settings = TeacherOptions()
@@ -255,39 +256,39 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         settings.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
         settings.student_hyperparameter_rows = int(self.student_hyperparameter_rows)
         settings.seed = int(self.seed)
-        return _core.choose_teacher(choice, options if options is not None else self.train_options(), settings)
+        return _core.choose_teacher(choice, options if options is not None else self.estimator_options(), settings)
 
-    def _optimizer_options(self):
-        """TrainOptions with the keywords every GP estimator shares."""
-        o = TrainOptions()
-        o.optimizer.kind = str(self.optimizer)
-        o.optimizer.max_iterations = int(self.max_iter)
-        o.optimizer.adam_learning_rate = float(self.learning_rate)
-        o.restarts = int(self.restarts)
-        o.seed = int(self.seed)
-        o.min_noise_fraction = float(self.min_noise)
-        o.gradient_tolerance_per_row = float(self.gradient_tolerance)
+    def _search_options(self):
+        """EstimatorOptions with the search every estimator learned by marginal likelihood shares."""
+        o = EstimatorOptions()
+        o.search.optimizer.kind = str(self.optimizer)
+        o.search.optimizer.max_iterations = int(self.max_iter)
+        o.search.optimizer.adam_learning_rate = float(self.learning_rate)
+        o.search.restarts = int(self.restarts)
+        o.search.seed = int(self.seed)
+        o.search.min_noise_fraction = float(self.min_noise)
+        o.search.gradient_tolerance_per_row = float(self.gradient_tolerance)
+        o.search.start_screening_evaluations = int(self.start_screening)
         o.serial_chain = bool(self.serial_chain)
-        o.start_screening_evaluations = int(self.start_screening)
         return o
 
-    def train_options(self):
-        """The library's TrainOptions for these parameters (checked when fitting)."""
-        o = self._optimizer_options()
+    def estimator_options(self):
+        """The library's EstimatorOptions for these parameters (checked when fitting)."""
+        o = self._search_options()
         # kernel=None: the preset's kernel, or the library's default without one.
-        base = _core.preset_train_options(str(self.preset)) if self.preset is not None else TrainOptions()
-        o.kernel = str(self.kernel) if self.kernel is not None else base.kernel
-        o.scaling = str(self.scaling)
-        o.mean = str(self.mean)
-        o.threads = int(self.threads)
-        o.warm_start_rows = int(self.warm_start_rows)
-        o.inducing_points = int(self.inducing)
-        o.hyperparameter_rows = int(self.hyperparameter_rows)
-        o.hyperparameter_objective = str(self.hyperparameter_objective)
+        base = _core.preset_options(str(self.preset)) if self.preset is not None else EstimatorOptions()
+        o.name = str(self.kernel) if self.kernel is not None else base.name
+        o.gp.scaling = str(self.scaling)
+        o.gp.mean = str(self.mean)
+        o.search.threads = int(self.threads)
+        o.gp.warm_start_rows = int(self.warm_start_rows)
+        o.sparse.inducing_points = int(self.inducing)
+        o.search.hyperparameter_rows = int(self.hyperparameter_rows)
+        o.sparse.hyperparameter_objective = str(self.hyperparameter_objective)
         if self.distributed:
             o.nll_backend = _core.distributed_backend()
-            o.keep_factor = False  # spread over the processes; predict(return_std=True) rebuilds it
-        o.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
+            o.gp.keep_factor = False  # spread over the processes; predict(return_std=True) rebuilds it
+        o.gp.prior = _core.parse_hyperparameter_prior(str(self.prior), float(self.prior_width))
         if self.robot is not None:
             o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))
         o.robot_friction = bool(self.robot_friction)
@@ -365,7 +366,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         rows = self._training_rows(X.shape[0])
         if rows is not None:
             X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
-        options = self.train_options()
+        options = self.estimator_options()
         teacher = self.teacher_options(options)
         if teacher is not None and self.distributed:
             # teacher="auto" steps aside for a distributed fit (automatic_teaching_applies), as train's default does.
@@ -421,7 +422,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         Y = _as_matrix("Y", Y, n)
         self.model_ = self.model_.updated(np.asfortranarray(X), np.asfortranarray(Y), int(window))
         if refit:
-            self.model_ = _core.refit(self.model_, self._optimizer_options(), bool(self.verbose))
+            self.model_ = _core.refit(self.model_, self._search_options(), bool(self.verbose))
         self._set_fitted_attributes()
         return self
 
@@ -565,12 +566,12 @@ class LagrangianGP(InverseDynamicsGP):
     lowest NLL goes on (0: every start to convergence).
     """
 
-    def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.optimizer.max_iterations,
-                 restarts=_DEFAULTS.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
-                 gradient_tolerance=_DEFAULTS.gradient_tolerance_per_row,
-                 hyperparameter_rows=_DEFAULTS.hyperparameter_rows, friction=False,
+    def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
+                 restarts=_DEFAULTS.search.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
+                 gradient_tolerance=_DEFAULTS.search.gradient_tolerance_per_row,
+                 hyperparameter_rows=_DEFAULTS.search.hyperparameter_rows, friction=False,
                  serial_chain=_DEFAULTS.serial_chain,
-                 start_screening=_DEFAULTS.start_screening_evaluations):
+                 start_screening=_DEFAULTS.search.start_screening_evaluations):
         self.joints = joints
         self.friction = friction
         self.serial_chain = serial_chain
@@ -585,17 +586,17 @@ class LagrangianGP(InverseDynamicsGP):
         self.gradient_tolerance = gradient_tolerance
         self.hyperparameter_rows = hyperparameter_rows
 
-    def train_options(self):
-        """The library's TrainOptions for these parameters (checked when fitting)."""
-        o = self._optimizer_options()
-        o.hyperparameter_rows = int(self.hyperparameter_rows)
+    def estimator_options(self):
+        """The library's EstimatorOptions for these parameters (checked when fitting)."""
+        o = self._search_options()
+        o.name = _core.lagrangian_estimator_name(bool(self.friction))
+        o.search.hyperparameter_rows = int(self.hyperparameter_rows)
         return o
 
     def fit(self, X, Y):
         joints = self._joint_types(fitted=False)
         X, Y = self._training_arrays(X, Y, joints)
-        self.model_ = _core.train_lagrangian(X, Y, joints, self.train_options(), bool(self.verbose),
-                                             bool(self.friction))
+        self.model_ = _core.train_lagrangian(X, Y, joints, self.estimator_options(), bool(self.verbose))
         self._set_fitted_attributes()
         _warn_unconverged_joints(self.model_)
         _warn_noisy_joints(self.model_)

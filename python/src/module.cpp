@@ -34,6 +34,7 @@
 #include "gipdyn/version.hpp"
 #ifdef GIPDYN_HAVE_MPI
 #include "gipdyn/distributed/distributed_nll.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 #endif
 
 namespace py = pybind11;
@@ -48,24 +49,24 @@ const FieldNames& python_field_names() {
       {"EstimatorOptions::robot_prior", "robot"},
       {"TrainOptions::robot_prior", "robot"},
       {"RobotPrior::robot", "robot"},
-      {"TrainOptions::restarts", "restarts"},
-      {"TrainOptions::min_noise_fraction", "min_noise"},
-      {"TrainOptions::initial_noise_fraction", "initial_noise_fraction"},
-      {"TrainOptions::threads", "threads"},
-      {"TrainOptions::start_screening_evaluations", "start_screening"},
-      {"TrainOptions::warm_start_rows", "warm_start_rows"},
-      {"TrainOptions::hyperparameter_rows", "hyperparameter_rows"},
-      {"TrainOptions::hyperparameter_objective", "hyperparameter_objective"},
-      {"TrainOptions::inducing_points", "inducing"},
+      {"SearchSettings::restarts", "restarts"},
+      {"SearchSettings::min_noise_fraction", "min_noise"},
+      {"SearchSettings::initial_noise_fraction", "initial_noise_fraction"},
+      {"SearchSettings::threads", "threads"},
+      {"SearchSettings::start_screening_evaluations", "start_screening"},
+      {"GpOptions::warm_start_rows", "warm_start_rows"},
+      {"SearchSettings::hyperparameter_rows", "hyperparameter_rows"},
+      {"SparseOptions::hyperparameter_objective", "hyperparameter_objective"},
+      {"SparseOptions::inducing_points", "inducing"},
       {"TrainOptions::nll_backend", "distributed"},
       {"TeacherOptions::name", "teacher"},
       {"TeacherOptions::states", "teacher_states"},
       {"TeacherOptions::hyperparameter_rows", "teacher_hyperparameter_rows"},
       {"TeacherOptions::student_hyperparameter_rows", "student_hyperparameter_rows"},
-      {"TrainOptions::gradient_tolerance_per_row", "gradient_tolerance"},
-      {"TrainOptions::scaling", "scaling"},
-      {"TrainOptions::mean", "mean"},
-      {"TrainOptions::prior", "prior"},
+      {"SearchSettings::gradient_tolerance_per_row", "gradient_tolerance"},
+      {"GpOptions::scaling", "scaling"},
+      {"GpOptions::mean", "mean"},
+      {"GpOptions::prior", "prior"},
       {"HyperparameterPrior::width", "prior_width"},
       {"OptimizerOptions::kind", "optimizer"},
       {"OptimizerOptions::max_iterations", "max_iter"},
@@ -144,8 +145,13 @@ auto fit_without_gil(bool verbose, Fit&& fit) {
   return r;
 }
 
-std::shared_ptr<Model> refit(const Model& model, const TrainOptions& options, bool verbose) {
-  TrainResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, options, cb); });
+std::shared_ptr<Model> refit(const Model& model, const EstimatorOptions& options, bool verbose) {
+  // The kernel, robot, scaling and mean are the model's (refit_model).
+  EstimatorOptions gp = options;
+  gp.name = model.model->kernel_name();
+  gp.robot_prior = model.model->robot_prior();
+  TrainResult r =
+      fit_without_gil(verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, gp.train_options(), cb); });
   return std::make_shared<Model>(std::move(r.model));
 }
 
@@ -209,10 +215,13 @@ struct LagrangianModel {
 };
 
 std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const std::string& joints,
-                                                  const TrainOptions& options, bool verbose, bool friction) {
+                                                  const EstimatorOptions& options, bool verbose) {
+  if (estimator_family(options.name) != EstimatorFamily::Lagrangian)
+    throw Error("train_lagrangian fits lip or lip+friction, not '" + options.name + "'");
   const JointTypes jt = JointTypes::parse(joints);
-  LagrangianEstimator::FitOutcome r = fit_without_gil(
-      verbose, [&](const ProgressCallback& cb) { return LagrangianEstimator::fit(X, Y, jt, options, cb, friction); });
+  LagrangianEstimator::FitOutcome r = fit_without_gil(verbose, [&](const ProgressCallback& cb) {
+    return LagrangianEstimator::fit(X, Y, jt, options.lagrangian_options(), cb);
+  });
   auto m = std::make_shared<LagrangianModel>();
   m->estimator = std::move(r.estimator);
   m->report = r.report.joints;
@@ -236,18 +245,15 @@ py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teach
 // (why the teacher or the student failed, where teaching is "teacher failed"
 // or "student failed"; else empty)}.
 // What InverseDynamicsGP's fit asks of fit_estimator: its kernel's GP, taught by `teacher` unless none.
-EstimatorOptions gp_estimator_options(const TrainOptions& options, const std::optional<TeacherOptions>& teacher) {
-  EstimatorOptions o;
-  o.name = options.kernel;
-  o.gp = options;
-  o.robot_prior = options.robot_prior;
+EstimatorOptions gp_estimator_options(const EstimatorOptions& options, const std::optional<TeacherOptions>& teacher) {
+  require_known_kernel(options.name);  // InverseDynamicsGP takes GP kernels, not every estimator's name
+  EstimatorOptions o = options;
   o.teacher = teacher;
   return o;
 }
 
-py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const TrainOptions& options,
+py::dict fit_gp(ConstRef X, ConstRef Y, const std::string& joints, const EstimatorOptions& options,
                 const std::optional<TeacherOptions>& teacher, bool verbose) {
-  require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
   const JointTypes jt = JointTypes::parse(joints);
   const EstimatorOptions o = gp_estimator_options(options, teacher);
   const Eigen::MatrixXd Xm = X, Ym = Y;
@@ -298,12 +304,12 @@ Eigen::MatrixXd batch_inverse_dynamics(const RobotModel& robot, ConstRef q, Cons
 }
 
 // Options given as strings in Python are parsed by the library's own parsers.
-template <class Class, class Enum>
-void string_property(Class& cls, const char* name, Enum TrainOptions::*field, Enum (*parse)(const std::string&),
+template <class Options, class Enum>
+void string_property(py::class_<Options>& cls, const char* name, Enum Options::*field, Enum (*parse)(const std::string&),
                      std::string (*print)(Enum)) {
   cls.def_property(
-      name, [field, print](const TrainOptions& o) { return print(o.*field); },
-      [field, parse](TrainOptions& o, const std::string& v) { o.*field = parse(v); });
+      name, [field, print](const Options& o) { return print(o.*field); },
+      [field, parse](Options& o, const std::string& v) { o.*field = parse(v); });
 }
 
 }  // namespace
@@ -413,41 +419,59 @@ void bind_options(py::module_& m) {
   m.def("mpi_rank", [] { return 0; });
   m.def("mpi_size", [] { return 1; });
 #endif
+}
 
-  py::class_<TrainOptions> train_options(m, "TrainOptions");
-  train_options.def(py::init<>())
-      .def_readwrite("kernel", &TrainOptions::kernel)
-      .def_readwrite("optimizer", &TrainOptions::optimizer)
-      .def_readwrite("restarts", &TrainOptions::restarts)
-      .def_readwrite("restart_spread", &TrainOptions::restart_spread)
-      .def_readwrite("seed", &TrainOptions::seed)
-      .def_readwrite("initial_noise_fraction", &TrainOptions::initial_noise_fraction)
-      .def_readwrite("min_noise_fraction", &TrainOptions::min_noise_fraction)
-      .def_readwrite("noise_std_floor", &TrainOptions::noise_std_floor)
-      .def_readwrite("serial_chain", &TrainOptions::serial_chain)
-      .def_readwrite("start_screening_evaluations", &TrainOptions::start_screening_evaluations)
-      .def_readwrite("threads", &TrainOptions::threads)
-      .def_readwrite("warm_start_rows", &TrainOptions::warm_start_rows)
-      .def_readwrite("hyperparameter_rows", &TrainOptions::hyperparameter_rows)
-      .def_readwrite("inducing_points", &TrainOptions::inducing_points)
-      .def_readwrite("gradient_tolerance_per_row", &TrainOptions::gradient_tolerance_per_row)
-      .def_readwrite("prior", &TrainOptions::prior)
-      .def_readwrite("keep_factor", &TrainOptions::keep_factor)
-      .def_readwrite("nll_backend", &TrainOptions::nll_backend)
-      .def_property(
-          "robot", [](const TrainOptions& o) { return std::const_pointer_cast<RobotModel>(o.robot_prior.robot); },
-          [](TrainOptions& o, std::shared_ptr<RobotModel> r) { o.robot_prior.robot = std::move(r); })
-      .def_property(
-          "robot_friction", [](const TrainOptions& o) { return o.robot_prior.friction; },
-          [](TrainOptions& o, bool f) { o.robot_prior.friction = f; })
-      .def("validate", &TrainOptions::validate);
-  m.def(
-      "preset_train_options", [](const std::string& name) { return preset_options(name).train_options(); },
-      py::arg("name"), "The GP TrainOptions of a named preset (gipdyn/estimators/presets.hpp)");
-  string_property(train_options, "scaling", &TrainOptions::scaling, &parse_output_scaling, &to_string);
-  string_property(train_options, "mean", &TrainOptions::mean, &parse_mean_kind, &to_string);
-  string_property(train_options, "hyperparameter_objective", &TrainOptions::hyperparameter_objective,
+// The options of a fit, by what they configure (gipdyn/estimators/fit_estimator.hpp).
+void bind_estimator_options(py::module_& m) {
+  py::class_<SearchSettings>(m, "SearchSettings")
+      .def(py::init<>())
+      .def_readwrite("optimizer", &SearchSettings::optimizer)
+      .def_readwrite("gradient_tolerance_per_row", &SearchSettings::gradient_tolerance_per_row)
+      .def_readwrite("restarts", &SearchSettings::restarts)
+      .def_readwrite("restart_spread", &SearchSettings::restart_spread)
+      .def_readwrite("seed", &SearchSettings::seed)
+      .def_readwrite("start_screening_evaluations", &SearchSettings::start_screening_evaluations)
+      .def_readwrite("hyperparameter_rows", &SearchSettings::hyperparameter_rows)
+      .def_readwrite("initial_noise_fraction", &SearchSettings::initial_noise_fraction)
+      .def_readwrite("min_noise_fraction", &SearchSettings::min_noise_fraction)
+      .def_readwrite("threads", &SearchSettings::threads)
+      .def("validate", &SearchSettings::validate);
+  py::class_<GpOptions> gp_options(m, "GpOptions");
+  gp_options.def(py::init<>())
+      .def_readwrite("prior", &GpOptions::prior)
+      .def_readwrite("noise_std_floor", &GpOptions::noise_std_floor)
+      .def_readwrite("warm_start_rows", &GpOptions::warm_start_rows)
+      .def_readwrite("keep_factor", &GpOptions::keep_factor)
+      .def("validate", &GpOptions::validate);
+  string_property(gp_options, "scaling", &GpOptions::scaling, &parse_output_scaling, &to_string);
+  string_property(gp_options, "mean", &GpOptions::mean, &parse_mean_kind, &to_string);
+  py::class_<SparseOptions> sparse_options(m, "SparseOptions");
+  sparse_options.def(py::init<>())
+      .def_readwrite("inducing_points", &SparseOptions::inducing_points)
+      .def("validate", &SparseOptions::validate);
+  string_property(sparse_options, "hyperparameter_objective", &SparseOptions::hyperparameter_objective,
                   &parse_hyperparameter_objective, &to_string);
+  py::class_<EstimatorOptions>(m, "EstimatorOptions")
+      .def(py::init<>())
+      .def_readwrite("name", &EstimatorOptions::name)
+      .def_readwrite("search", &EstimatorOptions::search)
+      .def_readwrite("gp", &EstimatorOptions::gp)
+      .def_readwrite("sparse", &EstimatorOptions::sparse)
+      .def_readwrite("serial_chain", &EstimatorOptions::serial_chain)
+      .def_readwrite("nll_backend", &EstimatorOptions::nll_backend)
+      .def_property(
+          "robot", [](const EstimatorOptions& o) { return std::const_pointer_cast<RobotModel>(o.robot_prior.robot); },
+          [](EstimatorOptions& o, std::shared_ptr<RobotModel> r) { o.robot_prior.robot = std::move(r); })
+      .def_property(
+          "robot_friction", [](const EstimatorOptions& o) { return o.robot_prior.friction; },
+          [](EstimatorOptions& o, bool f) { o.robot_prior.friction = f; })
+      .def("validate", [](const EstimatorOptions& o) {
+        o.validate();
+        if (is_gp_estimator(o.name)) o.train_options().validate();
+        if (estimator_family(o.name) == EstimatorFamily::Lagrangian) o.lagrangian_options().validate();
+      });
+  m.def("preset_options", &preset_options, py::arg("name"),
+        "The EstimatorOptions of a named preset (gipdyn/estimators/presets.hpp)");
 }
 
 // The fitted GP model: predictions, variances, online updates, model files.
@@ -518,7 +542,10 @@ void bind_gp_model(py::module_& m) {
           py::arg("x"))
       .def_property_readonly(
           "teaching_record",
-          [](const Model& s) { return s.estimator->teaching_record().is_null() ? std::string() : s.estimator->teaching_record().dump(); },
+          [](const Model& s) {
+            const nlohmann::json* record = s.estimator->teaching_record();
+            return record ? record->dump() : std::string();
+          },
           "The model file's teacher block as JSON (docs/model-format.md); '' where no teacher was asked for")
       .def("save", [](const Model& s, const std::string& path) { save_estimator(*s.estimator, path); })
       .def("to_bytes", [](const Model& s) { return py::bytes(pack_container(estimator_container(*s.estimator))); })
@@ -605,7 +632,7 @@ void bind_lagrangian_model(py::module_& m) {
         return m;
       });
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
-        py::arg("verbose") = false, py::arg("friction") = false);
+        py::arg("verbose") = false);
 }
 
 // Fitting: teachers, the estimator table, the fit and its warnings.
@@ -625,8 +652,7 @@ void bind_fitting(py::module_& m) {
       .def("validate", &TeacherOptions::validate);
   m.def(
       "exact_hyperparameter_rows",
-      [](const TrainOptions& options, const std::optional<TeacherOptions>& teacher, Eigen::Index rows, int joints) {
-        require_known_kernel(options.kernel);
+      [](const EstimatorOptions& options, const std::optional<TeacherOptions>& teacher, Eigen::Index rows, int joints) {
         return exact_hyperparameter_rows(gp_estimator_options(options, teacher), rows, joints);
       },
       py::arg("options"), py::arg("teacher"), py::arg("rows"), py::arg("joints"),
@@ -636,7 +662,7 @@ void bind_fitting(py::module_& m) {
         "What an exact GP's hyperparameter fit on this many rows costs; \"\" below 8000 rows");
   m.def("fit", &fit_gp, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
         py::arg("verbose") = false,
-        "Fits a GP estimator (options.kernel), taught by `teacher` unless None (gipdyn/estimators/fit_estimator.hpp): "
+        "Fits a GP estimator (options.name), taught by `teacher` unless None (gipdyn/estimators/fit_estimator.hpp): "
         "{model, teaching, teacher, teacher_report, label_noise_std, teaching_check}");
   m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "
@@ -651,11 +677,14 @@ void bind_fitting(py::module_& m) {
       "spanning more than two turns (usually a log in degrees)");
   m.def("kernel_names", &kernel_names, "The per-joint GP kernels, in the library's table order");
   m.def("estimator_names", &estimator_names, "Every estimator, in the library's table order");
+  m.def(
+      "lagrangian_estimator_name",
+      [](bool friction) { return estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction); },
+      py::arg("friction"), "The LIP estimator's name, with or without friction");
   m.def("default_teacher_name", &default_teacher_name, "The estimator that teaches by default (teacher=\"auto\")");
   m.def(
       "choose_teacher",
-      [](const std::string& choice, const TrainOptions& options, const TeacherOptions& settings) {
-        require_known_kernel(options.kernel);  // InverseDynamicsGP takes GP kernels, not every estimator's name
+      [](const std::string& choice, const EstimatorOptions& options, const TeacherOptions& settings) {
         return choose_teacher(choice, gp_estimator_options(options, std::nullopt), settings);
       },
       py::arg("choice"), py::arg("options"), py::arg("settings"),
@@ -784,6 +813,7 @@ PYBIND11_MODULE(_core, m) {
 
   bind_robots(m);
   bind_options(m);
+  bind_estimator_options(m);
   bind_gp_model(m);
   bind_lagrangian_model(m);
   bind_fitting(m);

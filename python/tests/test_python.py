@@ -61,7 +61,7 @@ def test_fit_predict_and_attributes(scara, fitted):
 def test_sparse_gp_from_python(scara, tmp_path):
     train, test = scara
     est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, max_iter=40).fit(train["X"], train["tau"])
-    assert est.train_options().inducing_points == 60
+    assert est.estimator_options().sparse.inducing_points == 60
     assert est.model_.is_sparse and est.model_.num_training_samples == 60 and est.model_.num_data_rows == 200
     pred, std = est.predict(test["X"], return_std=True)
     assert (std >= 0).all()
@@ -88,7 +88,7 @@ def test_hyperparameters_from_a_subsample_and_the_model_from_every_row(scara):
     train, _ = scara
     est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, hyperparameter_rows=100, max_iter=30)
     est.fit(train["X"], train["tau"])
-    assert est.train_options().hyperparameter_rows == 100
+    assert est.estimator_options().search.hyperparameter_rows == 100
     assert all(r["hyperparameter_rows"] == 100 for r in est.training_report_)
     assert est.model_.num_data_rows == 200
     with pytest.raises(ValueError, match="hyperparameter_rows must be 0 or at least"):
@@ -96,7 +96,7 @@ def test_hyperparameters_from_a_subsample_and_the_model_from_every_row(scara):
     # The subsample's exact NLL instead of the bound: other hyperparameters, the same rows in the model.
     exact = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", inducing=60, hyperparameter_rows=100, max_iter=30,
                                      hyperparameter_objective="exact").fit(train["X"], train["tau"])
-    assert exact.train_options().hyperparameter_objective == "exact"
+    assert exact.estimator_options().sparse.hyperparameter_objective == "exact"
     assert exact.model_.num_data_rows == 200
     assert exact.hyperparameters_ != est.hyperparameters_
     with pytest.raises(ValueError, match="hyperparameter_objective: unknown objective 'fast'"):
@@ -375,17 +375,18 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="rbf", max_iter=2).fit(train["X"], train["tau"]).gravity(q)
 
 
-def test_train_options_are_the_librarys_own():
+def test_estimator_options_are_the_librarys_own():
     o = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, seed=5,
                                  scaling="center", min_noise=1e-6, mean="linear", prior="lognormal",
-                                 prior_width=1.5).train_options()
-    assert isinstance(o, gipdyn.TrainOptions)
-    assert (o.kernel, o.optimizer.kind, o.optimizer.max_iterations, o.restarts, o.seed) == ("rbf", "adam", 7, 2, 5)
-    assert (o.scaling, o.mean, o.min_noise_fraction) == ("center", "linear", 1e-6)
-    assert o.prior.enabled and o.prior.width == 1.5
+                                 prior_width=1.5).estimator_options()
+    assert isinstance(o, gipdyn.EstimatorOptions)
+    assert (o.name, o.search.optimizer.kind, o.search.optimizer.max_iterations, o.search.restarts,
+            o.search.seed) == ("rbf", "adam", 7, 2, 5)
+    assert (o.gp.scaling, o.gp.mean, o.search.min_noise_fraction) == ("center", "linear", 1e-6)
+    assert o.gp.prior.enabled and o.gp.prior.width == 1.5
     o.validate()
-    assert o.noise_std_floor.size == 0  # set only for a teacher's labels, known to its residual
-    o.noise_std_floor = np.array([0.01, -1.0])
+    assert o.gp.noise_std_floor.size == 0  # set only for a teacher's labels, known to its residual
+    o.gp.noise_std_floor = np.array([0.01, -1.0])
     with pytest.raises(ValueError, match="noise_std_floor must hold finite values >= 0"):
         o.validate()
 
@@ -625,15 +626,15 @@ def test_lagrangian_gp_hyperparameters_from_a_subsample(scara):
 
 
 def test_lagrangian_gp_serial_chain_is_the_default_and_can_be_turned_off(scara):
-    # The library's TrainOptions::serial_chain, on by default, reaches LIP and the lip teacher.
+    # The library's LagrangianOptions::serial_chain, on by default, reaches LIP and the lip teacher.
     train, test = scara
-    assert gipdyn.TrainOptions().serial_chain
-    assert gipdyn.LagrangianGP().train_options().serial_chain
-    assert not gipdyn.LagrangianGP(serial_chain=False).train_options().serial_chain
-    assert not gipdyn.InverseDynamicsGP(serial_chain=False).train_options().serial_chain
-    assert gipdyn.LagrangianGP().train_options().start_screening_evaluations == 60
-    assert gipdyn.LagrangianGP(start_screening=0).train_options().start_screening_evaluations == 0
-    assert gipdyn.InverseDynamicsGP(start_screening=5).train_options().start_screening_evaluations == 5
+    assert gipdyn.EstimatorOptions().serial_chain
+    assert gipdyn.LagrangianGP().estimator_options().serial_chain
+    assert not gipdyn.LagrangianGP(serial_chain=False).estimator_options().serial_chain
+    assert not gipdyn.InverseDynamicsGP(serial_chain=False).estimator_options().serial_chain
+    assert gipdyn.LagrangianGP().estimator_options().search.start_screening_evaluations == 60
+    assert gipdyn.LagrangianGP(start_screening=0).estimator_options().search.start_screening_evaluations == 0
+    assert gipdyn.InverseDynamicsGP(start_screening=5).estimator_options().search.start_screening_evaluations == 5
     X, tau = train["X"][:40], train["tau"][:40]
     chain = gipdyn.LagrangianGP(joints="RRPR", max_iter=20).fit(X, tau)
     full = gipdyn.LagrangianGP(joints="RRPR", max_iter=20, serial_chain=False).fit(X, tau)
@@ -653,9 +654,9 @@ def _gip_model_file(train, tmp_path):
 
 def test_preset_real_sets_the_kernel_and_subsample_and_explicit_parameters_override_it():
     assert gipdyn._core.preset_names() == ["default", "real"]
-    assert gipdyn.InverseDynamicsGP(preset="real").train_options().kernel == "gip-envelope+friction"
-    assert gipdyn.InverseDynamicsGP(preset="real", kernel="gip").train_options().kernel == "gip"
-    assert gipdyn.InverseDynamicsGP(preset="default").train_options().kernel == "gip"
+    assert gipdyn.InverseDynamicsGP(preset="real").estimator_options().name == "gip-envelope+friction"
+    assert gipdyn.InverseDynamicsGP(preset="real", kernel="gip").estimator_options().name == "gip"
+    assert gipdyn.InverseDynamicsGP(preset="default").estimator_options().name == "gip"
     d = gipdyn.simulate("scara", samples=1200, seed=3, dt=0.05)
     m = gipdyn.InverseDynamicsGP(preset="real", max_iter=5).fit(d["X"], d["tau"])
     assert m.model_.num_training_samples == 1000 and m.model_.kernel == "gip-envelope+friction"
@@ -852,7 +853,7 @@ def test_a_long_exact_fit_is_warned_about_before_it_starts():
         model = gipdyn.InverseDynamicsGP(**{"joints": "RR", "teacher": "none", **params})
         with warnings.catch_warnings(record=True) as caught:
             warnings.simplefilter("always")
-            model._warn_about_a_long_exact_fit(model.train_options(), model.teacher_options(), rows, model.n_joints)
+            model._warn_about_a_long_exact_fit(model.estimator_options(), model.teacher_options(), rows, model.n_joints)
         return [w for w in caught if issubclass(w.category, gipdyn.LongFitWarning)]
 
     long = warned(8000)

@@ -1,5 +1,7 @@
 #include "gipdyn/estimators/estimator.hpp"
 
+#include <nlohmann/json.hpp>
+
 namespace gipdyn {
 namespace {
 
@@ -23,6 +25,10 @@ class BatchQueryWorkspace final : public QueryWorkspace {
 
 std::unique_ptr<QueryWorkspace> Estimator::make_query_workspace() const {
   return std::make_unique<BatchQueryWorkspace>(*this);
+}
+
+void Estimator::set_teaching_record(const nlohmann::json& record) {
+  teaching_record_ = record.is_null() ? nullptr : std::make_shared<const nlohmann::json>(record);
 }
 
 }  // namespace gipdyn

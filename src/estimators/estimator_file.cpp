@@ -7,6 +7,7 @@
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
 #include "gipdyn/model/model_file.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 
@@ -44,7 +45,7 @@ std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, con
 
 ModelContainer estimator_container(const Estimator& estimator) {
   ModelContainer c = estimator.to_container();
-  if (!estimator.teaching_record().is_null()) c.header["teacher"] = estimator.teaching_record();
+  if (const nlohmann::json* record = estimator.teaching_record()) c.header["teacher"] = *record;
   return c;
 }
 

@@ -32,6 +32,8 @@ std::vector<EstimatorSpec> make_table() {
   gp_row("gip-envelope+friction").preset = "real";
   gp_row("gip-envelope+friction").preset_max_training_rows = 1000;
   for (const char* compared : {"gip", "gip-friction", "rbf", "pp", "sp"}) gp_row(compared).compared_by_default = true;
+  for (const char* paper : {"gip", "rbf", "pp", "sp"}) gp_row(paper).in_paper_accuracy_comparison = true;
+  for (const char* paper : {"gip", "rbf", "pp"}) gp_row(paper).in_paper_data_efficiency_comparison = true;
 
   auto row = [&t](const char* name, EstimatorFamily family, const char* help) -> EstimatorSpec& {
     t.push_back(EstimatorSpec{});
@@ -46,12 +48,12 @@ std::vector<EstimatorSpec> make_table() {
   e = &row("lip+friction", EstimatorFamily::Lagrangian, "lip + each joint's smooth friction and offset");
   e->rigid_body_terms = e->kernel_method = e->friction = true;
   e = &row("fe", EstimatorFamily::Fisherian, "least squares on the nominal robot's rigid-body regressor");
-  e->rigid_body_terms = e->needs_robot = e->compared_by_default = true;
+  e->rigid_body_terms = e->needs_robot = e->compared_by_default = e->in_paper_accuracy_comparison = true;
   e = &row("chain", EstimatorFamily::Fisherian,
            "fe on a serial chain whose geometry is identified from the log (no robot needed)");
   e->rigid_body_terms = e->identifies_chain = true;
   e = &row("nn", EstimatorFamily::NeuralNetwork, "fully connected network");
-  e->compared_by_default = true;
+  e->compared_by_default = e->in_paper_accuracy_comparison = e->in_paper_data_efficiency_comparison = true;
   return t;
 }
 
@@ -99,6 +101,14 @@ std::vector<std::string> default_compared_estimators(bool robot_known) {
   if (robot_known)
     for (const std::string& name : robot_compared_estimators()) names.push_back(name);
   return names;
+}
+
+std::vector<std::string> paper_accuracy_estimators() {
+  return estimator_names_where([](const EstimatorSpec& e) { return e.in_paper_accuracy_comparison; });
+}
+
+std::vector<std::string> paper_data_efficiency_estimators() {
+  return estimator_names_where([](const EstimatorSpec& e) { return e.in_paper_data_efficiency_comparison; });
 }
 
 std::vector<std::string> robot_compared_estimators() {

@@ -5,6 +5,7 @@
 #include "gipdyn/training_data.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 

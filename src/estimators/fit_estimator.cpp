@@ -23,9 +23,30 @@ void EstimatorOptions::validate() const {
 }
 
 TrainOptions EstimatorOptions::train_options() const {
-  TrainOptions o = gp;
+  TrainOptions o;
   o.kernel = name;
   o.robot_prior = robot_prior;
+  o.search = search;
+  o.gp = gp;
+  o.sparse = sparse;
+  o.nll_backend = nll_backend;
+  return o;
+}
+
+LagrangianOptions EstimatorOptions::lagrangian_options() const {
+  // Settings of the per-joint GPs that would change a model, which LIP's one
+  // coupled GP cannot honour: refused rather than ignored.
+  const std::string lip = name + ": ";
+  if (gp.mean != MeanKind::Zero) throw Error(lip + "GpOptions::mean must be zero (the energies have zero prior mean)");
+  if (gp.prior.enabled) throw Error(lip + "GpOptions::prior is not supported; leave it off");
+  if (gp.warm_start_rows > 0) throw Error(lip + "GpOptions::warm_start_rows is not supported; leave it at 0");
+  if (sparse.inducing_points > 0)
+    throw Error(lip + "SparseOptions::inducing_points is not supported (exact GP only); leave it at 0");
+  if (nll_backend) throw Error(lip + "TrainOptions::nll_backend is not supported (one process only); leave it unset");
+  LagrangianOptions o;
+  o.search = search;
+  o.serial_chain = serial_chain;
+  o.friction = estimator_spec(name).friction;
   return o;
 }
 
@@ -45,7 +66,7 @@ FitResult fit_gp(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eige
 
 FitResult fit_lagrangian(const EstimatorOptions& o, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                          const JointTypes& joints, const ProgressCallback& progress) {
-  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.train_options(), progress, estimator_spec(o.name).friction);
+  LagrangianEstimator::FitOutcome r = LagrangianEstimator::fit(X, Y, joints, o.lagrangian_options(), progress);
   FitResult result;
   result.report = std::move(r.report);
   result.estimator = std::move(r.estimator);
@@ -133,7 +154,7 @@ nlohmann::json teaching_record(const EstimatorOptions& o, const FitResult& r) {
   if (r.teacher_report)
     record.update({{"states", t.states},
                    {"hyperparameter_rows", t.hyperparameter_rows},
-                   {"student_hyperparameter_rows", t.student_train_options(o.gp).hyperparameter_rows},
+                   {"student_hyperparameter_rows", t.student_search(o.search).hyperparameter_rows},
                    {"seed", t.seed},
                    {"label_noise_std", std::vector<double>(r.label_noise_std.data(),
                                                            r.label_noise_std.data() + r.label_noise_std.size())},
@@ -166,9 +187,9 @@ std::optional<TeacherOptions> choose_teacher(const std::string& choice, const Es
 }
 
 bool automatic_teaching_applies(const EstimatorOptions& options) {
-  const TrainOptions& gp = options.gp;
-  return estimator_spec(options.name).default_estimator && gp.inducing_points == 0 && gp.warm_start_rows == 0 && gp.mean == MeanKind::Zero &&
-         !options.robot_prior.robot && !gp.nll_backend;
+  return estimator_spec(options.name).default_estimator && options.sparse.inducing_points == 0 &&
+         options.gp.warm_start_rows == 0 && options.gp.mean == MeanKind::Zero && !options.robot_prior.robot &&
+         !options.nll_backend;
 }
 
 bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints) {
@@ -178,14 +199,15 @@ bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints) {
 }
 
 Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints) {
-  const TrainOptions& gp = options.gp;
+  const GpOptions& gp = options.gp;
   // pp with a zero mean fits in weight space (train_model), O(rows P^2) with P parameters.
   const EstimatorSpec& spec = estimator_spec(options.name);
   const bool weight_space = spec.kernel && spec.kernel->finite_features && gp.mean == MeanKind::Zero;
-  if (!is_gp_estimator(options.name) || weight_space || gp.inducing_points > 0 || gp.nll_backend ||
+  if (!is_gp_estimator(options.name) || weight_space || options.sparse.inducing_points > 0 || options.nll_backend ||
       teaches(options, rows, joints))
     return 0;
-  return gp.hyperparameter_rows > 0 && gp.hyperparameter_rows < rows ? gp.hyperparameter_rows : rows;
+  const int subsample = options.search.hyperparameter_rows;
+  return subsample > 0 && subsample < rows ? subsample : rows;
 }
 
 std::string long_exact_fit_warning(Eigen::Index rows) {
@@ -230,17 +252,23 @@ std::string describe(TeachingOutcome outcome, const std::string& teacher_name) {
   return "";
 }
 
-TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
+EstimatorOptions teacher_estimator_options(const TeacherOptions& options, const EstimatorOptions& student) {
+  EstimatorOptions teacher;
+  teacher.name = options.name;
+  teacher.search = options.teacher_search(student.search);
+  teacher.serial_chain = student.serial_chain;
+  teacher.gp.keep_factor = false;
+  teacher.nn.seed = student.search.seed;
+  teacher.chain.seed = student.search.seed;
+  teacher.chain.threads = student.search.threads;
+  return teacher;
+}
+
+TeachingSet teach(const TeacherOptions& options, const EstimatorOptions& student, const Eigen::MatrixXd& X,
                   const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress) {
   options.validate();
   validate_training_data(X, Y, joints);
-  EstimatorOptions teacher;
-  teacher.name = options.name;
-  teacher.gp = options.teacher_train_options(student);
-  teacher.nn.seed = student.seed;
-  teacher.chain.seed = student.seed;
-  teacher.chain.threads = student.threads;
-  FitResult fit = fit_estimator(teacher, X, Y, joints, progress);
+  FitResult fit = fit_estimator(teacher_estimator_options(options, student), X, Y, joints, progress);
   if (!fit.report.ok()) {
     fit.report.message = "the teacher " + options.name + " failed: " + fit.report.message;
     TeachingSet failed;
@@ -275,7 +303,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
   } else if (teaches(options, X.rows(), joints.size())) {
     TeachingSet lesson;
     if (const auto why = could_not_start(automatic, [&] {
-          lesson = teach(*options.teacher, options.train_options(), X, Y, joints, progress);
+          lesson = teach(*options.teacher, options, X, Y, joints, progress);
         })) {
       lesson.teacher_report.status = FitStatus::Failed;
       lesson.teacher_report.message = "the teacher " + options.teacher->name + " failed: " + *why;
@@ -289,7 +317,7 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
       }
     } else {
       EstimatorOptions student = on_log;
-      student.gp = options.teacher->student_train_options(options.gp);
+      student.search = options.teacher->student_search(options.search);
       student.gp.noise_std_floor = lesson.student_noise_std_floor;
       if (const auto why = could_not_start(automatic, [&] { result = fit(student, lesson.X, lesson.Y, joints, progress); }))
         result.report.message = *why;  // result is still a default FitResult, whose status is Failed

@@ -1,6 +1,7 @@
 #include "gipdyn/estimators/gp_estimator.hpp"
 
 #include "gipdyn/model/model_file.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 namespace {

@@ -15,19 +15,10 @@
 #include "gipdyn/memory.hpp"
 #include "gipdyn/parallel_tasks.hpp"
 #include "gipdyn/training_data.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 namespace {
-
-void check_options(const TrainOptions& o) {
-  TrainOptions shared = o;
-  shared.kernel = default_kernel_name();  // the kernel is LIP's own; the rest is checked as for any GP
-  shared.validate();
-  if (o.mean != MeanKind::Zero) throw Error("lip: TrainOptions::mean must be zero (the energies have zero prior mean)");
-  if (o.prior.enabled) throw Error("lip: TrainOptions::prior is not supported; leave it off");
-  if (o.warm_start_rows > 0) throw Error("lip: TrainOptions::warm_start_rows is not supported; leave it at 0");
-  if (o.inducing_points > 0) throw Error("lip: TrainOptions::inducing_points is not supported (exact GP only); leave it at 0");
-}
 
 // Sample-major stacking: entry r n + i is Y(r, i).
 Eigen::VectorXd stack_rows(const Eigen::MatrixXd& Y) {
@@ -162,10 +153,10 @@ class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
 // as noise (thousands of nats above the best, with test errors orders of
 // magnitude worse; docs/training.md), and which start reaches the better one
 // depends on the starting noise. So the data-driven start x0 is tried with the
-// starting noise at 1, 0.1 and 0.01 times TrainOptions::initial_noise_fraction
+// starting noise at 1, 0.1 and 0.01 times SearchSettings::initial_noise_fraction
 // (never below the floor); the restarts perturb the first of them, seeded.
 std::vector<Eigen::VectorXd> lip_start_points(const Eigen::VectorXd& x0, const OptimizerOptions& bounds, int n,
-                                              const TrainOptions& o) {
+                                              const SearchSettings& o) {
   std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
   std::normal_distribution<double> normal(0.0, 1.0);
   const int noise_starts = 3;
@@ -229,13 +220,17 @@ LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorX
     weight_space_ = std::make_shared<const LagrangianWeightSpaceMean>(kernel_, X_, alpha_);
 }
 
+void LagrangianOptions::validate() const { search.validate(); }
+
 LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
-                                                         const JointTypes& joints, const TrainOptions& o,
-                                                         const ProgressCallback& progress, bool friction) {
+                                                         const JointTypes& joints, const LagrangianOptions& options,
+                                                         const ProgressCallback& progress) {
   using Clock = std::chrono::steady_clock;
   const auto t0 = Clock::now();
   auto seconds = [&] { return std::chrono::duration<double>(Clock::now() - t0).count(); };
-  check_options(o);
+  options.validate();
+  const SearchSettings& o = options.search;
+  const bool friction = options.friction;
   validate_training_data(X, Y, joints);
   const int n = joints.size();
   // The hyperparameters may be learned on a constant-step subsample: each
@@ -257,7 +252,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
                  "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints (one " +
                      std::to_string(static_cast<long>(system)) + "-square matrix)",
                  subsampled ? "train on fewer rows" : "train on fewer rows, or learn the hyperparameters on a "
-                                                      "subsample (TrainOptions::hyperparameter_rows) and train on "
+                                                      "subsample (SearchSettings::hyperparameter_rows) and train on "
                                                       "fewer rows");
   use_single_threaded_blas();
 
@@ -272,7 +267,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   for (int i = 0; i < n; ++i)
     joint_variance(i) = std::max(Yh.col(i).squaredNorm() / static_cast<double>(Yh.rows()) / (scale * scale), 1e-12);
 
-  LagrangianKernel kernel(joints, friction, o.serial_chain);
+  LagrangianKernel kernel(joints, friction, options.serial_chain);
   kernel.initialize(Xh, 1.0);
   const int P = kernel.num_params();
   Eigen::VectorXd x0(P + n);
@@ -291,11 +286,11 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   shared.coupled = true;
   const std::vector<Eigen::VectorXd> start_points = lip_start_points(x0, opt, n, o);
   // One fit is a single coupled optimisation whose factorisations run on one
-  // core, so the starts run side by side (TrainOptions::threads, 0: all at
+  // core, so the starts run side by side (SearchSettings::threads, 0: all at
   // once, sharing the cores) as far as memory allows. Each start depends on
   // its starting point alone and BLAS runs on one thread, so the kept optimum
   // does not depend on how many run at once. Screening
-  // (TrainOptions::start_screening_evaluations) pays here: the starts that
+  // (SearchSettings::start_screening_evaluations) pays here: the starts that
   // reach the noise-explained optima show it early, while the good ones spend
   // most of their evaluations on the last few nats.
   const int num_starts = static_cast<int>(start_points.size());

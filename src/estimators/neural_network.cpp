@@ -14,6 +14,7 @@
 #ifdef GIPDYN_HAVE_TORCH
 #include <ATen/CPUGeneratorImpl.h>
 #include <torch/torch.h>
+#include "gipdyn/io/detail/model_container.hpp"
 #endif
 
 namespace gipdyn {

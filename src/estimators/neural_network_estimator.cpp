@@ -1,4 +1,5 @@
 #include "gipdyn/estimators/neural_network_estimator.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 namespace {

@@ -36,30 +36,16 @@ bool TeacherOptions::teaches(Eigen::Index rows, Eigen::Index joints) const {
   return mode == TeachingMode::Always || static_cast<long>(rows) * static_cast<long>(joints) <= automatic_max_log_values;
 }
 
-TrainOptions TeacherOptions::teacher_train_options(const TrainOptions& student) const {
-  const TrainOptions defaults;
-  TrainOptions o = student;
-  o.kernel = name;
-  o.hyperparameter_rows = hyperparameter_rows;
-  o.keep_factor = false;  // the teacher only predicts means
-  // What describes the student's own model, not the search.
-  o.scaling = defaults.scaling;
-  o.mean = defaults.mean;
-  o.prior = defaults.prior;
-  o.warm_start_rows = defaults.warm_start_rows;
-  o.inducing_points = defaults.inducing_points;
-  o.hyperparameter_objective = defaults.hyperparameter_objective;
-  o.noise_std_floor = defaults.noise_std_floor;
-  o.initial_log_params = defaults.initial_log_params;
-  o.robot_prior = defaults.robot_prior;
-  o.nll_backend = defaults.nll_backend;
-  return o;
+SearchSettings TeacherOptions::teacher_search(const SearchSettings& student) const {
+  SearchSettings search = student;
+  search.hyperparameter_rows = hyperparameter_rows;
+  return search;
 }
 
-TrainOptions TeacherOptions::student_train_options(const TrainOptions& student) const {
-  TrainOptions o = student;
-  if (o.hyperparameter_rows == 0) o.hyperparameter_rows = student_hyperparameter_rows;
-  return o;
+SearchSettings TeacherOptions::student_search(const SearchSettings& student) const {
+  SearchSettings search = student;
+  if (search.hyperparameter_rows == 0) search.hyperparameter_rows = student_hyperparameter_rows;
+  return search;
 }
 
 namespace {

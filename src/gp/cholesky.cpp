@@ -19,7 +19,7 @@ CholeskyResult factorize_with_jitter(double mean_diagonal, const std::function<b
   }
   std::ostringstream msg;
   msg << "kernel matrix is not positive definite even with jitter " << policy.max_relative
-      << " x mean diagonal; raise the noise floor (TrainOptions::min_noise_fraction) or remove duplicate rows";
+      << " x mean diagonal; raise the noise floor (SearchSettings::min_noise_fraction) or remove duplicate rows";
   result.status = CholeskyResult::Status::NotPositiveDefinite;
   result.message = msg.str();
   return result;

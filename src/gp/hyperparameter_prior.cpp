@@ -18,7 +18,7 @@ double prior_penalty(const Eigen::VectorXd& theta, const Eigen::VectorXd& mu, do
 
 HyperparameterPrior parse_hyperparameter_prior(const std::string& name, double width) {
   if (name != "none" && name != "lognormal")
-    throw Error("TrainOptions::prior '" + name + "' is unknown; choose none or lognormal");
+    throw Error("GpOptions::prior '" + name + "' is unknown; choose none or lognormal");
   HyperparameterPrior p;
   p.enabled = name == "lognormal";
   p.width = width;

@@ -8,7 +8,7 @@ MeanKind parse_mean_kind(const std::string& name) {
   if (name == "zero") return MeanKind::Zero;
   if (name == "constant") return MeanKind::Constant;
   if (name == "linear") return MeanKind::Linear;
-  throw Error("TrainOptions::mean '" + name + "' is unknown; choose zero, constant or linear");
+  throw Error("GpOptions::mean '" + name + "' is unknown; choose zero, constant or linear");
 }
 
 std::string to_string(MeanKind kind) {

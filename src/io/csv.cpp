@@ -11,6 +11,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/detail/atomic_file.hpp"
+#include <nlohmann/json.hpp>
 
 namespace gipdyn {
 namespace {

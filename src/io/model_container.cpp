@@ -1,4 +1,4 @@
-#include "gipdyn/io/model_container.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 #include <cerrno>
 #include <cmath>

@@ -116,7 +116,7 @@ std::vector<std::string> convergence_warnings(const std::vector<JointReport>& jo
   if (!stalled.empty())
     out.push_back(stalled +
                   " stalled (the line search broke down with more decrease left along the gradient than the NLL's "
-                  "rounding hides) before converging; more starts (TrainOptions::restarts) may find a lower NLL");
+                  "rounding hides) before converging; more starts (SearchSettings::restarts) may find a lower NLL");
   return out;
 }
 
@@ -136,7 +136,7 @@ std::string jitter_warning(const JointReport& j, bool coupled) {
                   j.jitter / j.noise_variance);
     out += times;
   }
-  return out + "; raise TrainOptions::min_noise_fraction or remove duplicate rows";
+  return out + "; raise SearchSettings::min_noise_fraction or remove duplicate rows";
 }
 
 }  // namespace

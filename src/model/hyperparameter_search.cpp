@@ -10,8 +10,26 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/parallel_tasks.hpp"
+#include "gipdyn/training_data.hpp"
 
 namespace gipdyn {
+
+void SearchSettings::validate() const {
+  optimizer.validate();
+  if (!(gradient_tolerance_per_row >= 0.0)) throw Error("SearchSettings::gradient_tolerance_per_row must be >= 0");
+  if (restarts < 0 || restarts > 1000) throw Error("SearchSettings::restarts must be between 0 and 1000");
+  if (!(restart_spread >= 0.0)) throw Error("SearchSettings::restart_spread must be >= 0");
+  if (start_screening_evaluations < 0)
+    throw Error("SearchSettings::start_screening_evaluations must be >= 0 (0: every start runs to convergence)");
+  if (hyperparameter_rows < 0) throw Error("SearchSettings::hyperparameter_rows must be >= 0 (0: all rows)");
+  if (hyperparameter_rows > 0 && hyperparameter_rows < static_cast<int>(kMinTrainingRows))
+    throw Error("SearchSettings::hyperparameter_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+  if (!(initial_noise_fraction > 0.0)) throw Error("SearchSettings::initial_noise_fraction must be > 0");
+  if (!(min_noise_fraction > 0.0) || min_noise_fraction > initial_noise_fraction)
+    throw Error("SearchSettings::min_noise_fraction must be > 0 and not above SearchSettings::initial_noise_fraction (" +
+                std::to_string(initial_noise_fraction) + ")");
+  if (threads < 0) throw Error("SearchSettings::threads must be >= 0");
+}
 
 void SearchOptions::validate() const {
   optimizer.validate();

@@ -14,7 +14,7 @@ OutputScaling parse_output_scaling(const std::string& name) {
   if (name == "none") return OutputScaling::None;
   if (name == "center") return OutputScaling::Center;
   if (name == "standardize") return OutputScaling::Standardize;
-  throw Error("TrainOptions::scaling '" + name + "' is unknown; choose none, center or standardize");
+  throw Error("GpOptions::scaling '" + name + "' is unknown; choose none, center or standardize");
 }
 
 std::string to_string(OutputScaling s) {

@@ -7,6 +7,7 @@
 #include "gipdyn/io/detail/json_numbers.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
 namespace {

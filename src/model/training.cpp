@@ -28,49 +28,45 @@ std::string to_string(HyperparameterObjective o) {
 HyperparameterObjective parse_hyperparameter_objective(const std::string& s) {
   if (s == "exact") return HyperparameterObjective::Exact;
   if (s == "bound") return HyperparameterObjective::SparseBound;
-  throw Error("TrainOptions::hyperparameter_objective: unknown objective '" + s + "' (bound or exact)");
+  throw Error("SparseOptions::hyperparameter_objective: unknown objective '" + s + "' (bound or exact)");
+}
+
+void GpOptions::validate() const {
+  prior.validate();
+  if (!(noise_std_floor.array() >= 0.0).all() || !noise_std_floor.allFinite())
+    throw Error("GpOptions::noise_std_floor must hold finite values >= 0 (the noise's standard deviation per joint)");
+  if (warm_start_rows < 0) throw Error("GpOptions::warm_start_rows must be >= 0 (0: no warm start)");
+  if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
+    throw Error("GpOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+}
+
+void SparseOptions::validate() const {
+  if (inducing_points < 0) throw Error("SparseOptions::inducing_points must be >= 0 (0: exact GP)");
 }
 
 void TrainOptions::validate() const {
-  optimizer.validate();
-  if (restarts < 0 || restarts > 1000) throw Error("TrainOptions::restarts must be between 0 and 1000");
-  if (!(restart_spread >= 0.0)) throw Error("TrainOptions::restart_spread must be >= 0");
-  if (!(initial_noise_fraction > 0.0)) throw Error("TrainOptions::initial_noise_fraction must be > 0");
-  if (!(min_noise_fraction > 0.0) || min_noise_fraction > initial_noise_fraction)
-    throw Error("TrainOptions::min_noise_fraction must be > 0 and not above TrainOptions::initial_noise_fraction (" +
-                std::to_string(initial_noise_fraction) + ")");
-  if (!(noise_std_floor.array() >= 0.0).all() || !noise_std_floor.allFinite())
-    throw Error("TrainOptions::noise_std_floor must hold finite values >= 0 (the noise's standard deviation per joint)");
-  if (threads < 0) throw Error("TrainOptions::threads must be >= 0");
-  if (start_screening_evaluations < 0)
-    throw Error("TrainOptions::start_screening_evaluations must be >= 0 (0: every start runs to convergence)");
-  if (warm_start_rows < 0) throw Error("TrainOptions::warm_start_rows must be >= 0 (0: no warm start)");
-  if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
-    throw Error("TrainOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
-  if (inducing_points < 0) throw Error("TrainOptions::inducing_points must be >= 0 (0: exact GP)");
-  if (hyperparameter_rows < 0) throw Error("TrainOptions::hyperparameter_rows must be >= 0 (0: all rows)");
-  if (hyperparameter_rows > 0 && hyperparameter_rows < static_cast<int>(kMinTrainingRows))
-    throw Error("TrainOptions::hyperparameter_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
-  if (inducing_points > 0 && hyperparameter_objective == HyperparameterObjective::Exact && hyperparameter_rows == 0)
-    throw Error("TrainOptions::hyperparameter_objective exact with inducing points needs TrainOptions::hyperparameter_rows "
-                "(the exact NLL of every row is what the sparse GP avoids): set it, e.g. to 1000");
-  if (inducing_points > 0 && mean != MeanKind::Zero)
-    throw Error("TrainOptions::mean must be zero with inducing points (TrainOptions::inducing_points)");
-  if (!(gradient_tolerance_per_row >= 0.0)) throw Error("TrainOptions::gradient_tolerance_per_row must be >= 0");
-  if (nll_backend) {
-    if (inducing_points > 0)
-      throw Error("TrainOptions::nll_backend computes the exact GP: set TrainOptions::inducing_points to 0, or leave "
-                  "TrainOptions::nll_backend unset for a sparse GP");
-    if (mean != MeanKind::Zero)
-      throw Error("TrainOptions::nll_backend needs TrainOptions::mean zero (a profiled mean is not distributed)");
-    if (keep_factor)
-      throw Error("TrainOptions::keep_factor must be off with TrainOptions::nll_backend: the factor is spread over "
-                  "its processes (a loaded model recomputes it for variances)");
-  }
-  prior.validate();
   require_known_kernel(kernel);
   if (kernel_needs_robot(kernel) && !robot_prior.robot)
     throw Error("kernel '" + kernel + "' is model-based and needs the nominal robot (TrainOptions::robot_prior)");
+  search.validate();
+  gp.validate();
+  sparse.validate();
+  const bool sparse_gp = sparse.inducing_points > 0;
+  if (sparse_gp && sparse.hyperparameter_objective == HyperparameterObjective::Exact && search.hyperparameter_rows == 0)
+    throw Error("SparseOptions::hyperparameter_objective exact with inducing points needs SearchSettings::hyperparameter_rows "
+                "(the exact NLL of every row is what the sparse GP avoids): set it, e.g. to 1000");
+  if (sparse_gp && gp.mean != MeanKind::Zero)
+    throw Error("GpOptions::mean must be zero with inducing points (SparseOptions::inducing_points)");
+  if (nll_backend) {
+    if (sparse_gp)
+      throw Error("TrainOptions::nll_backend computes the exact GP: set SparseOptions::inducing_points to 0, or leave "
+                  "TrainOptions::nll_backend unset for a sparse GP");
+    if (gp.mean != MeanKind::Zero)
+      throw Error("TrainOptions::nll_backend needs GpOptions::mean zero (a profiled mean is not distributed)");
+    if (gp.keep_factor)
+      throw Error("GpOptions::keep_factor must be off with TrainOptions::nll_backend: the factor is spread over "
+                  "its processes (a loaded model recomputes it for variances)");
+  }
 }
 
 namespace {
@@ -101,7 +97,7 @@ struct RowSubset {
 class JointTraining {
  public:
   // Zm: the inducing rows' features of a sparse GP, or null for the exact GP.
-  // noise_variance_floor: TrainOptions::noise_std_floor of this joint, squared, in the scaled output's units.
+  // noise_variance_floor: GpOptions::noise_std_floor of this joint, squared, in the scaled output's units.
   JointTraining(int j, const FeatureMap& features, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Z,
                 const Eigen::MatrixXd* Zm, const Eigen::VectorXd& y, const TrainOptions& o,
                 double noise_variance_floor, const ProgressCallback& progress)
@@ -109,22 +105,22 @@ class JointTraining {
         target_(std::max(y.squaredNorm() / static_cast<double>(y.size()), 1e-12)),
         kernel_(make_kernel(o.kernel, features, j, o.robot_prior)),
         // The mean's coefficients are profiled out of the likelihood, not optimised.
-        mean_(o.mean, static_cast<int>(X.cols())),
-        exact_objective_(o.hyperparameter_objective == HyperparameterObjective::Exact && o.hyperparameter_rows > 0 &&
-                         X.rows() > o.hyperparameter_rows) {
+        mean_(o.gp.mean, static_cast<int>(X.cols())),
+        exact_objective_(o.sparse.hyperparameter_objective == HyperparameterObjective::Exact && o.search.hyperparameter_rows > 0 &&
+                         X.rows() > o.search.hyperparameter_rows) {
     out_.report.joint = j;
     kernel_->initialize(Z, target_);
     P_ = kernel_->num_params();
     x0_.resize(P_ + 1);
     x0_.head(P_) = kernel_->log_params();
-    x0_(P_) = std::log(o.initial_noise_fraction * target_);
-    if (!o.initial_log_params.empty()) x0_ = o.initial_log_params[static_cast<size_t>(j)];  // sizes checked by train_model
-    opt_ = o.optimizer;
+    x0_(P_) = std::log(o.search.initial_noise_fraction * target_);
+    if (!o.gp.initial_log_params.empty()) x0_ = o.gp.initial_log_params[static_cast<size_t>(j)];  // sizes checked by train_model
+    opt_ = o.search.optimizer;
     // Box bounds keep exp() finite and the noise above its floor.
     opt_.lower_bounds = Eigen::VectorXd::Constant(P_ + 1, -30.0);
     opt_.upper_bounds = Eigen::VectorXd::Constant(P_ + 1, 30.0);
     // A known noise floor above the whole variance would leave no room for the kernel: it stops at the variance.
-    opt_.lower_bounds(P_) = std::log(std::max(o.min_noise_fraction * target_, std::min(noise_variance_floor, target_)));
+    opt_.lower_bounds(P_) = std::log(std::max(o.search.min_noise_fraction * target_, std::min(noise_variance_floor, target_)));
     opt_.upper_bounds(P_) = std::log(10.0 * target_);
     kernel_->restrict_log_params(Z, opt_.lower_bounds.head(P_), opt_.upper_bounds.head(P_));
     x0_ = x0_.cwiseMax(opt_.lower_bounds).cwiseMin(opt_.upper_bounds);
@@ -146,14 +142,14 @@ class JointTraining {
 
   double seconds() const { return std::chrono::duration<double>(Clock::now() - t0_).count(); }
 
-  // The data-driven start, then the restarts perturbed from it (TrainOptions::restarts).
+  // The data-driven start, then the restarts perturbed from it (SearchSettings::restarts).
   std::vector<Eigen::VectorXd> start_points() const {
-    std::mt19937_64 rng(o_.seed * 1000003ULL + static_cast<std::uint64_t>(j_));
+    std::mt19937_64 rng(o_.search.seed * 1000003ULL + static_cast<std::uint64_t>(j_));
     std::normal_distribution<double> normal(0.0, 1.0);
     std::vector<Eigen::VectorXd> starts{x0_};
-    for (int r = 1; r <= o_.restarts; ++r) {
+    for (int r = 1; r <= o_.search.restarts; ++r) {
       Eigen::VectorXd start = x0_;
-      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o_.restart_spread * normal(rng);
+      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o_.search.restart_spread * normal(rng);
       starts.push_back(start);
     }
     return starts;
@@ -185,12 +181,12 @@ class JointTraining {
       // The sparse bound on all rows unless asked for the exact NLL; a
       // warm-start subsample is small: the exact NLL there, in this process.
       NllEvaluation e = state->weight_space ? state->weight_space->evaluate(x.head(P), x(P))
-                        : sparse ? evaluate_vfe(trial, x(P), Zr, yr, *Zm_, true, state->sparse_ws, o_.jitter)
-                                 : state->exact->evaluate(trial, x(P), Zr, yr, true, nullptr, o_.jitter);
+                        : sparse ? evaluate_vfe(trial, x(P), Zr, yr, *Zm_, true, state->sparse_ws, o_.search.jitter)
+                                 : state->exact->evaluate(trial, x(P), Zr, yr, true, nullptr, o_.search.jitter);
       if (!e.ok()) return false;
       f = e.nll;
       g = e.gradient;
-      if (o_.prior.enabled) f += prior_penalty(x, x0_, o_.prior.width, &g);  // MAP
+      if (o_.gp.prior.enabled) f += prior_penalty(x, x0_, o_.gp.prior.width, &g);  // MAP
       return true;
     };
   }
@@ -215,8 +211,8 @@ class JointTraining {
     const bool sparse = Zm_ && all_rows && !exact_objective_, distributed = o_.nll_backend && all_rows;
     SearchOptions search;
     search.optimizer = opt_;
-    search.optimizer.gradient_tolerance = o_.gradient_tolerance_per_row * static_cast<double>(yr.size());
-    search.screening_evaluations = o_.start_screening_evaluations;
+    search.optimizer.gradient_tolerance = o_.search.gradient_tolerance_per_row * static_cast<double>(yr.size());
+    search.screening_evaluations = o_.search.start_screening_evaluations;
     search.threads = 1;  // the joints are the parallel work
     const double side = static_cast<double>(sparse ? Zm_->rows() : yr.size());
     search.bytes_per_start = (sparse ? 10.0 : 2.0) * 8.0 * side * side;  // as training_memory's per joint
@@ -230,9 +226,9 @@ class JointTraining {
   // start could be evaluated; fills the report's search fields.
   Eigen::VectorXd search() {
     // The rows the hyperparameters are learned on: all, or a constant-step subsample.
-    const bool subsampled = o_.hyperparameter_rows > 0 && X_.rows() > o_.hyperparameter_rows;
+    const bool subsampled = o_.search.hyperparameter_rows > 0 && X_.rows() > o_.search.hyperparameter_rows;
     RowSubset h;
-    if (subsampled) h = RowSubset(X_, Z_, y_, o_.hyperparameter_rows);
+    if (subsampled) h = RowSubset(X_, Z_, y_, o_.search.hyperparameter_rows);
     const Eigen::MatrixXd& Xo = subsampled ? h.X : X_;
     const Eigen::MatrixXd& Zo = subsampled ? h.Z : Z_;
     const Eigen::VectorXd& yo = subsampled ? h.y : y_;
@@ -240,10 +236,10 @@ class JointTraining {
 
     // Every start on the subsample when the data are large: the subsample's
     // optimum is a start close to the full data's, and there restarts are cheap.
-    const bool warm = o_.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o_.warm_start_rows);
+    const bool warm = o_.gp.warm_start_rows > 0 && Xo.rows() >= 2 * static_cast<Eigen::Index>(o_.gp.warm_start_rows);
     SearchResult found;
     if (warm) {
-      const RowSubset w(Xo, Zo, yo, o_.warm_start_rows);
+      const RowSubset w(Xo, Zo, yo, o_.gp.warm_start_rows);
       found = search_on(w.X, w.Z, w.y, false, start_points());
       out_.report.warm_start_evaluations = found.evaluations;
     } else {
@@ -275,7 +271,7 @@ class JointTraining {
     if (mean_.kind() != MeanKind::Zero) {  // the coefficients that go with the chosen hyperparameters
       Eigen::VectorXd beta;
       const NllEvaluation at_best =
-          evaluate_profiled_nll(*kernel_, best_x(P), mean_, X_, Z_, y_, false, ws, &beta, o_.jitter);
+          evaluate_profiled_nll(*kernel_, best_x(P), mean_, X_, Z_, y_, false, ws, &beta, o_.search.jitter);
       if (!at_best.ok()) {
         out_.report.status = OptimizerResult::Status::Failed;
         out_.report.message = "joint " + std::to_string(j_ + 1) + ": final fit failed: " + at_best.message;
@@ -287,18 +283,18 @@ class JointTraining {
     out_.gp = GpRegressor(std::move(kernel_), best_x(P));
     CholeskyResult fit;
     if (Zm_) {
-      SparsePosterior post = fit_sparse(out_.gp.kernel(), best_x(P), Z_, y_, *Zm_, sparse_ws, o_.jitter);
+      SparsePosterior post = fit_sparse(out_.gp.kernel(), best_x(P), Z_, y_, *Zm_, sparse_ws, o_.search.jitter);
       fit = post.status;
       if (fit.ok())
         out_.gp.set_sparse_state(post.alpha, post.jitter, post.objective, std::move(post.inducing_factor),
                                  std::move(post.posterior_factor));
     } else if (o_.nll_backend) {  // the mean is zero there
       Eigen::VectorXd alpha;
-      const NllEvaluation e = o_.nll_backend->evaluate(out_.gp.kernel(), best_x(P), Z_, y_, false, &alpha, o_.jitter);
+      const NllEvaluation e = o_.nll_backend->evaluate(out_.gp.kernel(), best_x(P), Z_, y_, false, &alpha, o_.search.jitter);
       fit = fit_result(e);
       if (e.ok()) out_.gp.set_state(alpha, e.jitter, e.nll);
     } else {
-      fit = out_.gp.fit(Z_, y_ - mean_.evaluate(X_), o_.keep_factor, ws, o_.jitter);
+      fit = out_.gp.fit(Z_, y_ - mean_.evaluate(X_), o_.gp.keep_factor, ws, o_.search.jitter);
     }
     if (!fit.ok()) {
       out_.report.status = OptimizerResult::Status::Failed;
@@ -354,12 +350,12 @@ struct TrainingMemory {
 };
 
 TrainingMemory training_memory(const TrainOptions& options, Eigen::Index rows, int joints) {
-  const bool sparse = options.inducing_points > 0;
-  const double side = static_cast<double>(sparse ? std::min<Eigen::Index>(options.inducing_points, rows) : rows);
+  const bool sparse = options.sparse.inducing_points > 0;
+  const double side = static_cast<double>(sparse ? std::min<Eigen::Index>(options.sparse.inducing_points, rows) : rows);
   const double square = 8.0 * side * side;
   TrainingMemory m;
   m.per_joint = sparse ? 10.0 * square + 8.0 * 3.0 * 1024.0 * side : 2.0 * square;
-  m.kept = sparse ? 2.0 * joints * square : options.keep_factor ? joints * square : 0.0;
+  m.kept = sparse ? 2.0 * joints * square : options.gp.keep_factor ? joints * square : 0.0;
   return m;
 }
 
@@ -369,7 +365,7 @@ int joints_trained_at_once(const TrainOptions& options, Eigen::Index rows, int j
   // A backend's evaluations are collective: one joint at a time, in the same order everywhere.
   if (options.nll_backend) return 1;
   const TrainingMemory memory = training_memory(options, rows, joints);
-  return worker_threads(sharing_threads(options.threads, joints), joints, memory.per_joint, memory.kept);
+  return worker_threads(sharing_threads(options.search.threads, joints), joints, memory.per_joint, memory.kept);
 }
 
 TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
@@ -383,22 +379,22 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   const int n = joints.size();
   const FeatureMap features(joints);
   const Eigen::MatrixXd Z = features.compute(X);
-  if (options.noise_std_floor.size() > 0 && options.noise_std_floor.size() != n)
-    throw Error("TrainOptions::noise_std_floor needs one value per joint (" + std::to_string(n) + ") or none");
-  if (!options.initial_log_params.empty()) {  // checked here: the joints are trained in worker threads
-    if (static_cast<int>(options.initial_log_params.size()) != n)
-      throw Error("TrainOptions::initial_log_params needs one vector per joint (" + std::to_string(n) + ") or none");
+  if (options.gp.noise_std_floor.size() > 0 && options.gp.noise_std_floor.size() != n)
+    throw Error("GpOptions::noise_std_floor needs one value per joint (" + std::to_string(n) + ") or none");
+  if (!options.gp.initial_log_params.empty()) {  // checked here: the joints are trained in worker threads
+    if (static_cast<int>(options.gp.initial_log_params.size()) != n)
+      throw Error("GpOptions::initial_log_params needs one vector per joint (" + std::to_string(n) + ") or none");
     for (int j = 0; j < n; ++j) {
       const Eigen::Index P = make_kernel(options.kernel, features, j, options.robot_prior)->num_params();
-      const Eigen::VectorXd& x = options.initial_log_params[static_cast<size_t>(j)];
+      const Eigen::VectorXd& x = options.gp.initial_log_params[static_cast<size_t>(j)];
       if (x.size() != P + 1 || !x.allFinite())
-        throw Error("TrainOptions::initial_log_params of joint " + std::to_string(j + 1) + " needs " +
+        throw Error("GpOptions::initial_log_params of joint " + std::to_string(j + 1) + " needs " +
                     std::to_string(P + 1) + " finite values (kernel log-parameters, then the log noise variance)");
     }
   }
-  const bool sparse = options.inducing_points > 0;
-  if (sparse && options.inducing_points > X.rows())
-    throw Error("TrainOptions::inducing_points (" + std::to_string(options.inducing_points) + ") exceeds the " +
+  const bool sparse = options.sparse.inducing_points > 0;
+  if (sparse && options.sparse.inducing_points > X.rows())
+    throw Error("SparseOptions::inducing_points (" + std::to_string(options.sparse.inducing_points) + ") exceeds the " +
                 std::to_string(X.rows()) + " training rows; choose at most that many, or 0 for the exact GP");
   // Shared by every joint (the model keeps one set of inputs). The joints'
   // initial kernels differ only in scale, so the first one's choice serves all.
@@ -406,7 +402,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   if (sparse) {
     std::unique_ptr<Kernel> k = make_kernel(options.kernel, features, 0, options.robot_prior);
     k->initialize(Z, 1.0);
-    inducing_rows = select_inducing_rows(*k, Z, options.inducing_points);
+    inducing_rows = select_inducing_rows(*k, Z, options.sparse.inducing_points);
   }
   const Eigen::MatrixXd Zm = sparse ? Eigen::MatrixXd(Z(inducing_rows, Eigen::all)) : Eigen::MatrixXd();
 
@@ -417,8 +413,8 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
     // A model-based kernel spans tau = Phi w exactly; a subtracted training mean is
     // not in that span (no constant regressor column on joints that gravity does
     // not load), so pp and sp are scaled but never centred.
-    if (options.scaling != OutputScaling::None && !kernel_needs_robot(options.kernel)) offset(j) = mean;
-    if (options.scaling == OutputScaling::Standardize && sd > 1e-12) scale(j) = sd;
+    if (options.gp.scaling != OutputScaling::None && !kernel_needs_robot(options.kernel)) offset(j) = mean;
+    if (options.gp.scaling == OutputScaling::Standardize && sd > 1e-12) scale(j) = sd;
   }
 
   std::vector<JointOutcome> outcomes(static_cast<size_t>(n));
@@ -430,15 +426,15 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
     require_memory(
         memory.kept + memory.per_joint, "training on " + std::to_string(X.rows()) + " rows",
         std::string(kFewerRowsAdvice) +
-            std::string(options.keep_factor && !sparse ? " or without kept factors (TrainOptions::keep_factor)" : "") +
+            std::string(options.gp.keep_factor && !sparse ? " or without kept factors (GpOptions::keep_factor)" : "") +
             std::string(sparse ? " or with fewer inducing points"
-                               : ", or a sparse GP (TrainOptions::inducing_points), or distributed over processes "
+                               : ", or a sparse GP (SparseOptions::inducing_points), or distributed over processes "
                                  "(TrainOptions::nll_backend)"));
   }
   const int threads = joints_trained_at_once(options, X.rows(), n);
   run_tasks(n, threads, [&](int j) {
     const Eigen::VectorXd y = ((Y.col(j).array() - offset(j)) / scale(j)).matrix();
-    const double noise_floor = options.noise_std_floor.size() > 0 ? options.noise_std_floor(j) / scale(j) : 0.0;
+    const double noise_floor = options.gp.noise_std_floor.size() > 0 ? options.gp.noise_std_floor(j) / scale(j) : 0.0;
     outcomes[static_cast<size_t>(j)] =
         JointTraining(j, features, X, Z, sparse ? &Zm : nullptr, y, options, noise_floor * noise_floor, progress).run();
   });
@@ -455,7 +451,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
   result.report.status = result.report.message.empty() ? combine_joint_statuses(result.report.joints) : FitStatus::Failed;
   if (result.report.ok())
     result.model = InverseDynamicsModel(joints, options.kernel, sparse ? Eigen::MatrixXd(X(inducing_rows, Eigen::all)) : X,
-                                        std::move(gps), options.scaling, offset, scale, options.robot_prior,
+                                        std::move(gps), options.gp.scaling, offset, scale, options.robot_prior,
                                         std::move(means), result.report.joints, X.rows());
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
   return result;
@@ -481,9 +477,9 @@ TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& o
   TrainOptions o = options;
   o.kernel = model.kernel_name();
   o.robot_prior = model.robot_prior();
-  o.scaling = model.output_scaling();
-  o.mean = model.mean_kind();
-  o.initial_log_params = learned_log_params(model);
+  o.gp.scaling = model.output_scaling();
+  o.gp.mean = model.mean_kind();
+  o.gp.initial_log_params = learned_log_params(model);
   return train_model(exact.training_inputs(), exact.training_targets(), model.joints(), o, progress);
 }
 

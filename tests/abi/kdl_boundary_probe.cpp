@@ -18,6 +18,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
+#include <nlohmann/json.hpp>
 
 namespace {
 

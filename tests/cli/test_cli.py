@@ -210,6 +210,10 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("an unknown teacher", HEADER + ROWS, "RR", ["--teacher", "lap"], "unknown teacher 'lap'"),
         ("too few teacher states", HEADER + ROWS, "RR", ["--teacher", "lip", "--teacher-states", "2"],
          "--teacher-states must be at least 5"),
+        ("a GP mean lip cannot honour", HEADER + ROWS, "RR", ["--kernel", "lip", "--mean", "linear"],
+         "lip: --mean must be zero"),
+        ("a prior lip cannot honour", HEADER + ROWS, "RR", ["--kernel", "lip+friction", "--prior", "lognormal"],
+         "lip+friction: --prior is not supported"),
     ],
 )
 def test_train_bad_input(tmp_path, gipdyn_bin, case, content, joints, extra, message):

@@ -5,14 +5,16 @@
 // fit_estimator (fit_estimator.hpp) and saved and loaded by estimator_file.hpp.
 #include <Eigen/Dense>
 #include <memory>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 
 #include "gipdyn/eigen_abi.hpp"
-#include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
 
 namespace gipdyn {
+
+// The model file container (io/detail/model_container.hpp, docs/model-format.md).
+struct ModelContainer;
 
 class InverseDynamicsModel;
 
@@ -49,11 +51,12 @@ class Estimator {
   // How the fit that made this estimator used a teacher: the model file's
   // "teacher" block (docs/model-format.md), written by fit_estimator and kept
   // by model files (estimator_file.hpp); null where no teacher was asked for.
-  const nlohmann::json& teaching_record() const { return teaching_record_; }
-  void set_teaching_record(nlohmann::json record) { teaching_record_ = std::move(record); }
+  const nlohmann::json* teaching_record() const { return teaching_record_.get(); }
+  // A null record clears it.
+  void set_teaching_record(const nlohmann::json& record);
 
  private:
-  nlohmann::json teaching_record_;
+  std::shared_ptr<const nlohmann::json> teaching_record_;
 };
 
 }  // namespace gipdyn

@@ -5,9 +5,11 @@
 #include <string>
 
 #include "gipdyn/estimators/estimator.hpp"
-#include "gipdyn/io/model_container.hpp"
 
 namespace gipdyn {
+
+// The model file container (io/detail/model_container.hpp, docs/model-format.md).
+struct ModelContainer;
 
 // The estimator's model file contents: to_container() and its teaching record.
 ModelContainer estimator_container(const Estimator& estimator);

@@ -38,6 +38,13 @@ struct EstimatorSpec {
   // Compared by the experiment commands unless they are given a list (those
   // that need a robot only where one is known).
   bool compared_by_default = false;
+  // In the GIP paper's comparisons on simulated data, which the accuracy and
+  // data-efficiency experiments reproduce unless they are given a list:
+  // accuracy under model bias (the model-based estimators on the nominal
+  // robot against the data-driven ones), and test error against the number of
+  // training samples.
+  bool in_paper_accuracy_comparison = false;
+  bool in_paper_data_efficiency_comparison = false;
   // GP family: the row of kernel_table(); null for the others.
   const KernelSpec* kernel = nullptr;
 };
@@ -55,6 +62,9 @@ std::vector<std::string> estimator_names_where(bool (*keep)(const EstimatorSpec&
 // those that need a robot, alone.
 std::vector<std::string> default_compared_estimators(bool robot_known);
 std::vector<std::string> robot_compared_estimators();
+// The rows in_paper_accuracy_comparison, and in_paper_data_efficiency_comparison.
+std::vector<std::string> paper_accuracy_estimators();
+std::vector<std::string> paper_data_efficiency_estimators();
 // The rows marked default_estimator and default_teacher.
 const std::string& default_estimator_name();
 const std::string& default_teacher_name();

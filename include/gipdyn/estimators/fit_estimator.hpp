@@ -9,6 +9,7 @@
 #include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
+#include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/teacher.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
@@ -21,7 +22,15 @@ namespace gipdyn {
 
 struct EstimatorOptions {
   std::string name = default_estimator_name();  // a name of estimator_table()
-  TrainOptions gp;          // GP estimators (the kernel and robot prior are set from name and robot_prior)
+  // How the hyperparameters are searched: the GP estimators and lip, and
+  // their teacher (teacher_estimator_options).
+  SearchSettings search;
+  GpOptions gp;          // GP estimators
+  SparseOptions sparse;  // GP estimators
+  // lip, and a lip teacher (LagrangianOptions::serial_chain).
+  bool serial_chain = true;
+  // GP estimators: where the likelihood is computed (TrainOptions::nll_backend).
+  std::shared_ptr<NllBackend> nll_backend;
   NeuralNetworkOptions nn;  // nn
   ChainIdentificationOptions chain;  // chain: the geometry search before fe
   RobotPrior robot_prior;   // the nominal robot of fe, pp, sp
@@ -29,10 +38,16 @@ struct EstimatorOptions {
   // the data's box instead of from the data (teacher.hpp).
   std::optional<TeacherOptions> teacher;
   // Checks this struct's own fields (the name, the teacher's options). The options of the chosen
-  // estimator (gp, nn) are checked once, by that estimator's entry point.
+  // estimator are checked once, by that estimator's entry point.
   void validate() const;
-  // gp with the kernel and robot prior of this estimator.
+  // The per-joint GPs' options: this estimator's kernel and robot prior, and
+  // search, gp, sparse, nll_backend.
   TrainOptions train_options() const;
+  // lip's options: search, serial_chain, and the friction of this estimator's
+  // row. Throws gipdyn::Error, naming the field, for a GP setting that would
+  // change the model and that LIP cannot honour (a mean, a prior, a warm
+  // start, inducing points, a backend).
+  LagrangianOptions lagrangian_options() const;
 };
 
 // What became of EstimatorOptions::teacher.
@@ -77,14 +92,14 @@ bool teaches(const EstimatorOptions& options, Eigen::Index rows, int joints);
 inline constexpr Eigen::Index kLongExactFitRows = 8000;
 
 // The rows on which fit_estimator's exact GP learns its hyperparameters from
-// a log of `rows` rows (all, or TrainOptions::hyperparameter_rows), or 0 where
+// a log of `rows` rows (all, or SearchSettings::hyperparameter_rows), or 0 where
 // no O(rows^3) factorisation sets the time: not a per-joint GP, pp with a zero
 // mean (it fits in weight space), a sparse or distributed fit, or one that is taught.
 Eigen::Index exact_hyperparameter_rows(const EstimatorOptions& options, Eigen::Index rows, int joints);
 
 // Said before an exact GP learns its hyperparameters on `rows` rows; "" below
 // kLongExactFitRows. Front ends add what makes it fast in their own names
-// (TrainOptions::hyperparameter_rows, TrainOptions::inducing_points).
+// (SearchSettings::hyperparameter_rows, SparseOptions::inducing_points).
 std::string long_exact_fit_warning(Eigen::Index rows);
 
 // "taught", "log too long", ...; and one line saying what it means for the model.
@@ -110,13 +125,21 @@ struct FitResult {
   TeachingOutcome teaching = TeachingOutcome::NoTeacher;
 };
 
-// Fits the teacher of `options` on (X, Y) (its search settings the student's:
-// TeacherOptions::teacher_train_options) and labels TeacherOptions::states
+// The options of the teacher `options` names for `student`: the student's
+// search (TeacherOptions::teacher_search; its seed and threads also seed and
+// share out the network's and the chain's own searches) and what the student
+// knows of the log (serial_chain: its joints run base to tip). Nothing of the
+// student's model: its kernel, mean, prior, sparse or distributed fit and
+// nominal robot are the library's defaults; and no kept factor, since the
+// teacher only predicts means.
+EstimatorOptions teacher_estimator_options(const TeacherOptions& options, const EstimatorOptions& student);
+
+// Fits the teacher of `options` on (X, Y) (teacher_estimator_options) and labels TeacherOptions::states
 // drawn states (label_states). Bad options or data throw gipdyn::Error before
 // any work; a teacher that fails to fit is reported in
 // TeachingSet::teacher_report, whose message then names the teacher ("the
 // teacher lip failed: ..."; X, Y empty).
-TeachingSet teach(const TeacherOptions& options, const TrainOptions& student, const Eigen::MatrixXd& X,
+TeachingSet teach(const TeacherOptions& options, const EstimatorOptions& student, const Eigen::MatrixXd& X,
                   const Eigen::MatrixXd& Y, const JointTypes& joints, const ProgressCallback& progress = {});
 
 // Fits the named estimator and sets its teaching record (Estimator::teaching_record) (with a teacher: the teacher, then the estimator on

@@ -16,10 +16,27 @@
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_weight_space.hpp"
 #include "gipdyn/model/fit_report.hpp"
-#include "gipdyn/model/training.hpp"
+#include "gipdyn/model/hyperparameter_search.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {
+
+struct LagrangianOptions {
+  SearchSettings search;
+  // The joints are ordered from the base to the tip of a serial chain, as in
+  // every URDF chain, DH table and robot log, so the inertia matrix's entry ab
+  // depends only on the joints after min(a, b), and the kernel says so
+  // (LagrangianKernel's serial_chain, docs/method.md section 11). Off: every
+  // entry may depend on every joint (the LIP paper's kernel), for joints in
+  // another order.
+  bool serial_chain = true;
+  // Each joint's smooth friction and offset beside the energies
+  // (LagrangianKernel): the estimator "lip+friction".
+  bool friction = false;
+
+  // Throws gipdyn::Error naming the bad field.
+  void validate() const;
+};
 
 class LagrangianEstimator final : public Estimator {
  public:
@@ -32,20 +49,14 @@ class LagrangianEstimator final : public Estimator {
     FitReport report;  // one entry per joint, all from the one coupled optimisation
     std::unique_ptr<LagrangianEstimator> estimator;  // null unless report.ok()
   };
-  // Maximum marginal likelihood. Uses of TrainOptions: optimizer,
-  // gradient_tolerance_per_row, restarts, restart_spread, seed,
-  // initial_noise_fraction, min_noise_fraction, jitter, hyperparameter_rows
-  // (optimise on that constant-step subsample, then condition on every row
-  // once: the way to a few thousand rows), threads (how many starts run side
-  // by side, 0: all, sharing the cores; the result does not depend on it). The others (kernel,
-  // scaling, mean, prior, warm_start_rows, keep_factor) belong to the
-  // per-joint GPs: kernel and scaling are ignored, and mean, prior and
-  // warm_start_rows must be left at their defaults (gipdyn::Error otherwise). Throws
-  // gipdyn::Error for bad data or a system too large for the memory available.
-  // friction: add each joint's smooth friction and offset term beside the
-  // energies (LagrangianKernel), the estimator "lip+friction".
+  // Maximum marginal likelihood, searched as options.search says (its
+  // hyperparameter_rows: optimise on that constant-step subsample, then
+  // condition on every row once, the way to a few thousand rows; its threads:
+  // how many starts run side by side, 0: all, sharing the cores; the result
+  // does not depend on it). Throws gipdyn::Error for bad options or data, or a
+  // system too large for the memory available.
   static FitOutcome fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
-                        const TrainOptions& options, const ProgressCallback& progress = {}, bool friction = false);
+                        const LagrangianOptions& options, const ProgressCallback& progress = {});
 
   std::string name() const override { return estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, kernel_.has_friction()); }
   const JointTypes& joints() const override { return kernel_.joints(); }

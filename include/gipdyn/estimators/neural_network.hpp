@@ -10,11 +10,13 @@
 #include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
-#include "gipdyn/io/model_container.hpp"
 #include "gipdyn/joint_types.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {
+
+// The model file container (io/detail/model_container.hpp, docs/model-format.md).
+struct ModelContainer;
 
 struct NeuralNetworkOptions {
   // Hidden layer widths; empty: two layers of 400 units, 600 for robots with 6 or more joints (the paper's).

@@ -18,7 +18,7 @@
 #include "gipdyn/estimators/estimator.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/model/fit_report.hpp"
-#include "gipdyn/model/training.hpp"
+#include "gipdyn/model/hyperparameter_search.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {
@@ -47,7 +47,7 @@ struct TeacherOptions {
   // States drawn from the box, labelled by the teacher: the student's training rows.
   int states = 2000;
   // The teacher learns its hyperparameters on a constant-step subsample of this
-  // many logged rows, then is conditioned on all of them (TrainOptions::
+  // many logged rows, then is conditioned on all of them (SearchSettings::
   // hyperparameter_rows; a LIP system is (N n) x (N n)). 0: on every row.
   int hyperparameter_rows = 300;
   // The student learns its hyperparameters on a constant-step subsample of
@@ -55,7 +55,7 @@ struct TeacherOptions {
   // independent draws over the whole box, so a few hundred of them tell the
   // NLL what thousands do (docs/training.md compares them) at a fraction of
   // an evaluation's O(N^3).
-  // 0: on every state. TrainOptions::hyperparameter_rows, when above 0, wins.
+  // 0: on every state. SearchSettings::hyperparameter_rows, when above 0, wins.
   int student_hyperparameter_rows = 500;
   // Seed of the drawn states.
   std::uint64_t seed = 0;
@@ -71,18 +71,12 @@ struct TeacherOptions {
   // Whether a log of this many rows of this many joints is taught (mode,
   // automatic_max_log_values).
   bool teaches(Eigen::Index rows, Eigen::Index joints) const;
-  // The teacher's GP options: the student's, so that every search setting
-  // (optimiser, tolerances, restarts, screening, seed, noise start and floor,
-  // jitter, threads, and any added later) reaches the teacher, except what
-  // describes the student's own model: the kernel is `name`,
-  // hyperparameter_rows this struct's, no kept factor (the teacher only
-  // predicts means), and scaling, mean, prior, warm start, inducing points,
-  // objective, noise floor, starting point, nominal robot and backend the
-  // library's defaults.
-  TrainOptions teacher_train_options(const TrainOptions& student) const;
-  // The student's own options: `student` with its hyperparameter subsample
-  // (TrainOptions::hyperparameter_rows, else student_hyperparameter_rows).
-  TrainOptions student_train_options(const TrainOptions& student) const;
+  // The teacher's search: the student's (every setting, and any added later,
+  // reaches the teacher), on hyperparameter_rows of this struct.
+  SearchSettings teacher_search(const SearchSettings& student) const;
+  // The student's own search: `student` with its hyperparameter subsample
+  // (SearchSettings::hyperparameter_rows, else student_hyperparameter_rows).
+  SearchSettings student_search(const SearchSettings& student) const;
 };
 
 // Where the teacher's residual on the log is at least this share of a
@@ -104,7 +98,7 @@ struct TeachingSet {
   // Per joint: the root mean square of the teacher's residual on the logged
   // rows, how precisely the teacher knows the torque: the labels' uncertainty.
   Eigen::VectorXd label_noise_std;
-  // Per joint: the student's noise floor (TrainOptions::noise_std_floor),
+  // Per joint: the student's noise floor (GpOptions::noise_std_floor),
   // label_noise_std where the labels are the teacher's torques, 0 where they
   // are a constant. Labels without noise and a student that may not call less
   // than the teacher's residual noise: the student smooths the teacher's

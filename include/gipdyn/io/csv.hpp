@@ -7,7 +7,7 @@
 // ("# q1 q2 ...", numpy.savetxt) are accepted; later lines starting with '#'
 // are skipped. The decimal mark is '.'.
 #include <Eigen/Dense>
-#include <nlohmann/json.hpp>
+#include <nlohmann/json_fwd.hpp>
 #include <string>
 #include <vector>
 

@@ -26,12 +26,12 @@ struct JointReport {
   std::vector<double> restart_nlls;  // one per start (on the warm-start subsample if any), NaN where a start failed
   int evaluations = 0;      // NLL evaluations on all rows (or the hyperparameter rows)
   int warm_start_evaluations = 0;  // NLL evaluations on the warm-start subsample, over every start
-  // Screened starts (TrainOptions::start_screening_evaluations): the starts
+  // Screened starts (SearchSettings::start_screening_evaluations): the starts
   // behind the leader stopped after this many evaluations, so their
   // restart_nlls are those of that point. 0: every start ran to its end.
   int screening_evaluations = 0;
   // The rows the hyperparameters were learned on when a subsample
-  // (TrainOptions::hyperparameter_rows), else 0: learned on every row.
+  // (SearchSettings::hyperparameter_rows), else 0: learned on every row.
   long hyperparameter_rows = 0;
   double grad_norm = 0.0;   // projected |dNLL/dtheta|_inf at the kept point
   double noise_variance = 0.0;  // learned, in units of the scaled output (a share of its variance when standardised)

@@ -7,14 +7,60 @@
 // (with its own workspace, since starts may run side by side) and a progress
 // callback.
 #include <Eigen/Dense>
+#include <cstdint>
 #include <functional>
 #include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
+#include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/optim/optimizer.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {
+
+// How an estimator learned by marginal likelihood searches its
+// hyperparameters, whatever its model: the settings a user chooses for the
+// per-joint GPs (TrainOptions::search, training.hpp) and for LIP
+// (LagrangianOptions::search), and that a teacher inherits from its student
+// (TeacherOptions::teacher_search). Each estimator derives from them the
+// SearchOptions of its runs below.
+struct SearchSettings {
+  OptimizerOptions optimizer;
+  // A run has converged when the projected |dNLL/dlog theta|_inf at its best
+  // point is at most this times the number of rows (the NLL and its gradient
+  // grow with the rows); it sets OptimizerOptions::gradient_tolerance.
+  // docs/training.md measures how far short of the optimum looser tolerances stop.
+  double gradient_tolerance_per_row = 1e-5;
+  // Restarts from perturbed starts (log-parameters + N(0, restart_spread^2)),
+  // seeded; the run with the lowest NLL is kept (like scikit-learn's n_restarts_optimizer).
+  int restarts = 0;
+  double restart_spread = 1.0;
+  std::uint64_t seed = 0;
+  // Screening of the starts (SearchOptions::screening_evaluations): lip's
+  // starts (three starting noises, plus restarts) and a GP joint's restarts
+  // first run for at most this many NLL evaluations each; only the one with
+  // the lowest NLL then continues to convergence. docs/training.md measures
+  // how close the leader at this budget ends to the best of the starts run to
+  // the end. 0: every start runs to convergence.
+  int start_screening_evaluations = 60;
+  // With more rows than this, the hyperparameters are searched on a
+  // constant-step subsample of this many rows, and the model is then
+  // conditioned on every row: one O(N^3) factorisation (or one O(N M^2) pass
+  // of a sparse GP) instead of one per evaluation. How a GP learns from 10^6
+  // rows in minutes (docs/training.md). 0 (the default): search on all rows.
+  int hyperparameter_rows = 0;
+  // Noise variance, relative to the variance of the scaled output: its start and its floor.
+  double initial_noise_fraction = 1e-2;
+  double min_noise_fraction = 1e-8;
+  JitterPolicy jitter;
+  // Computed at once: a GP's joints, or LIP's starts; 0: all, as memory
+  // permits. More than the cores share them, so that no core waits while the
+  // longest finishes (docs/training.md); the results do not depend on it.
+  int threads = 0;
+
+  // Throws gipdyn::Error naming the bad field (e.g. "SearchSettings::restarts must be >= 0").
+  void validate() const;
+};
 
 struct SearchOptions {
   // Every run's optimiser, with the objective's bounds and gradient tolerance.

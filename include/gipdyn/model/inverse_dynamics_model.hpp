@@ -70,7 +70,7 @@ class InverseDynamicsModel {
   void predict(const Eigen::Ref<const Eigen::MatrixXd>& X, Eigen::MatrixXd& mean, Eigen::MatrixXd* stddev) const;
 
   // Variances need each joint's Cholesky factor. A trained model keeps them
-  // (TrainOptions::keep_factor); a loaded one does not. with_variance() returns
+  // (GpOptions::keep_factor); a loaded one does not. with_variance() returns
   // a copy that has them, computing the missing ones (O(N^3) per joint); it
   // throws gipdyn::Error if a kernel matrix is not positive definite.
   bool has_variance() const;

@@ -4,10 +4,12 @@
 // Files of any estimator are read by load_estimator (estimators/estimator.hpp).
 #include <string>
 
-#include "gipdyn/io/model_container.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
 
 namespace gipdyn {
+
+// The model file container (io/detail/model_container.hpp, docs/model-format.md).
+struct ModelContainer;
 
 // Written atomically (temporary file + rename).
 void save_model(const InverseDynamicsModel& model, const std::string& path);

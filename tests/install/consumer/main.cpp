@@ -14,7 +14,7 @@ int main() {
   sim.seed = 2;
   const gipdyn::SimulationResult test = gipdyn::simulate(robot, sim);
   gipdyn::TrainOptions options;
-  options.optimizer.max_iterations = 30;
+  options.search.optimizer.max_iterations = 30;
   const gipdyn::TrainResult r = gipdyn::train_model(train.X, train.tau, robot.joint_types(), options);
   if (!r.report.ok()) {
     std::fprintf(stderr, "training failed: %s\n", r.report.message.c_str());
