@@ -28,6 +28,17 @@ log.
 
 This page is generated from the program (`scripts/cli_reference.py`); a test
 checks that it matches.
+
+## Exit codes
+
+| Code | Meaning |
+|------|---------|
+| 0 | Everything asked for was done (and `gipdyn` alone, which prints the overview below). |
+| 1 | Anything else went wrong: bad data, a value the command refuses (a negative count), a fit that failed, a plot not drawn (its numbers are written), an experiment with failed fits (the others stand). |
+| 2 | The command line itself: an unknown command or option, a value not of the option's type, a required option missing, a file an option names that does not exist. |
+
+Every error is one line on stderr, `gipdyn: error: ...`, naming the problem
+and the fix; warnings are lines starting `gipdyn: warning:`.
 """
 
 

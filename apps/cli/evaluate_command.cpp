@@ -6,6 +6,7 @@
 #include <memory>
 #include <nlohmann/json.hpp>
 
+#include "exit_codes.hpp"
 #include "commands.hpp"
 #include "data_option.hpp"
 #include "field_names.hpp"
@@ -224,7 +225,7 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
     std::printf("\n");
   }
   std::printf("wrote diagnostics to %s\n", dir.c_str());
-  return warnings.empty() ? 0 : 2;
+  return warnings.empty() ? kExitSuccess : kExitFailure;
 }
 
 }  // namespace

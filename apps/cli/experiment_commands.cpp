@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "exit_codes.hpp"
 #include "cli_parsing.hpp"
 #include "output_guard.hpp"
 #include "commands.hpp"
@@ -29,7 +30,7 @@ int report(const ExperimentOutcome& o, bool quiet) {
     for (const auto& f : o.files) std::printf("wrote %s\n", f.c_str());
   }
   // Failed fits are recorded (as nan) so the rest of the experiment stands; say so in the exit code.
-  return o.units_failed > 0 ? 2 : 0;
+  return o.units_failed > 0 ? kExitFailure : kExitSuccess;
 }
 
 EstimatorOptions base_options(const EstimatorArgs& args) {

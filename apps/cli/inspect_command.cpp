@@ -8,6 +8,7 @@
 #include <optional>
 #include <vector>
 
+#include "exit_codes.hpp"
 #include "cli_parsing.hpp"
 #include "commands.hpp"
 #include "data_option.hpp"
@@ -172,7 +173,7 @@ int run_inspect(const InspectArgs& a) {
     const PlotResult p = render_plot("consistency", a.out, a.plot);
     if (!p.ok) {
       std::fprintf(stderr, "gipdyn: warning: %s\n", p.message.c_str());
-      return 2;
+      return kExitFailure;  // the numbers are written
     }
     if (!a.quiet) std::printf("wrote %s\n", a.plot.c_str());
   }

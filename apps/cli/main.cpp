@@ -9,6 +9,7 @@
 
 #include "commands.hpp"
 #include "distributed_run.hpp"
+#include "exit_codes.hpp"
 #include "field_names.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/detail/model_container.hpp"
@@ -84,14 +85,24 @@ std::string command_error(const CLI::App& app, int argc, char** argv) {
   return path + " needs a command: " + names_of(level) + " (" + path + " --help)";
 }
 
+// "gipdyn train --help": the help of the command the words name, for a parse error's advice.
+std::string command_help(int argc, char** argv) {
+  std::string words = "gipdyn";
+  for (int i = 1; i < argc; ++i) {
+    const std::string word = argv[i];
+    if (word.empty() || word[0] == '-') break;
+    words += " " + word;
+  }
+  return words + " --help";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
   // libtorch allocates and frees a few hundred kilobytes per layer and batch
   // while training the nn estimator; with glibc's default 128 KiB pad the
-  // heap's top was returned to the system and faulted back in every step:
-  // 33.6 s, 9.7 s of them in the kernel, for 300 epochs on 2000 SCARA rows;
-  // 22.4 s with this pad (bench/RESULTS.md). It costs at most this much resident
+  // heap's top was returned to the system and faulted back in every step
+  // (bench/RESULTS.md measures both pads). It costs at most this much resident
   // memory held back after a large free.
   mallopt(M_TOP_PAD, 64 << 20);
   CLI::App app{
@@ -127,18 +138,21 @@ int main(int argc, char** argv) {
       gipdyn::cli::add_physics);
   add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",
       gipdyn::cli::add_experiment);
-  if (argc == 1) {
+  using gipdyn::cli::kExitFailure;
+  if (argc == 1) {  // the overview, as --help prints it
     std::cout << app.help();
-    return 1;
+    return gipdyn::cli::kExitSuccess;
   }
   if (const std::string error = command_error(app, argc, argv); !error.empty()) {
     std::cerr << "gipdyn: error: " << error << "\n";
-    return 2;
+    return gipdyn::cli::kExitUsage;
   }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
-    return app.exit(e);
+    if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
+    std::cerr << "gipdyn: error: " << e.what() << " (" << command_help(argc, argv) << ")\n";
+    return gipdyn::cli::kExitUsage;
   }
   std::string command;
   try {
@@ -148,16 +162,16 @@ int main(int argc, char** argv) {
         return run();
       }
   } catch (const gipdyn::cli::ExitQuietly&) {
-    return 1;  // another MPI process reported the error
+    return kExitFailure;  // another MPI process reported the error
   } catch (const gipdyn::Error& e) {
     std::cerr << "gipdyn: error: " << gipdyn::rename_fields(e.what(), gipdyn::cli::cli_field_names()) << "\n";
-    return 1;
+    return kExitFailure;
   } catch (const std::bad_alloc&) {
     std::cerr << "gipdyn: error: out of memory; " << out_of_memory_advice(command) << "\n";
-    return 1;
+    return kExitFailure;
   } catch (const std::exception& e) {
     std::cerr << "gipdyn: error: " << e.what() << "\n";
-    return 1;
+    return kExitFailure;
   }
-  return 1;
+  return kExitFailure;
 }

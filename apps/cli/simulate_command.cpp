@@ -2,6 +2,7 @@
 #include <cstdio>
 #include <memory>
 
+#include "exit_codes.hpp"
 #include "commands.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
@@ -106,7 +107,7 @@ Command add_simulate(CLI::App& app) {
       const PlotResult p = render_plot("motion", a->out, a->plot);
       if (!p.ok) {
         std::fprintf(stderr, "gipdyn: warning: %s\n", p.message.c_str());
-        return 2;
+        return kExitFailure;  // the data are written
       }
     }
     return 0;

@@ -96,6 +96,7 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
     }
   if (teaches && mpi)
     throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
+  check_estimator_options(o);
   if (!a.preset.empty() && app.count("--subsample") == 0) a.subsample = preset_max_training_rows(a.preset);
   data = read_robot_log(a.data, a.mat_variable, joints, true);
   for (const auto& w : training_input_warnings(data.X, joints, a.data)) data_warnings.push_back(w);

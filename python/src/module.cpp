@@ -465,11 +465,7 @@ void bind_estimator_options(py::module_& m) {
       .def_property(
           "robot_friction", [](const EstimatorOptions& o) { return o.robot_prior.friction; },
           [](EstimatorOptions& o, bool f) { o.robot_prior.friction = f; })
-      .def("validate", [](const EstimatorOptions& o) {
-        o.validate();
-        if (is_gp_estimator(o.name)) o.train_options().validate();
-        if (estimator_family(o.name) == EstimatorFamily::Lagrangian) o.lagrangian_options().validate();
-      });
+      .def("validate", &check_estimator_options);
   m.def("preset_options", &preset_options, py::arg("name"),
         "The EstimatorOptions of a named preset (gipdyn/estimators/presets.hpp)");
 }

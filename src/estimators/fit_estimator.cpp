@@ -22,6 +22,18 @@ void EstimatorOptions::validate() const {
   if (teacher) teacher->validate();
 }
 
+void check_estimator_options(const EstimatorOptions& options) {
+  options.validate();
+  if (estimator_needs_robot(options.name) && !options.robot_prior.robot)
+    throw Error("the " + options.name + " estimator needs the nominal robot (EstimatorOptions::robot_prior)");
+  switch (estimator_family(options.name)) {
+    case EstimatorFamily::Gp: options.train_options().validate(); break;
+    case EstimatorFamily::Lagrangian: options.lagrangian_options().validate(); break;
+    case EstimatorFamily::NeuralNetwork: options.nn.validate(); break;
+    case EstimatorFamily::Fisherian: break;  // the chain's options: validate()
+  }
+}
+
 TrainOptions EstimatorOptions::train_options() const {
   TrainOptions o;
   o.kernel = name;

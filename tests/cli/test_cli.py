@@ -136,8 +136,8 @@ def test_a_mistyped_or_missing_command_is_named_with_the_closest_one(gipdyn_bin)
     assert r.returncode != 0 and "did you mean" not in r.stderr and "unknown command 'frobnicate'" in r.stderr
     r = run(gipdyn_bin, "experiment")
     assert r.returncode != 0 and "gipdyn experiment needs a command: accuracy, data-efficiency, real, control" in r.stderr
-    r = run(gipdyn_bin)  # no command at all: the overview of the commands
-    assert r.returncode != 0 and "Subcommands:" in r.stdout and "train" in r.stdout
+    r = run(gipdyn_bin)  # no command at all: the overview of the commands, as --help prints it
+    assert r.returncode == 0 and "Subcommands:" in r.stdout and "train" in r.stdout
     assert run(gipdyn_bin, "experiment", "real", "--help").returncode == 0
 
 
@@ -657,7 +657,7 @@ def test_a_plot_that_fails_says_why(trained, tmp_path, gipdyn_bin, python_says, 
     r = subprocess.run([gipdyn_bin, "evaluate", "--model", str(d / "m.gipdyn"), "--data", str(d / "test.csv"),
                         "--plots", str(out)], capture_output=True, text=True, timeout=300,
                        env={**os.environ, "GIPDYN_PYTHON": str(python)})
-    assert r.returncode == 2, r.stderr  # the numbers are written; only the plots are missing
+    assert r.returncode == 1, r.stderr  # the numbers are written; only the plots are missing
     warnings = [line for line in r.stderr.splitlines() if "no plot" in line]
     assert len(warnings) == 3 and all(advice in w for w in warnings), r.stderr
     other = "the plotting script failed" if advice.startswith("install") else "install python3-matplotlib"
@@ -923,3 +923,31 @@ def test_train_and_inspect_without_joints_say_how_many_the_log_has(trained, gipd
         assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
         assert "--joints is required" in r.stderr and "has 2 joint(s) (q1..q2), e.g. --joints RR if" in r.stderr
     assert not (tmp_path / "m.gipdyn").exists()
+
+
+@pytest.mark.parametrize("case, args, code, says", [
+    ("the overview", [], 0, "Subcommands:"),
+    ("a command's help", ["train", "--help"], 0, "--data"),
+    ("an unknown command", ["trian"], 2, "did you mean 'train'?"),
+    ("a command without its subcommand", ["experiment"], 2, "needs a command"),
+    ("an unknown option", ["simulate", "--robot", "scara", "--out", "{tmp}/s.csv", "--colour"], 2,
+     "--colour (gipdyn simulate --help)"),
+    ("a value not of the option's type", ["simulate", "--robot", "scara", "--out", "{tmp}/s.csv", "--samples", "many"],
+     2, "--samples"),
+    ("a required option missing", ["simulate", "--robot", "scara"], 2, "--out is required"),
+    ("a file that does not exist", ["predict", "--model", "{tmp}/none.gipdyn", "--data", "{tmp}/none.csv",
+                                    "--out", "{tmp}/p.csv"], 2, "File does not exist"),
+    ("a value the command refuses", ["simulate", "--robot", "scara", "--out", "{tmp}/s.csv", "--samples", "-5"], 1,
+     "--samples"),
+    ("a robot that does not exist", ["simulate", "--robot", "puma9000", "--out", "{tmp}/s.csv"], 1, "puma9000"),
+])
+def test_exit_codes(tmp_path, gipdyn_bin, case, args, code, says):
+    # 0: done; 2: the command line (unknown command or option, a value not of its type, a missing required option
+    # or file); 1: anything else, with the message naming the problem (docs/reference/cli.md, "Exit codes").
+    r = run(gipdyn_bin, *[a.replace("{tmp}", str(tmp_path)) for a in args])
+    assert r.returncode == code, (case, r.returncode, r.stdout, r.stderr)
+    if code == 0:
+        assert says in r.stdout, case
+    else:
+        lines = r.stderr.strip().splitlines()
+        assert len(lines) == 1 and lines[0].startswith("gipdyn: error: ") and says in lines[0], (case, r.stderr)

@@ -50,6 +50,13 @@ struct EstimatorOptions {
   LagrangianOptions lagrangian_options() const;
 };
 
+// Every option a fit of `options` reads, checked before any work: the
+// struct's own fields, then the chosen estimator's (train_options(),
+// lagrangian_options(), nn, chain); throws gipdyn::Error naming the bad field.
+// fit_estimator checks the same; front ends call it to refuse bad options
+// before they print what they will do.
+void check_estimator_options(const EstimatorOptions& options);
+
 // What became of EstimatorOptions::teacher.
 enum class TeachingOutcome {
   NoTeacher,         // none was asked for
