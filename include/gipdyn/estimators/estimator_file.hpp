@@ -1,5 +1,5 @@
 #pragma once
-// Model files of every estimator: one container (io/model_container.hpp,
+// Model files of every estimator: one container (io/detail/model_container.hpp,
 // docs/model-format.md) whose "estimator" entry says how to read it back.
 #include <memory>
 #include <string>

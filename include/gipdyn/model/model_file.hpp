@@ -1,6 +1,6 @@
 #pragma once
 // GP model files: an InverseDynamicsModel in the model container
-// (model_container.hpp, docs/model-format.md) with "estimator": "gp".
+// (io/detail/model_container.hpp, docs/model-format.md) with "estimator": "gp".
 // Files of any estimator are read by load_estimator (estimators/estimator.hpp).
 #include <string>
 
