@@ -19,13 +19,13 @@ from ._core import (EstimatorOptions, GipdynError, GpOptions, HyperparameterPrio
                     OptimizerOptions, Robot, SearchSettings, SimulationOptions, SparseOptions, TeacherOptions,
                     mpi_rank, mpi_size)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "EstimatorOptions", "SearchSettings", "GpOptions", "SparseOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamicsGP", "LagrangianGP", "NotFittedError", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "EstimatorOptions", "SearchSettings", "GpOptions", "SparseOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size", "build_info"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator
     from sklearn.base import RegressorMixin as _RegressorMixin
-    from sklearn.exceptions import ConvergenceWarning
+    from sklearn.exceptions import ConvergenceWarning, NotFittedError
     _ESTIMATOR_BASES = (_RegressorMixin, _BaseEstimator)
 except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
@@ -56,6 +56,9 @@ except ImportError:  # pragma: no cover - exercised only without scikit-learn
 
     class ConvergenceWarning(UserWarning):
         """A joint's hyperparameter optimisation stopped before it converged."""
+
+    class NotFittedError(ValueError, AttributeError):
+        """A method that needs a fitted model was called before fit (as scikit-learn's)."""
 
 
 class NoiseWarning(UserWarning):
@@ -442,7 +445,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     def _check_fitted(self):
         if not hasattr(self, "model_"):
-            raise ValueError("this InverseDynamicsGP is not fitted yet; call fit(X, Y) first")
+            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit(X, Y) first")
 
     # prediction ------------------------------------------------------------
     def predict(self, X, return_std=False):
@@ -611,10 +614,6 @@ class LagrangianGP(InverseDynamicsGP):
         self.hyperparameters_ = dict(m.hyperparameters)
         self.noise_variances_ = np.asarray(m.noise_variances)
         self.training_report_ = list(m.training_report)
-
-    def _check_fitted(self):
-        if not hasattr(self, "model_"):
-            raise ValueError("this LagrangianGP is not fitted yet; call fit(X, Y) first")
 
     def predict(self, X, return_std=False):
         """Torques (N, n); with return_std also the latent standard deviations

@@ -416,8 +416,16 @@ def test_bad_options_and_unfitted_model_raise_value_error():
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="matern").fit(X, Y)
     with pytest.raises(ValueError, match="'X'"):
         gipdyn.InverseDynamicsGP(joints="RXPR", teacher="none").fit(X, Y)
-    with pytest.raises(ValueError, match="not fitted"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none").predict(X)
+    # scikit-learn's NotFittedError (a ValueError and an AttributeError), naming the class.
+    for unfitted in (gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none"), gipdyn.LagrangianGP(joints="RRPR")):
+        with pytest.raises(gipdyn.NotFittedError, match=f"this {type(unfitted).__name__} is not fitted"):
+            unfitted.predict(X)
+    assert issubclass(gipdyn.NotFittedError, ValueError) and issubclass(gipdyn.NotFittedError, AttributeError)
+    try:
+        from sklearn.exceptions import NotFittedError
+        assert gipdyn.NotFittedError is NotFittedError
+    except ImportError:  # pragma: no cover - without scikit-learn, our own
+        pass
 
 
 def test_robot_from_urdf_dynamics_and_regressor():
