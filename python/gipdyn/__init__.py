@@ -206,6 +206,8 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
     """
 
+    _MODEL_CLASS = _core.Model  # what model_ is, and how a pickle restores it
+
     def __init__(self, joints=None, kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
                  restarts=_DEFAULTS.search.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
@@ -527,7 +529,6 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         state = dict(parent() if parent is not None else self.__dict__)
         if "model_" in state:
             state["model_"] = state["model_"].to_bytes()
-        state.pop("teacher_", None)  # the student is the model; a LagrangianGP teacher cannot be pickled
         if isinstance(state.get("robot"), Robot):
             raise ValueError("a model whose robot parameter is a Robot object cannot be pickled; pass its path")
         return state
@@ -535,7 +536,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
     def __setstate__(self, state):
         state = dict(state)
         if "model_" in state:
-            state["model_"] = _core.Model.from_bytes(state["model_"])
+            state["model_"] = self._MODEL_CLASS.from_bytes(state["model_"])
         parent = getattr(super(), "__setstate__", None)
         if parent is not None:
             parent(state)
@@ -568,6 +569,8 @@ class LagrangianGP(InverseDynamicsGP):
     restarts) runs this many NLL evaluations, then only the one with the
     lowest NLL goes on (0: every start to convergence).
     """
+
+    _MODEL_CLASS = _core.LagrangianModel
 
     def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
                  restarts=_DEFAULTS.search.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
@@ -605,8 +608,11 @@ class LagrangianGP(InverseDynamicsGP):
         _warn_noisy_joints(self.model_)
         return self
 
-    def partial_fit(self, X, Y, window=0):
-        raise NotImplementedError("LagrangianGP has no online updates; fit() on the new data")
+    @property
+    def partial_fit(self):
+        """LIP has no online updates, so the estimator has no partial_fit (hasattr is False, as
+        scikit-learn's checks expect): fit() on the new data."""
+        raise AttributeError("LagrangianGP has no online updates (partial_fit); fit() on the new data")
 
     def _set_fitted_attributes(self):
         m = self.model_
@@ -650,8 +656,6 @@ class LagrangianGP(InverseDynamicsGP):
         est._set_fitted_attributes()
         return est
 
-    def __getstate__(self):
-        raise TypeError("a LagrangianGP cannot be pickled; use save(path) and LagrangianGP.load(path)")
 
 
 def read_log(path, joints=None, mat_variable=None, torques=True):

@@ -228,6 +228,15 @@ std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const 
   return m;
 }
 
+// A LIP model read back from a file or bytes (`what` names the source); throws gipdyn::Error for another estimator's.
+std::shared_ptr<LagrangianModel> lagrangian_model_from(std::unique_ptr<Estimator> e, const std::string& what) {
+  if (!dynamic_cast<LagrangianEstimator*>(e.get()))
+    throw Error(what + " holds a '" + e->name() + "' model, not lip; load it with InverseDynamicsGP.load");
+  auto m = std::make_shared<LagrangianModel>();
+  m->estimator = std::shared_ptr<const LagrangianEstimator>(static_cast<LagrangianEstimator*>(e.release()));
+  return m;
+}
+
 py::dict teaching_check_to_dict(const TeachingCheck& c, const std::string& teacher) {
   py::dict d;
   d["teacher_nmse"] = c.teacher_nmse;
@@ -619,13 +628,15 @@ void bind_lagrangian_model(py::module_& m) {
           },
           py::arg("Q"))
       .def("save", [](const LagrangianModel& s, const std::string& path) { save_estimator(*s.estimator, path); })
-      .def_static("load", [](const std::string& path) {
-        std::unique_ptr<Estimator> e = load_estimator(path);
-        auto* lip = dynamic_cast<LagrangianEstimator*>(e.get());
-        if (!lip) throw Error("model file '" + path + "' holds a '" + e->name() + "' model, not lip; load it with InverseDynamicsGP.load");
-        auto m = std::make_shared<LagrangianModel>();
-        m->estimator = std::shared_ptr<const LagrangianEstimator>(static_cast<LagrangianEstimator*>(e.release()));
-        return m;
+      .def("to_bytes", [](const LagrangianModel& s) { return py::bytes(pack_container(estimator_container(*s.estimator))); })
+      .def_static("load",
+                  [](const std::string& path) {
+                    const std::string what = "model file '" + path + "'";
+                    return lagrangian_model_from(load_estimator(path), what);
+                  })
+      .def_static("from_bytes", [](const py::bytes& b) {
+        return lagrangian_model_from(estimator_from_container(unpack_container(std::string(b), "pickled model"), "pickled model"),
+                                     "pickled model");
       });
   m.def("train_lagrangian", &train_lagrangian, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("verbose") = false);

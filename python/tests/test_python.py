@@ -164,6 +164,22 @@ def test_pickle_round_trip(scara, fitted):
     assert clone.get_params() == fitted.get_params()
 
 
+def test_lagrangian_gp_pickles_before_and_after_fit_and_has_no_partial_fit(scara):
+    # As scikit-learn's tools expect of an estimator (joblib, GridSearchCV(n_jobs > 1)).
+    train, test = scara
+    unfitted = pickle.loads(pickle.dumps(gipdyn.LagrangianGP(joints="RRPR", friction=True, max_iter=20)))
+    assert unfitted.get_params()["friction"] and not hasattr(unfitted, "model_")
+    fitted = unfitted.fit(train["X"][:40], train["tau"][:40])
+    clone = pickle.loads(pickle.dumps(fitted))
+    np.testing.assert_array_equal(clone.predict(test["X"][:10]), fitted.predict(test["X"][:10]))
+    np.testing.assert_array_equal(clone.kinetic_energy(test["X"][:10]), fitted.kinetic_energy(test["X"][:10]))
+    assert clone.get_params() == fitted.get_params()
+    assert not hasattr(fitted, "partial_fit") and hasattr(gipdyn.InverseDynamicsGP(), "partial_fit")
+    with pytest.raises(ValueError, match="not lip"):  # a GP model's bytes
+        gipdyn._core.LagrangianModel.from_bytes(pickle.loads(pickle.dumps(gipdyn.InverseDynamicsGP(
+            joints="RRPR", teacher="none", max_iter=3).fit(train["X"][:30], train["tau"][:30]))).model_.to_bytes())
+
+
 def test_sklearn_cross_validation_and_grid_search(scara):
     from sklearn.model_selection import GridSearchCV, KFold, cross_val_score
 
@@ -780,10 +796,10 @@ def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     rng = np.random.default_rng(0)
     X_box = rng.uniform(train["X"].min(axis=0), train["X"].max(axis=0), size=(200, 12))
     assert np.all(gipdyn.nmse(taught.teacher_.predict(X_box), taught.predict(X_box)) < 0.05)
-    # Pickles without the teacher (the student is the model).
+    # Pickles with its teacher, both predicting as before.
     again = pickle.loads(pickle.dumps(taught))
-    assert not hasattr(again, "teacher_")
-    np.testing.assert_allclose(again.predict(train["X"][:5]), taught.predict(train["X"][:5]))
+    np.testing.assert_array_equal(again.predict(train["X"][:5]), taught.predict(train["X"][:5]))
+    np.testing.assert_array_equal(again.teacher_.predict(train["X"][:5]), taught.teacher_.predict(train["X"][:5]))
     # Ten drawn states over a 12-dimensional box teach the student too little to fit the log: warned.
     with warnings.catch_warnings(record=True) as caught:
         warnings.simplefilter("always")
