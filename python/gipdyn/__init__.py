@@ -454,9 +454,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         """Torques (N, n); with return_std also the latent standard deviations."""
         self._check_fitted()
         X = np.asfortranarray(self._inputs(X))
-        if return_std:
-            if not self.model_.has_variance:  # a loaded model: build the factors once, in a new model
-                self.model_ = self.model_.with_variance()
+        if return_std:  # a loaded model builds its factors on the first call, inside model_, and keeps them
             return self.model_.predict_with_std(X)
         return self.model_.predict(X)
 
@@ -629,9 +627,7 @@ class LagrangianGP(InverseDynamicsGP):
         mean = self.model_.predict(X)
         if not return_std:
             return mean
-        if not self.model_.has_variance:
-            self.model_ = self.model_.with_variance()
-        return mean, self.model_.predict_std(X)
+        return mean, self.model_.predict_std(X)  # a loaded model builds its factor once, inside model_
 
     def predict_one(self, x):
         return self.predict(np.atleast_2d(x))[0]

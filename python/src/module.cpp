@@ -100,6 +100,17 @@ struct Model {
   const InverseDynamicsModel* model;
   std::unique_ptr<PredictionWorkspace> workspace;
   std::mutex workspace_mutex;
+  // The model itself where it has its factors (a fitted one), else the same
+  // model with them, built on the first request for variances and kept: asking
+  // for variances changes neither the model nor the estimator holding it.
+  const InverseDynamicsModel& variance_model() const {
+    if (model->has_variance()) return *model;
+    std::lock_guard<std::mutex> lock(factors_mutex);
+    if (!with_factors) with_factors = std::make_shared<const InverseDynamicsModel>(model->with_variance());
+    return *with_factors;
+  }
+  mutable std::shared_ptr<const InverseDynamicsModel> with_factors;
+  mutable std::mutex factors_mutex;
   explicit Model(InverseDynamicsModel m) : Model(std::make_shared<const GpEstimator>(std::move(m))) {}
   explicit Model(std::shared_ptr<const GpEstimator> e) : estimator(std::move(e)), model(&estimator->model()) {}
 };
@@ -212,6 +223,15 @@ py::list report_to_list(const std::vector<JointReport>& reports) {
 struct LagrangianModel {
   std::shared_ptr<const LagrangianEstimator> estimator;
   std::vector<JointReport> report;
+  // As Model::variance_model: the (N n)^2 factor built once, on the first request.
+  const LagrangianEstimator& variance_estimator() const {
+    if (estimator->has_variance()) return *estimator;
+    std::lock_guard<std::mutex> lock(factors_mutex);
+    if (!with_factors) with_factors = std::make_shared<const LagrangianEstimator>(estimator->with_variance());
+    return *with_factors;
+  }
+  mutable std::shared_ptr<const LagrangianEstimator> with_factors;
+  mutable std::mutex factors_mutex;
 };
 
 std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const std::string& joints,
@@ -529,7 +549,7 @@ void bind_gp_model(py::module_& m) {
           [](const Model& s, ConstRef X) {
             py::gil_scoped_release release;
             Eigen::MatrixXd mean, sd;
-            s.model->predict(X, mean, &sd);
+            s.variance_model().predict(X, mean, &sd);
             return std::make_pair(mean, sd);
           },
           py::arg("X"))
@@ -610,7 +630,7 @@ void bind_lagrangian_model(py::module_& m) {
           "predict_std",
           [](const LagrangianModel& s, ConstRef X) {
             py::gil_scoped_release release;
-            return s.estimator->predict_std(X);
+            return s.variance_estimator().predict_std(X);
           },
           py::arg("X"))
       .def(

@@ -534,6 +534,24 @@ def test_model_based_and_hybrid_kernels(scara, tmp_path):
         gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="sp").fit(train["X"], train["tau"])
 
 
+def test_predicting_with_std_leaves_the_estimator_as_it_was(scara, tmp_path):
+    # A loaded model has no factors: the first request builds them inside model_, and keeps them, without
+    # replacing any attribute (scikit-learn's check_dict_unchanged asks the same of predict).
+    train, test = scara
+    for cls, kwargs in ((gipdyn.InverseDynamicsGP, {"teacher": "none"}), (gipdyn.LagrangianGP, {})):
+        fitted = cls(joints="RRPR", max_iter=10, **kwargs).fit(train["X"][:40], train["tau"][:40])
+        fitted.save(tmp_path / "m.gipdyn")
+        loaded = cls.load(tmp_path / "m.gipdyn")
+        assert not loaded.model_.has_variance
+        before = dict(loaded.__dict__)
+        first = loaded.predict(test["X"][:5], return_std=True)
+        again = loaded.predict(test["X"][:5], return_std=True)
+        assert loaded.__dict__.keys() == before.keys() and all(loaded.__dict__[k] is before[k] for k in before)
+        assert not loaded.model_.has_variance
+        np.testing.assert_array_equal(first[1], again[1])
+        np.testing.assert_allclose(first[1], fitted.predict(test["X"][:5], return_std=True)[1], rtol=1e-8)
+
+
 def test_mean_function_and_map_prior(scara):
     train, test = scara
     est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="gip", mean="constant", prior="lognormal", max_iter=30)
