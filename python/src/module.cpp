@@ -95,22 +95,31 @@ std::vector<std::string> python_convergence_warnings(const std::vector<JointRepo
 // A trained model, read-only and shared, plus the single-query workspace of
 // predict_one: the workspace is mutable, so calls from several Python threads
 // take turns on it.
+// A fitted model itself where it has the factors predictive variances need,
+// else its copy with them, built on the first request and kept: asking for
+// variances changes neither the model nor the Python estimator holding it.
+template <class Fitted>
+class WithFactors {
+ public:
+  const Fitted& of(const Fitted& model) const {
+    if (model.has_variance()) return model;
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!copy_) copy_ = std::make_shared<const Fitted>(model.with_variance());
+    return *copy_;
+  }
+
+ private:
+  mutable std::shared_ptr<const Fitted> copy_;
+  mutable std::mutex mutex_;
+};
+
 struct Model {
   std::shared_ptr<const GpEstimator> estimator;  // the physics functions take an Estimator
   const InverseDynamicsModel* model;
   std::unique_ptr<PredictionWorkspace> workspace;
   std::mutex workspace_mutex;
-  // The model itself where it has its factors (a fitted one), else the same
-  // model with them, built on the first request for variances and kept: asking
-  // for variances changes neither the model nor the estimator holding it.
-  const InverseDynamicsModel& variance_model() const {
-    if (model->has_variance()) return *model;
-    std::lock_guard<std::mutex> lock(factors_mutex);
-    if (!with_factors) with_factors = std::make_shared<const InverseDynamicsModel>(model->with_variance());
-    return *with_factors;
-  }
-  mutable std::shared_ptr<const InverseDynamicsModel> with_factors;
-  mutable std::mutex factors_mutex;
+  WithFactors<InverseDynamicsModel> factors;
+  const InverseDynamicsModel& variance_model() const { return factors.of(*model); }
   explicit Model(InverseDynamicsModel m) : Model(std::make_shared<const GpEstimator>(std::move(m))) {}
   explicit Model(std::shared_ptr<const GpEstimator> e) : estimator(std::move(e)), model(&estimator->model()) {}
 };
@@ -223,15 +232,8 @@ py::list report_to_list(const std::vector<JointReport>& reports) {
 struct LagrangianModel {
   std::shared_ptr<const LagrangianEstimator> estimator;
   std::vector<JointReport> report;
-  // As Model::variance_model: the (N n)^2 factor built once, on the first request.
-  const LagrangianEstimator& variance_estimator() const {
-    if (estimator->has_variance()) return *estimator;
-    std::lock_guard<std::mutex> lock(factors_mutex);
-    if (!with_factors) with_factors = std::make_shared<const LagrangianEstimator>(estimator->with_variance());
-    return *with_factors;
-  }
-  mutable std::shared_ptr<const LagrangianEstimator> with_factors;
-  mutable std::mutex factors_mutex;
+  WithFactors<LagrangianEstimator> factors;  // the (N n)^2 factor
+  const LagrangianEstimator& variance_estimator() const { return factors.of(*estimator); }
 };
 
 std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const std::string& joints,
