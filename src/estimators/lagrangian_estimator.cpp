@@ -4,7 +4,6 @@
 #include <chrono>
 #include <cmath>
 #include <limits>
-#include <random>
 #include <vector>
 
 #include "gipdyn/detail/blas_threads.hpp"
@@ -157,17 +156,14 @@ class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
 // (never below the floor); the restarts perturb the first of them, seeded.
 std::vector<Eigen::VectorXd> lip_start_points(const Eigen::VectorXd& x0, const OptimizerOptions& bounds, int n,
                                               const SearchSettings& o) {
-  std::mt19937_64 rng(o.seed * 1000003ULL + 7919ULL);
-  std::normal_distribution<double> normal(0.0, 1.0);
   const int noise_starts = 3;
   std::vector<Eigen::VectorXd> starts;
-  for (int r = 0; r < noise_starts + o.restarts; ++r) {
-    Eigen::VectorXd start = x0;
-    if (r > 0 && r < noise_starts) start.tail(n).array() += std::log(std::pow(0.1, r));
-    if (r >= noise_starts)
-      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o.restart_spread * normal(rng);
-    starts.push_back(start.cwiseMax(bounds.lower_bounds).cwiseMin(bounds.upper_bounds));
+  for (int r = 0; r < noise_starts; ++r) {
+    starts.push_back(x0);
+    if (r > 0) starts.back().tail(n).array() += std::log(std::pow(0.1, r));
   }
+  for (Eigen::VectorXd& start : restart_points(x0, o, 7919ULL)) starts.push_back(std::move(start));
+  for (Eigen::VectorXd& start : starts) start = start.cwiseMax(bounds.lower_bounds).cwiseMin(bounds.upper_bounds);
   return starts;
 }
 

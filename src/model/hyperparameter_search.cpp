@@ -5,6 +5,7 @@
 #include <condition_variable>
 #include <limits>
 #include <mutex>
+#include <random>
 #include <string>
 #include <vector>
 
@@ -29,6 +30,19 @@ void SearchSettings::validate() const {
     throw Error("SearchSettings::min_noise_fraction must be > 0 and not above SearchSettings::initial_noise_fraction (" +
                 std::to_string(initial_noise_fraction) + ")");
   if (threads < 0) throw Error("SearchSettings::threads must be >= 0");
+}
+
+std::vector<Eigen::VectorXd> restart_points(const Eigen::VectorXd& from, const SearchSettings& settings,
+                                            std::uint64_t stream) {
+  std::mt19937_64 rng(settings.seed * 1000003ULL + stream);
+  std::normal_distribution<double> normal(0.0, 1.0);
+  std::vector<Eigen::VectorXd> points;
+  for (int r = 0; r < settings.restarts; ++r) {
+    Eigen::VectorXd point = from;
+    for (Eigen::Index k = 0; k < point.size(); ++k) point(k) += settings.restart_spread * normal(rng);
+    points.push_back(point);
+  }
+  return points;
 }
 
 void SearchOptions::validate() const {

@@ -6,7 +6,6 @@
 #include <limits>
 #include <mutex>
 #include <optional>
-#include <random>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
@@ -144,14 +143,9 @@ class JointTraining {
 
   // The data-driven start, then the restarts perturbed from it (SearchSettings::restarts).
   std::vector<Eigen::VectorXd> start_points() const {
-    std::mt19937_64 rng(o_.search.seed * 1000003ULL + static_cast<std::uint64_t>(j_));
-    std::normal_distribution<double> normal(0.0, 1.0);
     std::vector<Eigen::VectorXd> starts{x0_};
-    for (int r = 1; r <= o_.search.restarts; ++r) {
-      Eigen::VectorXd start = x0_;
-      for (Eigen::Index k = 0; k < start.size(); ++k) start(k) += o_.search.restart_spread * normal(rng);
-      starts.push_back(start);
-    }
+    for (Eigen::VectorXd& start : restart_points(x0_, o_.search, static_cast<std::uint64_t>(j_)))
+      starts.push_back(std::move(start));
     return starts;
   }
 

@@ -94,6 +94,13 @@ struct SearchResult {
   int screening_evaluations = 0;  // the budget, where screening stopped a start; else 0
 };
 
+// SearchSettings::restarts start points perturbed from `from`: each
+// log-parameter plus N(0, restart_spread^2), drawn in order from a generator
+// seeded with seed * 1000003 + stream. Estimators give their own stream (a GP
+// its joint), so that their restarts differ under one seed.
+std::vector<Eigen::VectorXd> restart_points(const Eigen::VectorXd& from, const SearchSettings& settings,
+                                            std::uint64_t stream);
+
 // Start r's objective and progress callback (may be empty).
 using StartObjective = std::function<Objective(int start)>;
 using StartProgress = std::function<ProgressCallback(int start)>;
