@@ -56,11 +56,10 @@ std::string write_summary(const AccuracyConfig& c, const RobotModel& nominal, co
     o << c.runs << " runs, " << c.samples << " training and " << c.samples << " test samples per run, dt " << c.dt
       << " s, noise std " << c.noise_std << ", seed " << c.seed
       << ". nMSE on the noise-free test torque; median [first quartile, third quartile] over runs.\n\n";
-    o << "| estimator |";
-    for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
-    o << " runs < 1 % on every joint | mean fit time |\n|---|";
-    for (int j = 0; j <= n + 1; ++j) o << "---|";
-    o << "\n";
+    std::vector<std::string> columns{"estimator"};
+    for (const std::string& c : joint_columns(n)) columns.push_back(c);
+    columns.insert(columns.end(), {"runs < 1 % on every joint", "mean fit time"});
+    o << markdown_table_header(columns);
     for (const auto& e : c.estimators) {
       o << "| " << e << " |";
       std::map<std::string, bool> below;

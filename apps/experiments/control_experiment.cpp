@@ -44,11 +44,9 @@ std::string controller_name(const std::string& path) { return fs::path(path).ste
 void joint_table(std::ostream& o, int n, const std::vector<std::pair<std::string, TrackingResult>>& results,
                  const std::vector<std::pair<std::string, std::string>>& diverged,
                  Eigen::VectorXd TrackingResult::*figure) {
-  o << "| controller |";
-  for (int j = 0; j < n; ++j) o << " joint " << j + 1 << " |";
-  o << "\n|---|";
-  for (int j = 0; j < n; ++j) o << "---|";
-  o << "\n";
+  std::vector<std::string> columns{"controller"};
+  for (const std::string& c : joint_columns(n)) columns.push_back(c);
+  o << markdown_table_header(columns);
   for (const auto& [name, r] : results) {
     o << "| " << name << " |";
     for (int j = 0; j < n; ++j) o << " " << sci((r.*figure)(j)) << " |";

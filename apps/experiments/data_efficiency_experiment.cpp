@@ -102,11 +102,10 @@ ExperimentOutcome run_data_efficiency_experiment(const DataEfficiencyConfig& c, 
     o << "# E2, data efficiency: " << robot.name() << " (" << joints.str() << "), no model bias\n\n";
     o << "Training subsets are constant-step subsamples of one " << c.train_samples
       << "-sample trajectory; GMSE on a " << c.test_samples << "-sample test trajectory (noise-free torque), median over "
-      << c.runs << " run(s). dt " << c.dt << " s, noise std " << c.noise_std << ", seed " << c.seed << ".\n\n| samples |";
-    for (const auto& e : c.estimators) o << " " << e << " |";
-    o << "\n|---|";
-    for (size_t k = 0; k < c.estimators.size(); ++k) o << "---|";
-    o << "\n";
+      << c.runs << " run(s). dt " << c.dt << " s, noise std " << c.noise_std << ", seed " << c.seed << ".\n\n";
+    std::vector<std::string> columns{"samples"};
+    columns.insert(columns.end(), c.estimators.begin(), c.estimators.end());
+    o << markdown_table_header(columns);
     for (int s : c.sizes) {
       o << "| " << s << " |";
       for (const auto& e : c.estimators) {

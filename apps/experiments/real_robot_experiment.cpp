@@ -251,11 +251,10 @@ ExperimentOutcome run_real_robot_experiment(const RealRobotConfig& c, const Prog
         << " of its range (revolute positions excepted): "
         << InputBox::of(train_gp.X).rows_outside(test.X, joints, c.saturate) << " of " << test.rows()
         << " rows moved for the GP estimators.";
-    o << "\n\n| estimator |";
-    for (int j = 1; j <= n; ++j) o << " joint " << j << " |";
-    o << " mean | fit time |\n|---|";
-    for (int j = 0; j <= n + 1; ++j) o << "---|";
-    o << "\n";
+    std::vector<std::string> columns{"estimator"};
+    for (const std::string& c : joint_columns(n)) columns.push_back(c);
+    columns.insert(columns.end(), {"mean", "fit time"});
+    o << "\n\n" << markdown_table_header(columns);
     for (const auto& e : c.estimators) {
       double sum = 0.0, seconds = std::nan("");
       o << "| " << e << " |";

@@ -114,11 +114,9 @@ ExperimentOutcome run_real_learning_curve(const RealRobotConfig& c, const Progre
         << " of its range (revolute positions excepted).";
     o << "\n\n";
     auto table_header = [&](const std::string& first) {
-      o << "| " << first << " |";
-      for (const auto& e : c.estimators) o << " " << e << " |";
-      o << "\n|---|";
-      for (size_t k = 0; k < c.estimators.size(); ++k) o << "---|";
-      o << "\n";
+      std::vector<std::string> columns{first};
+      columns.insert(columns.end(), c.estimators.begin(), c.estimators.end());
+      o << markdown_table_header(columns);
     };
     o << "## Mean test nMSE over joints\n\n";
     table_header("rows");

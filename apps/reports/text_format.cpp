@@ -14,6 +14,21 @@ std::string duration(double s) {
   return buf;
 }
 
+std::string markdown_table_header(const std::vector<std::string>& columns) {
+  std::string header = "|", rule = "|";
+  for (const std::string& c : columns) {
+    header += " " + c + " |";
+    rule += "---|";
+  }
+  return header + "\n" + rule + "\n";
+}
+
+std::vector<std::string> joint_columns(int n) {
+  std::vector<std::string> columns;
+  for (int j = 1; j <= n; ++j) columns.push_back("joint " + std::to_string(j));
+  return columns;
+}
+
 std::string sci(double v) {
   if (std::isnan(v)) return "n/a";
   char buf[32];
