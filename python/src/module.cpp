@@ -166,12 +166,9 @@ auto fit_without_gil(bool verbose, Fit&& fit) {
 }
 
 std::shared_ptr<Model> refit(const Model& model, const EstimatorOptions& options, bool verbose) {
-  // The kernel, robot, scaling and mean are the model's (refit_model).
-  EstimatorOptions gp = options;
-  gp.name = model.model->kernel_name();
-  gp.robot_prior = model.model->robot_prior();
-  TrainResult r =
-      fit_without_gil(verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, gp.train_options(), cb); });
+  // The kernel, robot, scaling and mean are the model's: refit_model replaces the options' own.
+  TrainResult r = fit_without_gil(
+      verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, options.train_options(), cb); });
   return std::make_shared<Model>(std::move(r.model));
 }
 
