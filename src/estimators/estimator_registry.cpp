@@ -16,7 +16,7 @@ std::vector<EstimatorSpec> make_table() {
     e.help = k.help;
     e.needs_robot = k.needs_robot;
     e.rigid_body_terms = k.rigid_body_terms;
-    e.kernel_method = true;
+    e.kernel_method = e.predictive_variance = true;
     e.default_estimator = k.default_kernel;
     e.kernel = &k;
     t.push_back(e);
@@ -44,9 +44,9 @@ std::vector<EstimatorSpec> make_table() {
   };
   EstimatorSpec* e = &row("lip", EstimatorFamily::Lagrangian,
                           "one GP over all joints with priors on the kinetic and potential energies (LIP)");
-  e->rigid_body_terms = e->kernel_method = e->default_teacher = true;
+  e->rigid_body_terms = e->kernel_method = e->predictive_variance = e->default_teacher = true;
   e = &row("lip+friction", EstimatorFamily::Lagrangian, "lip + each joint's smooth friction and offset");
-  e->rigid_body_terms = e->kernel_method = e->friction = true;
+  e->rigid_body_terms = e->kernel_method = e->predictive_variance = e->friction = true;
   e = &row("fe", EstimatorFamily::Fisherian, "least squares on the nominal robot's rigid-body regressor");
   e->rigid_body_terms = e->needs_robot = e->compared_by_default = e->in_paper_accuracy_comparison = true;
   e = &row("chain", EstimatorFamily::Fisherian,

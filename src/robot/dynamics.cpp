@@ -101,6 +101,31 @@ Eigen::MatrixXd inverse_dynamics(const RobotModel& robot, const Eigen::MatrixXd&
   return tau;
 }
 
+void mass_matrix_and_bias(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                          bool with_friction, Eigen::MatrixXd& M, Eigen::VectorXd& h) {
+  const int n = robot.num_joints();
+  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
+  h = inverse_dynamics(robot, q, qd, zero, with_friction);
+  const Eigen::VectorXd g = inverse_dynamics(robot, q, zero, zero, false);
+  M.resize(n, n);
+  Eigen::VectorXd e = zero;
+  for (int j = 0; j < n; ++j) {
+    e(j) = 1.0;
+    M.col(j) = inverse_dynamics(robot, q, zero, e, false) - g;
+    e(j) = 0.0;
+  }
+}
+
+Eigen::VectorXd forward_dynamics(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                 const Eigen::VectorXd& tau, bool with_friction) {
+  if (tau.size() != robot.num_joints())
+    throw Error("forward_dynamics needs one torque per joint (" + std::to_string(robot.num_joints()) + ")");
+  Eigen::MatrixXd M;
+  Eigen::VectorXd h;
+  mass_matrix_and_bias(robot, q, qd, with_friction, M, h);
+  return M.ldlt().solve(tau - h);
+}
+
 struct RegressorWorkspace::Frames {
   std::vector<KDL::Frame> X;
   std::vector<KDL::Twist> S;

@@ -21,25 +21,6 @@ void TrackingOptions::validate(int joints) const {
     throw Error("TrackingOptions::position_noise and TrackingOptions::velocity_noise must be finite standard deviations >= 0");
 }
 
-namespace {
-
-// The true robot's M(q) and bias h(q, qd) = C qd + g (+ friction) by RNEA.
-void true_dynamics(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd, bool friction,
-                   Eigen::MatrixXd& M, Eigen::VectorXd& h) {
-  const int n = robot.num_joints();
-  const Eigen::VectorXd zero = Eigen::VectorXd::Zero(n);
-  h = inverse_dynamics(robot, q, qd, zero, friction);
-  const Eigen::VectorXd g = inverse_dynamics(robot, q, zero, zero, false);
-  M.resize(n, n);
-  Eigen::VectorXd e = zero;
-  for (int j = 0; j < n; ++j) {
-    e(j) = 1.0;
-    M.col(j) = inverse_dynamics(robot, q, zero, e, false) - g;
-    e(j) = 0.0;
-  }
-}
-
-}  // namespace
 
 namespace {
 
@@ -76,7 +57,7 @@ TrackingResult run_loop(const RobotModel& robot, const Eigen::MatrixXd& referenc
     if (!tau.allFinite()) throw Error("the controller's torque is not finite at step " + std::to_string(k + 1));
     r.q.row(k) = q.transpose();
     r.tau.row(k) = tau.transpose();
-    true_dynamics(robot, q, qd, options.friction, M, h);
+    mass_matrix_and_bias(robot, q, qd, options.friction, M, h);
     const Eigen::VectorXd qdd = M.ldlt().solve(tau - h);
     qd += options.dt * qdd;
     q += options.dt * qd;
@@ -109,7 +90,7 @@ TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& r
   if (r.kp.size() == 0) {
     Eigen::MatrixXd M;
     Eigen::VectorXd h;
-    true_dynamics(robot, reference.row(0).head(n).transpose(), reference.row(0).segment(n, n).transpose(), false, M, h);
+    mass_matrix_and_bias(robot, reference.row(0).head(n).transpose(), reference.row(0).segment(n, n).transpose(), false, M, h);
     const double w = options.bandwidth;
     r.kp = w * w * M.diagonal();
     r.kd = 2.0 * w * M.diagonal();

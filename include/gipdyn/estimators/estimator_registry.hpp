@@ -28,6 +28,8 @@ struct EstimatorSpec {
   bool rigid_body_terms = false;
   // Hyperparameters by marginal likelihood, cost cubic in the rows (the GP kernels, lip).
   bool kernel_method = false;
+  // A predictive standard deviation beside the torque (uncertainty.hpp).
+  bool predictive_variance = false;
   // The estimator train fits by default, and the one that teaches it by
   // default (TeacherOptions::name; fit_estimator.hpp's automatic teaching).
   bool default_estimator = false, default_teacher = false;

@@ -18,6 +18,15 @@ Eigen::VectorXd inverse_dynamics(const RobotModel& robot, const Eigen::VectorXd&
 // Every row of X (N x 3n: q, qd, qdd) -> N x n.
 Eigen::MatrixXd inverse_dynamics(const RobotModel& robot, const Eigen::MatrixXd& X, bool with_friction = false);
 
+// M(q) and the bias h(q, qd) = C(q, qd) qd + g(q) (plus friction when
+// with_friction), by n + 2 calls of inverse_dynamics.
+void mass_matrix_and_bias(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                          bool with_friction, Eigen::MatrixXd& M, Eigen::VectorXd& h);
+// qdd = M(q)^-1 (tau - h(q, qd)): the accelerations the joint torques tau
+// (motor and external together) produce.
+Eigen::VectorXd forward_dynamics(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen::VectorXd& qd,
+                                 const Eigen::VectorXd& tau, bool with_friction = false);
+
 // Phi (n x 10n, or n x 12n with friction) with Phi w = tau for
 // w = [robot.inertial_parameters(); robot.friction_parameters()]. Phi depends
 // only on the kinematics (and gravity), not on the robot's inertial values.

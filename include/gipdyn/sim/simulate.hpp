@@ -12,6 +12,28 @@
 
 namespace gipdyn {
 
+// External torques on the robot (contacts), the ground truth that contact
+// detection is measured against. With count > 0 the log is no longer the
+// reference trajectory played back: the robot follows it under a PD
+// controller around the trajectory's own torques, which runs ten times per
+// row and at least at 1 kHz, and each contact, a constant torque on one joint for `duration`
+// seconds, acts through the forward dynamics. The logged torque is the
+// controller's (what a robot's joint sensors measure), the logged qdd the
+// robot's true acceleration, so that
+//   M(q) qdd + C(q, qd) qd + g(q) = tau + tau_ext
+// holds on every row, and tau_ext is written beside the log.
+struct SimulatedContacts {
+  int count = 0;
+  // Each contact's torque: this fraction of its joint's torque range (max - min
+  // over the contact-free motion), with a random sign.
+  double size = 0.1;
+  double duration = 0.05;  // s
+  int joint = 0;           // the joint (1..n) every contact acts on; 0: each on a joint drawn at random
+  double bandwidth = 30.0;  // rad/s: the PD's gains, Kp = w^2 M_jj(q0), Kd = 2 w M_jj(q0)
+  // Throws gipdyn::Error naming the field.
+  void validate(int joints, int samples, double dt) const;
+};
+
 struct SimulationOptions {
   int samples = 2000;
   std::uint64_t seed = 0;
@@ -22,6 +44,7 @@ struct SimulationOptions {
   double perturb_angle_deg = 5.0;   // deg
   bool friction = false;
   TrajectoryOptions trajectory;
+  SimulatedContacts contacts;
   void validate() const;  // throws gipdyn::Error
 };
 
@@ -29,6 +52,7 @@ struct SimulationResult {
   Eigen::MatrixXd X;         // samples x 3n: q, qd, qdd
   Eigen::MatrixXd tau;       // with noise
   Eigen::MatrixXd tau_true;  // noise-free
+  Eigen::MatrixXd external;  // samples x n: the true external torque (SimulatedContacts); empty without contacts
   nlohmann::json metadata;   // everything needed to regenerate the data; "generator": kSimulationGenerator
 };
 

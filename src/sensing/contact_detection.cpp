@@ -1,0 +1,236 @@
+#include "gipdyn/sensing/contact_detection.hpp"
+
+#include <algorithm>
+#include <cmath>
+#include <sstream>
+
+#include "gipdyn/error.hpp"
+#include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/estimators/uncertainty.hpp"
+
+namespace gipdyn {
+
+namespace {
+
+// x with erfc(x) = y, for y in (0, 1). Newton's method from sqrt(-log y), where
+// erfc(x) <= exp(-x^2) puts the start right of the root; erfc is convex there,
+// so the first step lands left of the root and the rest climb to it.
+double inverse_erfc(double y) {
+  double x = std::sqrt(-std::log(y));
+  for (int i = 0; i < 100; ++i) {
+    const double step = (std::erfc(x) - y) / (-2.0 / std::sqrt(M_PI) * std::exp(-x * x));
+    x -= step;
+    if (std::abs(step) <= 1e-14 * std::max(1.0, std::abs(x))) break;
+  }
+  return x;
+}
+
+}  // namespace
+
+ContactMethod parse_contact_method(const std::string& name) {
+  if (name == "residual") return ContactMethod::Residual;
+  if (name == "momentum") return ContactMethod::Momentum;
+  throw Error("unknown contact detection method '" + name + "'; choose residual or momentum");
+}
+
+std::string to_string(ContactMethod method) { return method == ContactMethod::Residual ? "residual" : "momentum"; }
+
+void ContactOptions::validate() const {
+  if (!(false_alarm_rate > 0.0 && false_alarm_rate < 1.0))
+    throw Error("ContactOptions::false_alarm_rate must lie in (0, 1): it is a probability per row and joint");
+  if (false_alarm_rate < 1e-15)
+    throw Error("ContactOptions::false_alarm_rate must be at least 1e-15: a smaller one asks for a threshold "
+                "beyond what a Gaussian model of the residual can say");
+  if (!(sample_time > 0.0) || !std::isfinite(sample_time))
+    throw Error("ContactOptions::sample_time must be the rows' sampling period, a positive number of seconds");
+  if (!(min_duration >= 0.0) || !std::isfinite(min_duration))
+    throw Error("ContactOptions::min_duration must be a number of seconds >= 0");
+  if (!(momentum_gain >= 0.0) || !std::isfinite(momentum_gain))
+    throw Error("ContactOptions::momentum_gain must be >= 0 (0: automatic)");
+  if (momentum_gain * sample_time > 1.0)
+    throw Error("ContactOptions::momentum_gain times sample_time is " + std::to_string(momentum_gain * sample_time) +
+                ": the observer needs at most 1; lower the gain to at most " + std::to_string(1.0 / sample_time) +
+                " per second");
+}
+
+double ContactOptions::threshold_factor() const { return std::sqrt(2.0) * inverse_erfc(false_alarm_rate); }
+
+int ContactOptions::min_samples() const {
+  return std::max(1, static_cast<int>(std::ceil(min_duration / sample_time - 1e-9)));
+}
+
+double ContactOptions::observer_gain() const {
+  if (momentum_gain > 0.0) return momentum_gain;
+  const double time_constant = std::max(0.01, 2.0 * sample_time);
+  return 1.0 / time_constant;
+}
+
+std::string ContactDetection::brief_report() const {
+  std::ostringstream out;
+  out << to_string(method) << " method, threshold " << threshold_factor << " sigma, noise from " << noise_source
+      << "\n";
+  const Eigen::Index rows = contact.rows();
+  for (Eigen::Index j = 0; j < contact.cols(); ++j) {
+    const double flagged = rows > 0 ? contact.col(j).cast<double>().mean() : 0.0;
+    out << "  joint " << j + 1 << ": " << contact_count(j) << " contact" << (contact_count(j) == 1 ? "" : "s") << ", "
+        << 100.0 * flagged << " % of rows flagged, noise " << noise_std(j) << ", largest margin "
+        << (rows > 0 ? margin.col(j).maxCoeff() : 0.0) << "\n";
+  }
+  return out.str();
+}
+
+ContactFlagger::ContactFlagger(int joints, double threshold_factor, int min_samples)
+    : k_(threshold_factor), min_samples_(min_samples), run_(Eigen::VectorXi::Zero(joints)) {
+  if (joints < 1 || !(threshold_factor > 0.0) || min_samples < 1)
+    throw Error("ContactFlagger needs joints >= 1, a positive threshold factor and min_samples >= 1");
+}
+
+void ContactFlagger::reset() { run_.setZero(); }
+
+void ContactFlagger::step(const double* ext, const double* sigma, int* contact, double* margin, double* threshold) {
+  for (Eigen::Index j = 0; j < run_.size(); ++j) {
+    const double limit = k_ * sigma[j];
+    const double ratio = limit > 0.0 ? std::abs(ext[j]) / limit : (ext[j] != 0.0 ? HUGE_VAL : 0.0);
+    run_(j) = ratio > 1.0 ? run_(j) + 1 : 0;
+    contact[j] = run_(j) >= min_samples_ ? 1 : 0;
+    margin[j] = ratio;
+    if (threshold) threshold[j] = limit;
+  }
+}
+
+MomentumObserver::MomentumObserver(int joints, double gain, double sample_time)
+    : gain_(gain), dt_(sample_time) {
+  if (joints < 1 || !(gain > 0.0) || !(sample_time > 0.0) || gain * sample_time > 1.0)
+    throw Error("MomentumObserver needs joints >= 1, gain > 0, sample_time > 0 and gain x sample_time <= 1");
+  for (Eigen::VectorXd* v : {&p0_, &integral_, &r_, &prev_qd_, &prev_drive_, &p_, &mean_qd_}) v->setZero(joints);
+  prev_M_.setZero(joints, joints);
+}
+
+void MomentumObserver::reset() {
+  started_ = false;
+  r_.setZero();
+  integral_.setZero();
+}
+
+const Eigen::VectorXd& MomentumObserver::step(const Eigen::Ref<const Eigen::MatrixXd>& M,
+                                              const Eigen::Ref<const Eigen::VectorXd>& qd,
+                                              const Eigen::Ref<const Eigen::VectorXd>& tau_minus_n) {
+  p_.noalias() = M * qd;
+  if (!started_) {
+    started_ = true;
+    p0_ = p_;
+    integral_.setZero();
+    r_.setZero();
+  } else {
+    // p_k - p_{k-1} = (M_k - M_{k-1}) (qd_k + qd_{k-1}) / 2 + (M_k + M_{k-1}) / 2 (qd_k - qd_{k-1}),
+    // the first term dM/dt qd's integral, the second M qdd's = tau + tau_ext - n's.
+    mean_qd_ = 0.5 * (qd + prev_qd_);
+    integral_.noalias() += M * mean_qd_;
+    integral_.noalias() -= prev_M_ * mean_qd_;
+    integral_ += 0.5 * dt_ * (tau_minus_n + prev_drive_) + dt_ * r_;
+    r_ = gain_ * (p_ - p0_ - integral_);
+  }
+  prev_M_ = M;
+  prev_qd_ = qd;
+  prev_drive_ = tau_minus_n;
+  return r_;
+}
+
+ContactDetector::ContactDetector(const Estimator& estimator, ContactOptions options)
+    : estimator_(&estimator), options_(options) {
+  options_.validate();
+  if (options_.method == ContactMethod::Momentum) require_physics(estimator);
+  if (estimator_gives_uncertainty(estimator.name())) uncertainty_ = std::make_unique<TorqueUncertainty>(estimator);
+}
+
+ContactDetector::~ContactDetector() = default;
+ContactDetector::ContactDetector(ContactDetector&&) noexcept = default;
+ContactDetector& ContactDetector::operator=(ContactDetector&&) noexcept = default;
+
+void ContactDetector::check_rows(const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                 const Eigen::Ref<const Eigen::MatrixXd>& tau) const {
+  const int n = estimator_->joints().size();
+  if (X.cols() != 3 * n)
+    throw Error("contact detection: the states have " + std::to_string(X.cols()) + " columns; this " +
+                estimator_->joints().str() + " model needs " + std::to_string(3 * n) + " (q, qd, qdd)");
+  if (tau.cols() != n || tau.rows() != X.rows())
+    throw Error("contact detection: the torques must be one row of " + std::to_string(n) + " per state row (got " +
+                std::to_string(tau.rows()) + " x " + std::to_string(tau.cols()) + " for " + std::to_string(X.rows()) +
+                " rows)");
+  if (X.rows() < 1) throw Error("contact detection: the log has no rows");
+  if (!X.allFinite() || !tau.allFinite()) throw Error("contact detection: the log contains NaN or Inf");
+}
+
+Eigen::MatrixXd ContactDetector::external_torque(const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                                 const Eigen::Ref<const Eigen::MatrixXd>& tau) const {
+  check_rows(X, tau);
+  const int n = estimator_->joints().size();
+  if (options_.method == ContactMethod::Residual) return estimator_->predict(X) - tau;
+  // n(q, qd) = f(q, qd, 0) and M(q) in two batches, then the observer row by row.
+  Eigen::MatrixXd still = X;
+  still.rightCols(n).setZero();
+  const Eigen::MatrixXd bias = estimator_->predict(still);
+  const std::vector<Eigen::MatrixXd> M = inertia(*estimator_, X.leftCols(n));
+  MomentumObserver observer(n, options_.observer_gain(), options_.sample_time);
+  Eigen::MatrixXd r(X.rows(), n);
+  Eigen::VectorXd qd(n), drive(n);
+  for (Eigen::Index k = 0; k < X.rows(); ++k) {
+    qd = X.row(k).segment(n, n).transpose();
+    drive = (tau.row(k) - bias.row(k)).transpose();
+    r.row(k) = observer.step(M[static_cast<size_t>(k)], qd, drive).transpose();
+  }
+  return r;
+}
+
+void ContactDetector::calibrate(const Eigen::Ref<const Eigen::MatrixXd>& X, const Eigen::Ref<const Eigen::MatrixXd>& tau) {
+  const Eigen::MatrixXd r = external_torque(X, tau);
+  calibrated_noise_ = (r.colwise().squaredNorm() / static_cast<double>(r.rows())).cwiseSqrt().transpose();
+}
+
+ContactDetection ContactDetector::detect(const Eigen::Ref<const Eigen::MatrixXd>& X,
+                                         const Eigen::Ref<const Eigen::MatrixXd>& tau) const {
+  const int n = estimator_->joints().size();
+  ContactDetection d;
+  d.method = options_.method;
+  d.threshold_factor = options_.threshold_factor();
+  if (calibrated()) {
+    d.noise_source = "calibration";
+    d.noise_std = calibrated_noise_;
+  } else if (uncertainty_) {
+    d.noise_source = "model";
+    d.noise_std = uncertainty_->noise_std();
+  } else {
+    throw Error("a '" + estimator_->name() +
+                "' model gives no predictive standard deviation: calibrate the detector on contact-free rows "
+                "(ContactDetector::calibrate), or use one of: " + joined(uncertainty_estimator_names()));
+  }
+  d.external_torque = external_torque(X, tau);
+  const Eigen::Index rows = X.rows();
+  Eigen::MatrixXd sigma(rows, n);
+  if (uncertainty_) {
+    sigma = uncertainty_->latent_std(X);
+    sigma = (sigma.array().square().rowwise() + d.noise_std.array().square().transpose()).sqrt().matrix();
+  } else {
+    sigma.rowwise() = d.noise_std.transpose();
+  }
+  // Row-major rows for the flagger's per-row pointers.
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  using RowMajorInt = Eigen::Matrix<int, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const RowMajor ext = d.external_torque, sig = sigma;
+  RowMajor margin(rows, n), threshold(rows, n);
+  RowMajorInt contact(rows, n);
+  ContactFlagger flagger(n, d.threshold_factor, options_.min_samples());
+  for (Eigen::Index k = 0; k < rows; ++k)
+    flagger.step(ext.row(k).data(), sig.row(k).data(), contact.row(k).data(), margin.row(k).data(),
+                 threshold.row(k).data());
+  d.margin = margin;
+  d.threshold = threshold;
+  d.contact = contact;
+  d.contact_count = Eigen::VectorXi::Zero(n);
+  for (int j = 0; j < n; ++j)
+    for (Eigen::Index k = 0; k < rows; ++k)
+      if (d.contact(k, j) && (k == 0 || !d.contact(k - 1, j))) ++d.contact_count(j);
+  return d;
+}
+
+}  // namespace gipdyn
