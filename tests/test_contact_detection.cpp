@@ -205,6 +205,10 @@ TEST(ContactDetector, BothMethodsFindEveryContactOfACalibratedTrueModelAndNothin
       allowed.col(c.joint).segment(c.first, std::min<Eigen::Index>(c.last + 1 + settling, allowed.rows()) - c.first).setOnes();
     EXPECT_EQ((r.contact.array() > allowed.array()).count(), 0) << r.brief_report();
     EXPECT_EQ(r.contact_count.sum(), 6);
+    const ContactScore score = score_contacts(r, d.external, o.sample_time);
+    EXPECT_EQ(score.detected, 6);
+    EXPECT_EQ(score.false_alarms, 0);
+    EXPECT_LE(score.max_delay, 0.02);
   }
 }
 
@@ -252,4 +256,29 @@ TEST(ContactDetector, RefusesWhatItCannotDo) {
   EXPECT_NE(error_of([&] { detector.detect(train.X, train.tau.topRows(5)); }).find("one row of 4"), std::string::npos);
   EXPECT_EQ(error_of([&] { parse_contact_method("kalman"); }),
             "unknown contact detection method 'kalman'; choose residual or momentum");
+}
+
+TEST(ContactScore, CountsDetectionsDelaysAndFalseAlarmsAgainstTheTruth) {
+  // One joint, 20 rows of 0.01 s: true contacts at rows 2-5 (found at row 4) and
+  // 12-13 (missed); a flagged run at rows 16-17 overlaps none.
+  ContactDetection d;
+  d.contact = Eigen::MatrixXi::Zero(20, 1);
+  d.external_torque = Eigen::MatrixXd::Zero(20, 1);
+  Eigen::MatrixXd truth = Eigen::MatrixXd::Zero(20, 1);
+  truth.block(2, 0, 4, 1).setConstant(2.0);
+  truth.block(12, 0, 2, 1).setConstant(-1.0);
+  d.contact.block(4, 0, 3, 1).setOnes();
+  d.contact.block(16, 0, 2, 1).setOnes();
+  d.external_torque.block(2, 0, 4, 1).setConstant(1.5);  // RMS error 0.5 on a contact of 2
+  const ContactScore s = score_contacts(d, truth, 0.01);
+  EXPECT_EQ(s.contacts, 2);
+  EXPECT_EQ(s.detected, 1);
+  EXPECT_DOUBLE_EQ(s.detection_rate(), 0.5);
+  EXPECT_NEAR(s.mean_delay, 0.02, 1e-12);
+  EXPECT_NEAR(s.max_delay, 0.02, 1e-12);
+  EXPECT_EQ(s.false_alarms, 1);
+  EXPECT_NEAR(s.contact_free_seconds, 0.14, 1e-12);
+  EXPECT_NEAR(s.false_alarms_per_minute(), 60.0 / 0.14, 1e-9);
+  EXPECT_NEAR(s.torque_error, 0.25, 1e-12);
+  EXPECT_NE(error_of([&] { score_contacts(d, truth.topRows(5), 0.01); }).find("shape"), std::string::npos);
 }

@@ -14,6 +14,7 @@ Command add_evaluate(CLI::App& app);    // evaluate_command.cpp
 Command add_simulate(CLI::App& app);    // simulate_command.cpp
 Command add_preprocess(CLI::App& app);  // preprocess_command.cpp
 Command add_physics(CLI::App& app);     // physics_command.cpp
+Command add_detect(CLI::App& app);      // detect_command.cpp
 Command add_update(CLI::App& app);      // update_command.cpp
 Command add_experiment(CLI::App& app);  // experiment_commands.cpp
 Command add_inspect(CLI::App& app);     // inspect_command.cpp

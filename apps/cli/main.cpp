@@ -24,7 +24,7 @@ std::string out_of_memory_advice(const std::string& command) {
   if (command == "experiment")
     return "use fewer training rows (--max-train, --sizes, --train-samples) or one estimator at a time (--estimators)";
   if (command == "update") return "keep fewer rows (--window)";
-  if (command == "predict" || command == "evaluate" || command == "physics")
+  if (command == "predict" || command == "evaluate" || command == "physics" || command == "detect")
     return "split --data into smaller files and run them one after another";
   if (command == "inspect") return "look up fewer rows (--max-queries) or split --data";
   if (command == "preprocess") return "split --data into smaller logs, or resample it with a longer period (--dt)";
@@ -136,6 +136,8 @@ int main(int argc, char** argv) {
       gipdyn::cli::add_inspect);
   add("physics", "Gravity, inertia matrix, Coriolis and friction torques of a learned model (gip, pp, fe) at given states",
       gipdyn::cli::add_physics);
+  add("detect", "Detect contacts and estimate external joint torques from a log's torques and a learned model",
+      gipdyn::cli::add_detect);
   add("experiment", "The paper's experiments: accuracy (E1), data-efficiency (E2), real (E3); CSV, summary, PNG",
       gipdyn::cli::add_experiment);
   using gipdyn::cli::kExitFailure;

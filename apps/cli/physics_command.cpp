@@ -14,16 +14,6 @@
 
 namespace gipdyn::cli {
 
-namespace {
-
-std::vector<std::string> names(const std::string& prefix, int n) {
-  std::vector<std::string> out;
-  for (int j = 1; j <= n; ++j) out.push_back(prefix + std::to_string(j));
-  return out;
-}
-
-}  // namespace
-
 Command add_physics(CLI::App& app) {
   struct Args {
     std::string model, data, out;
@@ -49,21 +39,21 @@ Command add_physics(CLI::App& app) {
     const int n = model->joints().size();
     const CsvHeader columns = read_csv_header(a->data);
     require_joint_columns(columns, a->data, model->joints(), "the model '" + a->model + "'");
-    const Eigen::MatrixXd Q = read_csv_columns(a->data, names("q", n));
+    const Eigen::MatrixXd Q = read_csv_columns(a->data, joint_column_names("q", n));
     const bool with_velocity = columns.has("qd1");
     const Eigen::MatrixXd g = gravity(*model, Q);
     const std::vector<Eigen::MatrixXd> M = inertia(*model, Q);
     const std::vector<Eigen::MatrixXd> M_learned = inertia(*model, Q, InertiaForm::AsLearned);
-    const Eigen::MatrixXd QD = with_velocity ? read_csv_columns(a->data, names("qd", n)) : Eigen::MatrixXd();
+    const Eigen::MatrixXd QD = with_velocity ? read_csv_columns(a->data, joint_column_names("qd", n)) : Eigen::MatrixXd();
     VelocityTerms v;
     if (with_velocity) v = velocity_terms(*model, Q, QD);
 
-    std::vector<std::string> header = names("g", n);
+    std::vector<std::string> header = joint_column_names("g", n);
     for (int i = 1; i <= n; ++i)
-      for (const auto& c : names("M" + std::to_string(i) + "_", n)) header.push_back(c);
+      for (const auto& c : joint_column_names("M" + std::to_string(i) + "_", n)) header.push_back(c);
     if (with_velocity) {
-      for (const auto& c : names("coriolis", n)) header.push_back(c);
-      for (const auto& c : names("friction", n)) header.push_back(c);
+      for (const auto& c : joint_column_names("coriolis", n)) header.push_back(c);
+      for (const auto& c : joint_column_names("friction", n)) header.push_back(c);
     }
     header.push_back("M_asymmetry");
     header.push_back("M_min_eigenvalue");

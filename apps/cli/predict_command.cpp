@@ -6,11 +6,10 @@
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
-#include "gipdyn/estimators/lagrangian_estimator.hpp"
+#include "gipdyn/estimators/uncertainty.hpp"
 #include "gipdyn/io/csv.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
-#include "gipdyn/model/inverse_dynamics_model.hpp"
 
 namespace gipdyn::cli {
 
@@ -32,18 +31,11 @@ Command add_predict(CLI::App& app) {
     const int n = estimator->joints().size();
     Eigen::MatrixXd mean, sd;
     std::vector<std::string> header = torque_column_names(n, "_hat");
-    const InverseDynamicsModel* gp = estimator->gp_model();
-    const auto* lip = dynamic_cast<const LagrangianEstimator*>(estimator.get());
-    if (a->no_std || (gp == nullptr && lip == nullptr)) {
+    if (a->no_std || !estimator_gives_uncertainty(estimator->name())) {
       write_csv(a->out, header, estimator->predict(data.X));
     } else {
-      if (gp) {
-        gp->with_variance().predict(data.X, mean, &sd);
-      } else {
-        const LagrangianEstimator with_variance = lip->with_variance();
-        mean = with_variance.predict(data.X);
-        sd = with_variance.predict_std(data.X);
-      }
+      mean = estimator->predict(data.X);
+      sd = TorqueUncertainty(*estimator).latent_std(data.X);
       const auto std_names = torque_column_names(n, "_std");
       header.insert(header.end(), std_names.begin(), std_names.end());
       Eigen::MatrixXd both(mean.rows(), 2 * n);

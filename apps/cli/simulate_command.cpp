@@ -42,6 +42,22 @@ Command add_simulate(CLI::App& app) {
   app.add_flag("--perturb-kinematics", a->sim.perturb_kinematics,
                "Generate the data with lengths perturbed by up to 0.05 m and angles by up to 5 deg");
   app.add_flag("--friction", a->sim.friction, "Add the robot's viscous and Coulomb friction to the torques");
+  app.add_option("--contacts", a->sim.contacts.count,
+                 "Contacts: this many constant external torques on the joints, drawn with --seed. The robot then "
+                 "follows the trajectory under a PD controller, the contacts act through its dynamics, and "
+                 "ext1_true..extn_true hold the true external torque (for `gipdyn detect`)")
+      ->capture_default_str();
+  app.add_option("--contact-size", a->sim.contacts.size,
+                 "--contacts: each contact's torque as a fraction of its joint's torque range")
+      ->capture_default_str();
+  app.add_option("--contact-duration", a->sim.contacts.duration, "--contacts: each contact's duration in seconds")
+      ->capture_default_str();
+  app.add_option("--contact-joint", a->sim.contacts.joint,
+                 "--contacts: the joint (1..n) every contact acts on; 0: a joint drawn for each")
+      ->capture_default_str();
+  app.add_option("--contact-bandwidth", a->sim.contacts.bandwidth,
+                 "--contacts: the PD controller's bandwidth in rad/s")
+      ->capture_default_str();
   app.add_option("--model", a->model,
                  "A learned model (" + joined(physics_estimator_names()) + ") driven by the same noise-free torques from the same start: "
                  "adds its motion as q1_model.., qd1_model.. columns")
@@ -74,12 +90,18 @@ Command add_simulate(CLI::App& app) {
       const auto t = torque_column_names(n, suffix);
       header.insert(header.end(), t.begin(), t.end());
     }
-    Eigen::MatrixXd all(r.X.rows(), 5 * n);
-    all << r.X, r.tau, r.tau_true;
+    Eigen::MatrixXd all(r.X.rows(), 5 * n + r.external.cols());
+    if (r.external.size() > 0) {
+      all << r.X, r.tau, r.tau_true, r.external;
+      const auto ext = external_torque_column_names(n, "_true");
+      header.insert(header.end(), ext.begin(), ext.end());
+    } else {
+      all << r.X, r.tau, r.tau_true;
+    }
     if (learned) {
       const Eigen::VectorXd q0 = r.X.row(0).head(n).transpose(), qd0 = r.X.row(0).segment(n, n).transpose();
       const Eigen::MatrixXd motion = integrate_forward_dynamics(
-          *learned, q0, qd0, r.tau_true, a->sim.dt, a->integrator == "rk4" ? Integrator::Rk4 : Integrator::SemiImplicitEuler);
+          *learned, q0, qd0, r.external.size() > 0 ? Eigen::MatrixXd(r.tau_true + r.external) : r.tau_true, a->sim.dt, a->integrator == "rk4" ? Integrator::Rk4 : Integrator::SemiImplicitEuler);
       for (const auto& name : input_column_names(n)) header.push_back(name + "_model");
       Eigen::MatrixXd with_model(all.rows(), all.cols() + motion.cols());
       with_model << all, motion;
@@ -93,6 +115,9 @@ Command add_simulate(CLI::App& app) {
       std::printf("simulated %d samples of %s (%s, dt %g s%s%s) -> %s (+ %s)\n", a->sim.samples, robot.name().c_str(),
                   robot.joint_types().str().c_str(), a->sim.dt, a->sim.perturb_kinematics ? ", perturbed kinematics" : "",
                   a->sim.friction ? ", friction" : "", a->out.c_str(), sidecar.c_str());
+    if (!a->quiet && a->sim.contacts.count > 0)
+      std::printf("with %d contacts of %g s (true external torque in ext1_true..ext%d_true)\n", a->sim.contacts.count,
+                  a->sim.contacts.duration, n);
     if (learned && !a->quiet) {
       // How far the learned robot drifts from the true one under the same torques.
       const Eigen::MatrixXd error = (all.rightCols(3 * n).leftCols(n) - r.X.leftCols(n)).cwiseAbs();

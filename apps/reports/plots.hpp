@@ -17,7 +17,7 @@ struct PlotResult {
 // `simulate --model`), tracking (errors.csv of the control experiment),
 // physics (physics.csv of `evaluate --physics`), learning_curve
 // (learning_curve.csv of `experiment real --sizes`), consistency (the JSON
-// report of `inspect`).
+// report of `inspect`), contacts (the CSV of `detect`).
 // Writes `png` atomically.
 PlotResult render_plot(const std::string& kind, const std::string& input, const std::string& png);
 

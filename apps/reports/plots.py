@@ -285,7 +285,40 @@ def consistency(json_path, out):
     fig.savefig(out, dpi=110)
 
 
-KINDS = {"boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
+def contacts(contacts_csv, out):
+    """Columns t, ext1..n, contact1..n, threshold1..n and, where known,
+    ext1_true..n_true (`gipdyn detect`): per joint, the estimated external
+    torque inside its threshold band, flagged rows shaded, the truth dashed."""
+    rows = read_rows(contacts_csv)
+    cols = list(rows[0].keys())
+    joints = [c[3:] for c in cols if c.startswith("ext") and c[3:].isdigit()]
+    t = [number(r["t"]) for r in rows]
+    fig, axes = plt.subplots(len(joints), 1, figsize=(10, 2.0 * len(joints)), sharex=True, squeeze=False)
+    for ax, j in zip(axes[:, 0], joints):
+        limit = [number(r["threshold" + j]) for r in rows]
+        ax.fill_between(t, [-x for x in limit], limit, color="0.85", lw=0, label="threshold band")
+        flagged = [number(r["contact" + j]) > 0 for r in rows]
+        start = None
+        for k, on in enumerate(flagged + [False]):
+            if on and start is None:
+                start = k
+            elif not on and start is not None:
+                ax.axvspan(t[start], t[min(k, len(t) - 1)], color="tab:red", alpha=0.25, lw=0)
+                start = None
+        if "ext" + j + "_true" in cols:
+            ax.plot(t, [number(r["ext" + j + "_true"]) for r in rows], color="black", ls="--", lw=1.0,
+                    label="true external torque")
+        ax.plot(t, [number(r["ext" + j]) for r in rows], color="tab:blue", lw=0.8, label="estimated")
+        ax.set_ylabel("joint " + j)
+        ax.grid(True, alpha=0.3)
+    axes[0, 0].legend(fontsize=7, loc="upper right", ncol=3)
+    axes[0, 0].set_title("external torque (shaded: contact flagged)")
+    axes[-1, 0].set_xlabel("t (s)")
+    fig.tight_layout()
+    fig.savefig(out, dpi=110)
+
+
+KINDS = {"contacts": contacts, "boxplot": boxplot, "gmse": gmse, "bars": bars, "timeseries": timeseries,
          "residuals": residuals, "noise-ratio": noise_ratio, "motion": motion,
          "tracking": tracking, "physics": physics, "learning_curve": learning_curve,
          "consistency": consistency}

@@ -26,9 +26,14 @@ class JointTypes {
   std::vector<JointType> types_;
 };
 
+// "PREFIX1".."PREFIXn" with an optional suffix: one column per joint.
+std::vector<std::string> joint_column_names(const std::string& prefix, int num_joints, const std::string& suffix = "");
 // The columns of a log of num_joints joints: "q1".."qn", "qd1".."qdn", "qdd1".."qddn".
 std::vector<std::string> input_column_names(int num_joints);
 // "tau1".."taun", with an optional suffix ("_true", "_hat", "_std").
 std::vector<std::string> torque_column_names(int num_joints, const std::string& suffix = "");
+// "ext1".."extn": the external torque on each joint (contact detection), with
+// an optional suffix ("_true": a simulated log's ground truth).
+std::vector<std::string> external_torque_column_names(int num_joints, const std::string& suffix = "");
 
 }  // namespace gipdyn

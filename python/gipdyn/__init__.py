@@ -15,12 +15,14 @@ import numpy as np
 
 from . import _core
 from ._core import __version__, build_info
-from ._core import (EstimatorOptions, GipdynError, GpOptions, HyperparameterPrior, NeighbourConsistencyOptions,
-                    OptimizerOptions, Robot, SearchSettings, SimulationOptions, SparseOptions, TeacherOptions,
-                    mpi_rank, mpi_size)
+from ._core import (ContactDetection, ContactOptions, ContactScore, EstimatorOptions, GipdynError, GpOptions,
+                    HyperparameterPrior, NeighbourConsistencyOptions, OptimizerOptions, Robot, SearchSettings,
+                    SimulatedContacts, SimulationOptions, SparseOptions, TeacherOptions, mpi_rank, mpi_size,
+                    score_contacts)
 
 __all__ = ["InverseDynamicsGP", "LagrangianGP", "NotFittedError", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "EstimatorOptions", "SearchSettings", "GpOptions", "SparseOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
-           "SimulationOptions", "simulate", "read_log", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size", "build_info"]
+           "SimulationOptions", "SimulatedContacts", "simulate", "read_log", "ContactDetector", "ContactOptions",
+           "ContactDetection", "ContactScore", "score_contacts", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size", "build_info"]
 
 try:  # scikit-learn's estimator protocol when it is installed; our own otherwise
     from sklearn.base import BaseEstimator as _BaseEstimator
@@ -672,10 +674,17 @@ def read_log(path, joints=None, mat_variable=None, torques=True):
     return _core.read_log(str(path), str(joints), mat_variable or "", bool(torques))
 
 
-def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False):
+def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False,
+             contacts=0, contact_size=None, contact_duration=None, contact_joint=0):
     """Simulate a robot ("scara", "ur10", a .urdf/.json path, or a Robot) on a
     random sum-of-sinusoids trajectory. Returns a dict of NumPy arrays q, qd,
-    qdd, X (= [q, qd, qdd]), tau (noisy), tau_true, and metadata (a dict)."""
+    qdd, X (= [q, qd, qdd]), tau (noisy), tau_true, and metadata (a dict).
+
+    With contacts > 0, that many constant external torques (contact_size: a
+    fraction of the joint's torque range; contact_duration in seconds;
+    contact_joint 1..n, or 0 for a joint drawn for each) act on the robot
+    while a PD controller keeps it on the trajectory; the dict then also holds
+    external, the true external torque (N, n), for ContactDetector."""
     if isinstance(robot, str):
         robot = Robot.load(robot)
     o = SimulationOptions()
@@ -685,9 +694,91 @@ def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_k
     o.dt = float(dt)
     o.perturb_kinematics = bool(perturb_kinematics)
     o.friction = bool(friction)
+    c = o.contacts
+    c.count = int(contacts)
+    if contact_size is not None:
+        c.size = float(contact_size)
+    if contact_duration is not None:
+        c.duration = float(contact_duration)
+    c.joint = int(contact_joint)
+    o.contacts = c
     out = _core.simulate(robot, o)
     out["metadata"] = json.loads(out["metadata"])
     return out
+
+
+_CONTACT_DEFAULTS = ContactOptions()
+
+
+class ContactDetector:
+    """Contacts and external joint torques from measured torques and a fitted model.
+
+    A robot in contact obeys M(q) qdd + C(q, qd) qd + g(q) = tau + tau_ext; the
+    fitted model stands in for the left-hand side, and tau_ext, the torque the
+    environment applies to each joint, is estimated from the measured tau.
+
+    Parameters
+    ----------
+    model : InverseDynamicsGP or LagrangianGP, fitted
+        The model of the robot without contact.
+    sample_time : float
+        The rows' sampling period in seconds.
+    method : {"residual", "momentum"}, default "residual"
+        residual: tau_ext = f(q, qd, qdd) - tau, for any model. momentum: the
+        generalized-momentum observer, which needs no acceleration but a
+        model with an inertia matrix (gip, gip-friction, pp, lip, ...).
+    false_alarm_rate : float, default 1e-6
+        Probability, per row and joint, that a contact-free residual exceeds
+        the threshold: the threshold is its two-sided Gaussian quantile times
+        the residual's standard deviation.
+    min_duration : float, default 0.005
+        Seconds the residual must stay above the threshold before a contact is
+        flagged (at least one row).
+    momentum_gain : float, default 0 (automatic)
+        The observer's gain in 1/s, at most 1 / sample_time; 0 gives a time
+        constant of 10 ms or two rows, whichever is longer.
+
+    The residual's standard deviation combines the model's predictive standard
+    deviation with the noise it learned, or with the noise measured by
+    calibrate() on contact-free rows of the robot.
+    """
+
+    def __init__(self, model, sample_time, method="residual", false_alarm_rate=_CONTACT_DEFAULTS.false_alarm_rate,
+                 min_duration=_CONTACT_DEFAULTS.min_duration, momentum_gain=_CONTACT_DEFAULTS.momentum_gain):
+        if not isinstance(model, InverseDynamicsGP):
+            raise TypeError("ContactDetector needs a fitted InverseDynamicsGP or LagrangianGP, not "
+                            f"{type(model).__name__}")
+        model._check_fitted()
+        o = ContactOptions()
+        o.method = method
+        o.sample_time = float(sample_time)
+        o.false_alarm_rate = float(false_alarm_rate)
+        o.min_duration = float(min_duration)
+        o.momentum_gain = float(momentum_gain)
+        o.validate()
+        self.model = model
+        self.options = o
+        self._detector = _core.ContactDetector(model.model_, o)
+
+    def _rows(self, X, tau):
+        n = self.model.n_joints
+        return (np.asfortranarray(_as_matrix("X", X, 3 * n)), np.asfortranarray(_as_matrix("tau", tau, n)))
+
+    def calibrate(self, X, tau):
+        """Measures each joint's noise on consecutive contact-free rows (not the
+        training rows: a model fits its own rows too well). Returns self."""
+        self._detector.calibrate(*self._rows(X, tau))
+        return self
+
+    def detect(self, X, tau):
+        """Runs over consecutive rows of one log (X: (N, 3n), tau: (N, n)).
+        Returns a ContactDetection: external_torque, threshold, contact (0/1)
+        and margin (|external| / threshold), each (N, n), and brief_report()."""
+        return self._detector.detect(*self._rows(X, tau))
+
+    def external_torque(self, X, tau):
+        """The method's estimate of the external torque alone, (N, n)."""
+        return self._detector.external_torque(*self._rows(X, tau))
 
 
 def neighbour_consistency(X, tau, X_test=None, tau_test=None, radius=0.1, min_separation_rows=100,

@@ -29,6 +29,7 @@
 #include "gipdyn/model/training.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
+#include "gipdyn/sensing/contact_detection.hpp"
 #include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/training_data.hpp"
 #include "gipdyn/version.hpp"
@@ -79,6 +80,16 @@ const FieldNames& python_field_names() {
       {"NeighbourConsistencyOptions::joints", "joints"},
       {"NeighbourConsistencyOptions::min_separation_rows", "min_separation_rows"},
       {"NeighbourConsistencyOptions::max_queries", "max_queries"},
+      {"SimulatedContacts::count", "contacts"},
+      {"SimulatedContacts::size", "contact_size"},
+      {"SimulatedContacts::duration", "contact_duration"},
+      {"SimulatedContacts::joint", "contact_joint"},
+      {"SimulatedContacts::bandwidth", "contact_bandwidth"},
+      {"ContactOptions::false_alarm_rate", "false_alarm_rate"},
+      {"ContactOptions::min_duration", "min_duration"},
+      {"ContactOptions::sample_time", "sample_time"},
+      {"ContactOptions::momentum_gain", "momentum_gain"},
+      {"ContactDetector::calibrate", "ContactDetector.calibrate(X, tau)"},
       {kMatFileAdvice, "read it with gipdyn.read_log(path, joints, mat_variable=NAME)"},
       {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: subsample=N)"},
   };
@@ -318,6 +329,7 @@ py::dict simulation_to_dict(const SimulationResult& r, int n) {
   d["X"] = r.X;
   d["tau"] = r.tau;
   d["tau_true"] = r.tau_true;
+  if (r.external.size() > 0) d["external"] = r.external;
   d["metadata"] = r.metadata.dump();
   return d;
 }
@@ -810,7 +822,15 @@ void bind_data(py::module_& m) {
       .def_readwrite("noise_std", &SimulationOptions::noise_std)
       .def_readwrite("dt", &SimulationOptions::dt)
       .def_readwrite("perturb_kinematics", &SimulationOptions::perturb_kinematics)
-      .def_readwrite("friction", &SimulationOptions::friction);
+      .def_readwrite("friction", &SimulationOptions::friction)
+      .def_readwrite("contacts", &SimulationOptions::contacts);
+  py::class_<SimulatedContacts>(m, "SimulatedContacts")
+      .def(py::init<>())
+      .def_readwrite("count", &SimulatedContacts::count)
+      .def_readwrite("size", &SimulatedContacts::size)
+      .def_readwrite("duration", &SimulatedContacts::duration)
+      .def_readwrite("joint", &SimulatedContacts::joint)
+      .def_readwrite("bandwidth", &SimulatedContacts::bandwidth);
   m.def(
       "simulate",
       [](const RobotModel& robot, const SimulationOptions& o) {
@@ -822,6 +842,84 @@ void bind_data(py::module_& m) {
         return simulation_to_dict(r, robot.num_joints());
       },
       py::arg("robot"), py::arg("options"));
+}
+
+// A detector over a fitted model, which it keeps alive.
+struct PyContactDetector {
+  std::shared_ptr<const Estimator> estimator;
+  ContactDetector detector;
+  PyContactDetector(std::shared_ptr<const Estimator> e, const ContactOptions& o)
+      : estimator(std::move(e)), detector(*estimator, o) {}
+};
+
+void bind_contact_detection(py::module_& m) {
+  py::class_<ContactOptions> options(m, "ContactOptions");
+  options.def(py::init<>())
+      .def_readwrite("false_alarm_rate", &ContactOptions::false_alarm_rate)
+      .def_readwrite("min_duration", &ContactOptions::min_duration)
+      .def_readwrite("sample_time", &ContactOptions::sample_time)
+      .def_readwrite("momentum_gain", &ContactOptions::momentum_gain)
+      .def("validate", &ContactOptions::validate)
+      .def("threshold_factor", &ContactOptions::threshold_factor)
+      .def("observer_gain", &ContactOptions::observer_gain);
+  string_property(options, "method", &ContactOptions::method, &parse_contact_method,
+                  static_cast<std::string (*)(ContactMethod)>(&to_string));
+  py::class_<ContactDetection>(m, "ContactDetection")
+      .def_property_readonly("method", [](const ContactDetection& d) { return to_string(d.method); })
+      .def_readonly("external_torque", &ContactDetection::external_torque)
+      .def_readonly("threshold", &ContactDetection::threshold)
+      .def_readonly("contact", &ContactDetection::contact)
+      .def_readonly("margin", &ContactDetection::margin)
+      .def_readonly("threshold_factor", &ContactDetection::threshold_factor)
+      .def_readonly("noise_source", &ContactDetection::noise_source)
+      .def_readonly("noise_std", &ContactDetection::noise_std)
+      .def_readonly("contact_count", &ContactDetection::contact_count)
+      .def("brief_report", &ContactDetection::brief_report)
+      .def("__repr__", [](const ContactDetection& d) { return "<ContactDetection\n" + d.brief_report() + ">"; });
+  py::class_<ContactScore>(m, "ContactScore")
+      .def_readonly("contacts", &ContactScore::contacts)
+      .def_readonly("detected", &ContactScore::detected)
+      .def_readonly("mean_delay", &ContactScore::mean_delay)
+      .def_readonly("max_delay", &ContactScore::max_delay)
+      .def_readonly("false_alarms", &ContactScore::false_alarms)
+      .def_readonly("contact_free_seconds", &ContactScore::contact_free_seconds)
+      .def_readonly("torque_error", &ContactScore::torque_error)
+      .def_property_readonly("detection_rate", &ContactScore::detection_rate)
+      .def_property_readonly("false_alarms_per_minute", &ContactScore::false_alarms_per_minute);
+  m.def("score_contacts", &score_contacts, py::arg("detection"), py::arg("true_external"), py::arg("sample_time"));
+  py::class_<PyContactDetector, std::shared_ptr<PyContactDetector>>(m, "ContactDetector")
+      .def(py::init([](const Model& model, const ContactOptions& o) {
+             py::gil_scoped_release release;  // a loaded model's factors are computed here
+             return std::make_shared<PyContactDetector>(model.estimator, o);
+           }),
+           py::arg("model"), py::arg("options"))
+      .def(py::init([](const LagrangianModel& model, const ContactOptions& o) {
+             py::gil_scoped_release release;
+             return std::make_shared<PyContactDetector>(model.estimator, o);
+           }),
+           py::arg("model"), py::arg("options"))
+      .def(
+          "calibrate",
+          [](PyContactDetector& s, ConstRef X, ConstRef tau) {
+            py::gil_scoped_release release;
+            s.detector.calibrate(X, tau);
+          },
+          py::arg("X"), py::arg("tau"))
+      .def_property_readonly("calibrated", [](const PyContactDetector& s) { return s.detector.calibrated(); })
+      .def(
+          "detect",
+          [](const PyContactDetector& s, ConstRef X, ConstRef tau) {
+            py::gil_scoped_release release;
+            return s.detector.detect(X, tau);
+          },
+          py::arg("X"), py::arg("tau"))
+      .def(
+          "external_torque",
+          [](const PyContactDetector& s, ConstRef X, ConstRef tau) {
+            py::gil_scoped_release release;
+            return s.detector.external_torque(X, tau);
+          },
+          py::arg("X"), py::arg("tau"));
 }
 
 }  // namespace
@@ -844,4 +942,5 @@ PYBIND11_MODULE(_core, m) {
   bind_lagrangian_model(m);
   bind_fitting(m);
   bind_data(m);
+  bind_contact_detection(m);
 }

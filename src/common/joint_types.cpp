@@ -41,14 +41,22 @@ std::string JointTypes::str() const {
 std::vector<std::string> input_column_names(int n) {
   std::vector<std::string> names;
   for (const char* prefix : {"q", "qd", "qdd"})
-    for (int i = 1; i <= n; ++i) names.push_back(prefix + std::to_string(i));
+    for (const auto& name : joint_column_names(prefix, n)) names.push_back(name);
+  return names;
+}
+
+std::vector<std::string> joint_column_names(const std::string& prefix, int n, const std::string& suffix) {
+  std::vector<std::string> names;
+  for (int i = 1; i <= n; ++i) names.push_back(prefix + std::to_string(i) + suffix);
   return names;
 }
 
 std::vector<std::string> torque_column_names(int n, const std::string& suffix) {
-  std::vector<std::string> names;
-  for (int i = 1; i <= n; ++i) names.push_back("tau" + std::to_string(i) + suffix);
-  return names;
+  return joint_column_names("tau", n, suffix);
+}
+
+std::vector<std::string> external_torque_column_names(int n, const std::string& suffix) {
+  return joint_column_names("ext", n, suffix);
 }
 
 }  // namespace gipdyn

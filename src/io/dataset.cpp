@@ -16,6 +16,7 @@ Dataset Dataset::subset(const std::vector<Eigen::Index>& idx) const {
   d.X = X(idx, Eigen::all);
   if (tau.size()) d.tau = tau(idx, Eigen::all);
   if (tau_true.size()) d.tau_true = tau_true(idx, Eigen::all);
+  if (external_true.size()) d.external_true = external_true(idx, Eigen::all);
   return d;
 }
 
@@ -57,11 +58,15 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
   const bool has_true = header.has(true_cols.front());
   if (require_tau) cols.insert(cols.end(), tau_cols.begin(), tau_cols.end());
   if (require_tau && has_true) cols.insert(cols.end(), true_cols.begin(), true_cols.end());
+  const auto external_cols = external_torque_column_names(n, "_true");
+  const bool has_external = require_tau && header.has(external_cols.front());
+  if (has_external) cols.insert(cols.end(), external_cols.begin(), external_cols.end());
   const Eigen::MatrixXd all = read_csv_columns(path, cols);
   if (all.rows() == 0) throw Error("'" + path + "' has a header but no data rows");
   d.X = all.leftCols(3 * n);
   if (require_tau) d.tau = all.middleCols(3 * n, n);
   if (require_tau && has_true) d.tau_true = all.middleCols(4 * n, n);
+  if (has_external) d.external_true = all.rightCols(n);
   return d;
 }
 
@@ -101,6 +106,15 @@ std::optional<JointTypes> sidecar_joint_types(const std::string& path) {
 std::optional<std::string> sidecar_generator(const std::string& path) {
   const std::optional<nlohmann::json> meta = read_sidecar(path);
   return meta ? recorded_string(*meta, "generator") : std::nullopt;
+}
+
+std::optional<double> sidecar_sample_time(const std::string& path) {
+  const std::optional<nlohmann::json> meta = read_sidecar(path);
+  if (!meta || !meta->is_object()) return std::nullopt;
+  for (const char* key : {"dt", "dt_s"})
+    if (meta->contains(key) && (*meta)[key].is_number() && (*meta)[key].get<double>() > 0.0)
+      return (*meta)[key].get<double>();
+  return std::nullopt;
 }
 
 }  // namespace gipdyn

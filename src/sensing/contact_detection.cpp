@@ -47,10 +47,12 @@ void ContactOptions::validate() const {
     throw Error("ContactOptions::min_duration must be a number of seconds >= 0");
   if (!(momentum_gain >= 0.0) || !std::isfinite(momentum_gain))
     throw Error("ContactOptions::momentum_gain must be >= 0 (0: automatic)");
-  if (momentum_gain * sample_time > 1.0)
-    throw Error("ContactOptions::momentum_gain times sample_time is " + std::to_string(momentum_gain * sample_time) +
-                ": the observer needs at most 1; lower the gain to at most " + std::to_string(1.0 / sample_time) +
-                " per second");
+  if (momentum_gain * sample_time > 1.0) {
+    std::ostringstream message;
+    message << "ContactOptions::momentum_gain times ContactOptions::sample_time is " << momentum_gain * sample_time
+            << ": the observer needs at most 1; lower the gain to at most " << 1.0 / sample_time << " per second";
+    throw Error(message.str());
+  }
 }
 
 double ContactOptions::threshold_factor() const { return std::sqrt(2.0) * inverse_erfc(false_alarm_rate); }
@@ -231,6 +233,62 @@ ContactDetection ContactDetector::detect(const Eigen::Ref<const Eigen::MatrixXd>
     for (Eigen::Index k = 0; k < rows; ++k)
       if (d.contact(k, j) && (k == 0 || !d.contact(k - 1, j))) ++d.contact_count(j);
   return d;
+}
+
+namespace {
+
+// Runs of rows where `on(k)` holds, as [first, last] pairs.
+template <class On>
+std::vector<std::pair<Eigen::Index, Eigen::Index>> runs(Eigen::Index rows, On&& on) {
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> out;
+  for (Eigen::Index k = 0; k < rows; ++k)
+    if (on(k) && (k == 0 || !on(k - 1))) {
+      Eigen::Index last = k;
+      while (last + 1 < rows && on(last + 1)) ++last;
+      out.emplace_back(k, last);
+    }
+  return out;
+}
+
+}  // namespace
+
+ContactScore score_contacts(const ContactDetection& detection, const Eigen::Ref<const Eigen::MatrixXd>& true_external,
+                            double sample_time) {
+  const Eigen::Index rows = detection.contact.rows();
+  if (true_external.rows() != rows || true_external.cols() != detection.contact.cols())
+    throw Error("score_contacts: the true external torque must have the detection's " + std::to_string(rows) + " x " +
+                std::to_string(detection.contact.cols()) + " shape");
+  ContactScore s;
+  double delay_sum = 0.0, error_sum = 0.0;
+  for (Eigen::Index j = 0; j < true_external.cols(); ++j) {
+    const auto truth = runs(rows, [&](Eigen::Index k) { return true_external(k, j) != 0.0; });
+    for (const auto& [first, last] : truth) {
+      ++s.contacts;
+      Eigen::Index flagged = first;
+      while (flagged <= last && !detection.contact(flagged, j)) ++flagged;
+      if (flagged > last) continue;
+      ++s.detected;
+      const double delay = static_cast<double>(flagged - first) * sample_time;
+      delay_sum += delay;
+      s.max_delay = std::max(s.max_delay, delay);
+      const auto error = detection.external_torque.col(j).segment(first, last - first + 1) -
+                         true_external.col(j).segment(first, last - first + 1);
+      error_sum += std::sqrt(error.squaredNorm() / static_cast<double>(last - first + 1)) /
+                   true_external.col(j).segment(first, last - first + 1).cwiseAbs().mean();
+    }
+    for (const auto& [first, last] : runs(rows, [&](Eigen::Index k) { return detection.contact(k, j) != 0; })) {
+      bool overlaps = false;
+      for (const auto& [tf, tl] : truth) overlaps = overlaps || (first <= tl && tf <= last);
+      s.false_alarms += overlaps ? 0 : 1;
+    }
+  }
+  for (Eigen::Index k = 0; k < rows; ++k)
+    if ((true_external.row(k).array() == 0.0).all()) s.contact_free_seconds += sample_time;
+  if (s.detected > 0) {
+    s.mean_delay = delay_sum / s.detected;
+    s.torque_error = error_sum / s.detected;
+  }
+  return s;
 }
 
 }  // namespace gipdyn

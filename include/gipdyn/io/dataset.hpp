@@ -18,6 +18,7 @@ struct Dataset {
   Eigen::MatrixXd X;         // N x 3n: q, qd, qdd
   Eigen::MatrixXd tau;       // N x n (empty if not read)
   Eigen::MatrixXd tau_true;  // N x n (empty if the file has no *_true columns)
+  Eigen::MatrixXd external_true;  // N x n: ext1_true.. (simulate --contacts); empty if the file has none
   Eigen::Index rows() const { return X.rows(); }
   Dataset subset(const std::vector<Eigen::Index>& rows) const;
 };
@@ -47,6 +48,11 @@ std::optional<JointTypes> sidecar_joint_types(const std::string& path);
 // without such a string, or where the sidecar is not valid JSON (a hint, not a
 // check: sidecar_joint_types reports a broken sidecar).
 std::optional<std::string> sidecar_generator(const std::string& path);
+
+// The rows' sampling period in seconds, as the log's sidecar records it
+// (simulate: "dt"; preprocess: "dt_s"): nullopt without a sidecar, without
+// such a positive number, or where the sidecar is not valid JSON.
+std::optional<double> sidecar_sample_time(const std::string& path);
 
 // Throws gipdyn::Error for a MATLAB file, a missing column, a joint count that does not match
 // the file (e.g. joints RRPR on a file with q5; joints_owner as above), bad cells or no rows.

@@ -88,6 +88,29 @@ struct ContactDetection {
   std::string brief_report() const;
 };
 
+// A detection scored against the true external torque of a simulated log
+// (SimulationResult::external): a true contact is a run of rows with a nonzero
+// external torque on one joint.
+struct ContactScore {
+  int contacts = 0;
+  int detected = 0;        // flagged on their joint at some row of the contact
+  double mean_delay = 0.0;  // s from a detected contact's first row to its first flagged row
+  double max_delay = 0.0;
+  // Flagged runs that overlap no true contact of their joint, and the
+  // contact-free time they were counted in (rows without external torque on any joint).
+  int false_alarms = 0;
+  double contact_free_seconds = 0.0;
+  // Over the detected contacts: RMS(estimate - truth) over the contact's rows / |truth|, averaged.
+  double torque_error = 0.0;
+  double detection_rate() const { return contacts > 0 ? static_cast<double>(detected) / contacts : 0.0; }
+  double false_alarms_per_minute() const {
+    return contact_free_seconds > 0.0 ? 60.0 * false_alarms / contact_free_seconds : 0.0;
+  }
+};
+// Throws gipdyn::Error where true_external is not rows x n like the detection.
+ContactScore score_contacts(const ContactDetection& detection, const Eigen::Ref<const Eigen::MatrixXd>& true_external,
+                            double sample_time);
+
 // The flagging rule above, one row at a time: allocation-free, for a control
 // loop. ext, sigma: n values; contact, margin: n outputs.
 class ContactFlagger {
