@@ -13,6 +13,13 @@ echo "$out"
 grep -q "2000 torque queries, 4 joints: p50 .* us, p99 .* us, max .* us" <<<"$out"
 grep -q "^gravity at q = 0.3:" <<<"$out"
 grep -q "^inertia diagonal at q = 0.3:" <<<"$out"
+# The contact detector flags the push within 20 ticks (the momentum observer's lag), never before it.
+for method in residual momentum; do
+  line=$(grep "contact detector steps ($method)" <<<"$out")
+  pushed=$(sed 's/.*push at tick \([0-9]*\).*/\1/' <<<"$line")
+  flagged=$(sed 's/.*flagged at tick \(-\?[0-9]*\).*/\1/' <<<"$line")
+  [ "$flagged" -ge "$pushed" ] && [ "$flagged" -le $((pushed + 20)) ] || { echo "bad detection: $line" >&2; exit 1; }
+done
 # A missing model: a one-line message and a non-zero exit, no crash.
 if err=$("$example" "$dir/none.gipdyn" 2>&1); then
   echo "expected a failure for a missing model" >&2

@@ -7,7 +7,13 @@
 #include <cmath>
 #include <nlohmann/json.hpp>
 
+#include <unistd.h>
+
+#include <filesystem>
+
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/estimator_file.hpp"
+#include "gipdyn/gipdyn.h"
 #include "gipdyn/estimators/uncertainty.hpp"
 #include "gipdyn/robot/dynamics.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -281,4 +287,80 @@ TEST(ContactScore, CountsDetectionsDelaysAndFalseAlarmsAgainstTheTruth) {
   EXPECT_NEAR(s.false_alarms_per_minute(), 60.0 / 0.14, 1e-9);
   EXPECT_NEAR(s.torque_error, 0.25, 1e-12);
   EXPECT_NE(error_of([&] { score_contacts(d, truth.topRows(5), 0.01); }).find("shape"), std::string::npos);
+}
+
+// The one-row path (ContactStream, and the C API over it) flags the rows the
+// batch detector flags, for a model without predictive variance and the
+// detector's calibrated noise.
+TEST(ContactStream, FlagsWhatTheBatchDetectorFlags) {
+  const auto model = true_model();
+  const SimulationResult calibration = scara_log(21, 1000, 0.001, 0.01, 0);
+  const SimulationResult d = scara_log(23, 2000, 0.001, 0.01, 4);
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("gipdyn_contacts_" + std::to_string(::getpid()) + ".gipdyn")).string();
+  save_estimator(*model, path);
+  gipdyn_model* c_model = nullptr;
+  ASSERT_EQ(gipdyn_model_load(path.c_str(), &c_model), GIPDYN_OK) << gipdyn_last_error();
+  for (ContactMethod method : {ContactMethod::Residual, ContactMethod::Momentum}) {
+    SCOPED_TRACE(to_string(method));
+    ContactOptions o;
+    o.method = method;
+    o.sample_time = 0.001;
+    ContactDetector detector(*model, o);
+    detector.calibrate(calibration.X, calibration.tau);
+    const ContactDetection batch = detector.detect(d.X, d.tau);
+    ContactStream stream(*model, o, detector.noise_std());
+
+    gipdyn_contact_options c_options = gipdyn_contact_options_default();
+    EXPECT_EQ(c_options.false_alarm_rate, ContactOptions{}.false_alarm_rate);
+    c_options.method = method == ContactMethod::Momentum ? GIPDYN_CONTACT_MOMENTUM : GIPDYN_CONTACT_RESIDUAL;
+    c_options.sample_time = 0.001;
+    const Eigen::VectorXd noise = detector.noise_std();
+    gipdyn_contact_detector* c_detector = nullptr;
+    ASSERT_EQ(gipdyn_contact_detector_create(c_model, &c_options, noise.data(), 4, &c_detector), GIPDYN_OK)
+        << gipdyn_last_error();
+
+    const double size = d.external.cwiseAbs().maxCoeff();
+    double ext[4], c_ext[4], margin[4], c_margin[4];
+    int contact[4], c_contact[4];
+    for (Eigen::Index k = 0; k < d.X.rows(); ++k) {
+      const Eigen::RowVectorXd x = d.X.row(k), tau = d.tau.row(k);
+      stream.step(x.data(), x.data() + 4, x.data() + 8, tau.data(), ext, contact, margin);
+      const double* qdd = method == ContactMethod::Momentum ? nullptr : x.data() + 8;
+      ASSERT_EQ(gipdyn_contact_detector_step(c_detector, x.data(), x.data() + 4, qdd, tau.data(), 4, c_ext, c_contact,
+                                             c_margin),
+                GIPDYN_OK)
+          << gipdyn_last_error();
+      for (int j = 0; j < 4; ++j) {
+        ASSERT_NEAR(ext[j], batch.external_torque(k, j), 1e-9 * size) << "row " << k;
+        ASSERT_EQ(contact[j], batch.contact(k, j)) << "row " << k << " joint " << j + 1;
+        ASSERT_EQ(c_ext[j], ext[j]);
+        ASSERT_EQ(c_contact[j], contact[j]);
+      }
+    }
+    // reset() starts over: the first rows again give the first results.
+    ASSERT_EQ(gipdyn_contact_detector_reset(c_detector), GIPDYN_OK);
+    const Eigen::RowVectorXd x0 = d.X.row(0), tau0 = d.tau.row(0);
+    ASSERT_EQ(gipdyn_contact_detector_step(c_detector, x0.data(), x0.data() + 4, x0.data() + 8, tau0.data(), 4, c_ext,
+                                           c_contact, c_margin),
+              GIPDYN_OK);
+    for (int j = 0; j < 4; ++j) EXPECT_NEAR(c_ext[j], batch.external_torque(0, j), 1e-9 * size);
+    gipdyn_contact_detector_free(c_detector);
+  }
+
+  // Misuse: a status and a message.
+  gipdyn_contact_detector* c_detector = nullptr;
+  gipdyn_contact_options bad = gipdyn_contact_options_default();
+  EXPECT_EQ(gipdyn_contact_detector_create(c_model, &bad, nullptr, 4, &c_detector), GIPDYN_ERROR_INVALID_OPTION);
+  EXPECT_NE(std::string(gipdyn_last_error()).find("sample_time"), std::string::npos);
+  bad.sample_time = 0.001;
+  EXPECT_EQ(gipdyn_contact_detector_create(c_model, &bad, nullptr, 4, &c_detector), GIPDYN_ERROR_UNSUPPORTED);
+  EXPECT_NE(std::string(gipdyn_last_error()).find("pass noise_std"), std::string::npos);
+  const double noise[4] = {0.01, 0.01, 0.01, 0.01};
+  EXPECT_EQ(gipdyn_contact_detector_create(c_model, &bad, noise, 3, &c_detector), GIPDYN_ERROR_SIZE);
+  bad.false_alarm_rate = 1.0;
+  EXPECT_EQ(gipdyn_contact_detector_create(c_model, &bad, noise, 4, &c_detector), GIPDYN_ERROR_INVALID_OPTION);
+  EXPECT_EQ(c_detector, nullptr);
+  gipdyn_model_free(c_model);
+  std::filesystem::remove(path);
 }

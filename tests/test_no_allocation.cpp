@@ -248,6 +248,44 @@ TEST(NoAllocation, CApiQueriesDoNotAllocate) {
 }
 
 // A network's C API queries allocate nothing either (two layer buffers in the workspace).
+// A contact detector's step, both methods, over a loaded GIP model with its learned noise.
+TEST(NoAllocation, CApiContactDetectorStepsDoNotAllocate) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 80, 64);
+  TrainOptions o;
+  o.search.optimizer.max_iterations = 5;
+  TrainResult r = train_model(X, test::random_matrix(80, 4, -1.0, 1.0, 914), joints, o);
+  ASSERT_TRUE(r.report.ok()) << r.report.message;
+  const std::string path =
+      (std::filesystem::temp_directory_path() / ("gipdyn_c_contacts_" + std::to_string(::getpid()) + ".gipdyn")).string();
+  save_model(r.model, path);
+  gipdyn_model* model = nullptr;
+  ASSERT_EQ(gipdyn_model_load(path.c_str(), &model), GIPDYN_OK) << gipdyn_last_error();
+  std::filesystem::remove(path);
+  for (gipdyn_contact_method method : {GIPDYN_CONTACT_RESIDUAL, GIPDYN_CONTACT_MOMENTUM}) {
+    gipdyn_contact_options options = gipdyn_contact_options_default();
+    options.method = method;
+    options.sample_time = 0.001;
+    gipdyn_contact_detector* detector = nullptr;
+    ASSERT_EQ(gipdyn_contact_detector_create(model, &options, nullptr, 4, &detector), GIPDYN_OK) << gipdyn_last_error();
+    double q[4] = {0.1, -0.2, 0.1, 0.3}, qd[4] = {0.5, 0.1, 0.0, -0.2}, qdd[4] = {1, 2, 0.1, -1}, tau[4] = {1, 2, 3, 4};
+    double ext[4], margin[4];
+    int contact[4];
+    ASSERT_EQ(gipdyn_contact_detector_step(detector, q, qd, qdd, tau, 4, ext, contact, margin), GIPDYN_OK);  // warm-up
+    gipdyn_status statuses[20];
+    EXPECT_EQ(allocations_during([&] {
+                for (int k = 0; k < 20; ++k) {
+                  q[0] += 1e-3;
+                  statuses[k] = gipdyn_contact_detector_step(detector, q, qd, qdd, tau, 4, ext, contact, margin);
+                }
+              }),
+              0);
+    for (auto s : statuses) EXPECT_EQ(s, GIPDYN_OK);
+    gipdyn_contact_detector_free(detector);
+  }
+  gipdyn_model_free(model);
+}
+
 TEST(NoAllocation, CApiNetworkQueriesDoNotAllocate) {
   if (!neural_network_training_available()) GTEST_SKIP() << "built without libtorch: no network to train";
   const JointTypes joints = JointTypes::parse("RRPR");

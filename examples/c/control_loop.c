@@ -7,7 +7,11 @@
  *
  * The states follow a smooth motion; for models with the rigid-body structure
  * (gip, gip-friction, pp) the gravity torque and inertia matrix at the first
- * state are printed too.
+ * state are printed too. For models that learned their noise (GP and lip),
+ * a contact detector then runs on the same motion, both methods, with the
+ * model's own torque as the measurement and a constant external torque on the
+ * first joint from the middle of the motion on: its latency, and the tick at
+ * which the contact is flagged.
  */
 #include <gipdyn/gipdyn.h>
 
@@ -103,6 +107,59 @@ int main(int argc, char** argv) {
       for (int i = 0; i < n; ++i) printf(" %.4g", M[i * n + i]);
       printf("\n");
     }
+  }
+  const char* methods[2] = {"residual", "momentum"};
+  for (int m = 0; m < 2 && status == 0; ++m) {
+    gipdyn_contact_options options = gipdyn_contact_options_default();
+    options.method = m == 0 ? GIPDYN_CONTACT_RESIDUAL : GIPDYN_CONTACT_MOMENTUM;
+    options.sample_time = 0.001;
+    gipdyn_contact_detector* detector = NULL;
+    const gipdyn_status created = gipdyn_contact_detector_create(model, &options, NULL, n, &detector);
+    if (created == GIPDYN_ERROR_UNSUPPORTED) {
+      printf("contact detection (%s): %s\n", methods[m], gipdyn_last_error());
+      continue;
+    }
+    if (created != GIPDYN_OK) {
+      fprintf(stderr, "control_loop: %s\n", gipdyn_last_error());
+      status = 1;
+      break;
+    }
+    double ext[MAX_JOINTS], margin[MAX_JOINTS];
+    int contact[MAX_JOINTS];
+    long flagged_at = -1;
+    for (long k = 0; k < calls && status == 0; ++k) {
+      const double t = 0.001 * (double)k;
+      for (int i = 0; i < n; ++i) {
+        const double w = 0.5 + 0.1 * i;
+        q[i] = 0.5 * sin(w * t + i);
+        qd[i] = 0.5 * w * cos(w * t + i);
+        qdd[i] = -0.5 * w * w * sin(w * t + i);
+      }
+      /* The robot's measured torque: what the model predicts, less a push of 1 N m on joint 1 from mid-run on. */
+      if (gipdyn_predict(ws, q, qd, qdd, n, tau) != GIPDYN_OK) {
+        fprintf(stderr, "control_loop: tick %ld: %s\n", k, gipdyn_last_error());
+        status = 1;
+        break;
+      }
+      if (k >= calls / 2) tau[0] -= 1.0;
+      const double start = now_ns();
+      const gipdyn_status s = gipdyn_contact_detector_step(detector, q, qd, qdd, tau, n, ext, contact, margin);
+      latency[k] = now_ns() - start;
+      if (s != GIPDYN_OK) {
+        fprintf(stderr, "control_loop: tick %ld: %s\n", k, gipdyn_last_error());
+        status = 1;
+      } else if (contact[0] && flagged_at < 0) {
+        flagged_at = k;
+      }
+    }
+    if (status == 0) {
+      qsort(latency, (size_t)calls, sizeof(double), compare_doubles);
+      printf("%ld contact detector steps (%s): p50 %.1f us, p99 %.1f us, max %.1f us; push at tick %ld flagged at "
+             "tick %ld\n",
+             calls, methods[m], latency[calls / 2] / 1e3, latency[(long)(0.99 * (double)(calls - 1))] / 1e3,
+             latency[calls - 1] / 1e3, calls / 2, flagged_at);
+    }
+    gipdyn_contact_detector_free(detector);
   }
   free(latency);
   gipdyn_workspace_free(ws);

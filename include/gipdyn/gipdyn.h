@@ -37,7 +37,8 @@ typedef enum gipdyn_status {
   GIPDYN_ERROR_NOT_FINITE = 5,    /* an input is NaN or infinite, or the result would be */
   GIPDYN_ERROR_OUT_OF_MEMORY = 6,
   GIPDYN_ERROR_INTERNAL = 7,
-  GIPDYN_ERROR_SINGULAR = 8       /* the learned inertia matrix cannot be inverted at this state */
+  GIPDYN_ERROR_SINGULAR = 8,      /* the learned inertia matrix cannot be inverted at this state */
+  GIPDYN_ERROR_INVALID_OPTION = 9 /* an option is out of its range (the message names it) */
 } gipdyn_status;
 
 typedef struct gipdyn_model gipdyn_model;
@@ -86,6 +87,47 @@ gipdyn_status gipdyn_inertia(gipdyn_workspace* workspace, const double* q, int n
  * gives back tau. */
 gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* workspace, const double* q, const double* qd,
                                       const double* tau, int n, double* qdd);
+
+/* Contact detection, one control tick at a time: from the measured joint
+ * torques and the model, the external torque the environment applies to each
+ * joint and a contact flag. Two methods: the torque residual
+ * f(q, qd, qdd) - tau (any model), and the generalized-momentum observer,
+ * which needs no acceleration but a model with physics
+ * (gipdyn_model_has_physics). A joint is flagged once |ext| exceeds
+ * k noise_std for min_duration seconds; k is the two-sided Gaussian quantile
+ * of false_alarm_rate. After create, a step allocates no memory where the
+ * model's queries do not (gipdyn_model_allocation_free). A detector is used
+ * by one thread; free it before its model. */
+typedef struct gipdyn_contact_detector gipdyn_contact_detector;
+
+typedef enum gipdyn_contact_method { GIPDYN_CONTACT_RESIDUAL = 0, GIPDYN_CONTACT_MOMENTUM = 1 } gipdyn_contact_method;
+
+typedef struct gipdyn_contact_options {
+  gipdyn_contact_method method;
+  double false_alarm_rate; /* per row and joint, in (0, 1) */
+  double min_duration;     /* seconds above the threshold before a contact is flagged */
+  double sample_time;      /* the control period in seconds: required */
+  double momentum_gain;    /* the observer's gain in 1/s, at most 1 / sample_time; 0: automatic */
+} gipdyn_contact_options;
+
+/* The library's defaults (residual method), with sample_time 0: set it. */
+gipdyn_contact_options gipdyn_contact_options_default(void);
+
+/* noise_std[n]: each joint's standard deviation of the contact-free residual,
+ * as measured on contact-free rows of the robot (`gipdyn detect --calibration`
+ * prints it, "noise"); NULL: the noise the model learned (GP and lip models).
+ * The model's predictive variance is left out: it costs O(N^2) a query. */
+gipdyn_status gipdyn_contact_detector_create(const gipdyn_model* model, const gipdyn_contact_options* options,
+                                             const double* noise_std, int n, gipdyn_contact_detector** detector);
+void gipdyn_contact_detector_free(gipdyn_contact_detector* detector); /* NULL is allowed */
+/* Starts a new motion: the observer's momentum and the duration counts. */
+gipdyn_status gipdyn_contact_detector_reset(gipdyn_contact_detector* detector);
+/* One tick: q, qd, tau[n] and qdd[n] (NULL allowed for the momentum method).
+ * Writes ext[n] (N m or N), contact[n] (0 or 1) and margin[n] (|ext| over the
+ * threshold; above 1 where it exceeds it). */
+gipdyn_status gipdyn_contact_detector_step(gipdyn_contact_detector* detector, const double* q, const double* qd,
+                                           const double* qdd, const double* tau, int n, double* ext, int* contact,
+                                           double* margin);
 
 #ifdef __cplusplus
 }

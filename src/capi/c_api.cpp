@@ -12,7 +12,9 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/estimators/uncertainty.hpp"
 #include "gipdyn/model/inverse_dynamics_model.hpp"
+#include "gipdyn/sensing/contact_detection.hpp"
 #include "gipdyn/version.hpp"
 
 struct gipdyn_model {
@@ -29,6 +31,13 @@ struct gipdyn_workspace {
   explicit gipdyn_workspace(const gipdyn_model* m)
       : model(m), prediction(m->estimator->make_query_workspace()), x(3 * static_cast<size_t>(m->joints)),
         tau(static_cast<size_t>(m->joints)), gravity(tau.size()), rhs(tau.size()), inertia(tau.size() * tau.size()) {}
+};
+
+struct gipdyn_contact_detector {
+  const gipdyn_model* model = nullptr;
+  gipdyn::ContactStream stream;
+  gipdyn_contact_detector(const gipdyn_model* m, const gipdyn::ContactOptions& o, const Eigen::VectorXd& sigma)
+      : model(m), stream(*m->estimator, o, sigma) {}
 };
 
 namespace {
@@ -117,6 +126,7 @@ const char* gipdyn_status_string(gipdyn_status status) {
     case GIPDYN_ERROR_OUT_OF_MEMORY: return "out of memory";
     case GIPDYN_ERROR_INTERNAL: return "internal error";
     case GIPDYN_ERROR_SINGULAR: return "singular inertia matrix";
+    case GIPDYN_ERROR_INVALID_OPTION: return "invalid option";
   }
   return "unknown status";
 }
@@ -256,6 +266,89 @@ gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* ws, const double* q, con
     qdd[r] = sum / M[r * n + r];
   }
   if (!all_finite(qdd, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "the accelerations are not finite at this state");
+  return ok();
+}
+
+gipdyn_contact_options gipdyn_contact_options_default(void) {
+  const gipdyn::ContactOptions d;
+  gipdyn_contact_options o;
+  o.method = GIPDYN_CONTACT_RESIDUAL;
+  o.false_alarm_rate = d.false_alarm_rate;
+  o.min_duration = d.min_duration;
+  o.sample_time = d.sample_time;
+  o.momentum_gain = d.momentum_gain;
+  return o;
+}
+
+gipdyn_status gipdyn_contact_detector_create(const gipdyn_model* model, const gipdyn_contact_options* options,
+                                             const double* noise_std, int n, gipdyn_contact_detector** detector) {
+  if (!detector) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "detector (the output pointer) is NULL");
+  *detector = nullptr;
+  if (!model || !options) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "model or options is NULL");
+  if (n != model->joints)
+    return fail(GIPDYN_ERROR_SIZE, "n does not match the model's joint count (gipdyn_model_num_joints)");
+  if (options->method != GIPDYN_CONTACT_RESIDUAL && options->method != GIPDYN_CONTACT_MOMENTUM)
+    return fail(GIPDYN_ERROR_INVALID_OPTION, "method must be GIPDYN_CONTACT_RESIDUAL or GIPDYN_CONTACT_MOMENTUM");
+  gipdyn::ContactOptions o;
+  o.method = options->method == GIPDYN_CONTACT_MOMENTUM ? gipdyn::ContactMethod::Momentum
+                                                         : gipdyn::ContactMethod::Residual;
+  o.false_alarm_rate = options->false_alarm_rate;
+  o.min_duration = options->min_duration;
+  o.sample_time = options->sample_time;
+  o.momentum_gain = options->momentum_gain;
+  try {
+    o.validate();
+  } catch (const gipdyn::Error& e) {
+    return fail(GIPDYN_ERROR_INVALID_OPTION, e.what());
+  }
+  if (o.method == gipdyn::ContactMethod::Momentum && !model->physics)
+    return fail(GIPDYN_ERROR_UNSUPPORTED,
+                ("the momentum method needs the inertia matrix of a model of one of " +
+                 gipdyn::joined(gipdyn::physics_estimator_names()) + "; use GIPDYN_CONTACT_RESIDUAL")
+                    .c_str());
+  try {
+    Eigen::VectorXd sigma;
+    if (noise_std) {
+      if (!all_finite(noise_std, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "noise_std holds NaN or Inf");
+      sigma = Eigen::Map<const Eigen::VectorXd>(noise_std, n);
+      if (!(sigma.array() > 0.0).all()) return fail(GIPDYN_ERROR_INVALID_OPTION, "noise_std must be positive");
+    } else {
+      if (!gipdyn::estimator_gives_uncertainty(model->estimator->name()))
+        return fail(GIPDYN_ERROR_UNSUPPORTED,
+                    "this model learned no noise level: pass noise_std, measured on contact-free rows");
+      sigma = gipdyn::learned_noise_std(*model->estimator);
+    }
+    *detector = new gipdyn_contact_detector(model, o, sigma);
+    return ok();
+  } catch (const std::bad_alloc&) {
+    return fail(GIPDYN_ERROR_OUT_OF_MEMORY, "out of memory while creating the contact detector");
+  } catch (const std::exception& e) {
+    return fail(GIPDYN_ERROR_INTERNAL, e.what());
+  }
+}
+
+void gipdyn_contact_detector_free(gipdyn_contact_detector* detector) { delete detector; }
+
+gipdyn_status gipdyn_contact_detector_reset(gipdyn_contact_detector* detector) {
+  if (!detector) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "detector is NULL");
+  detector->stream.reset();
+  return ok();
+}
+
+gipdyn_status gipdyn_contact_detector_step(gipdyn_contact_detector* detector, const double* q, const double* qd,
+                                           const double* qdd, const double* tau, int n, double* ext, int* contact,
+                                           double* margin) {
+  if (!detector || !q || !qd || !tau || !ext || !contact || !margin)
+    return fail(GIPDYN_ERROR_NULL_ARGUMENT, "detector, q, qd, tau or an output pointer is NULL");
+  if (n != detector->model->joints)
+    return fail(GIPDYN_ERROR_SIZE, "n does not match the model's joint count (gipdyn_model_num_joints)");
+  const bool needs_qdd = gipdyn::ContactMethod::Residual == detector->stream.method();
+  if (needs_qdd && !qdd) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "qdd is NULL: the residual method needs it");
+  if (!all_finite(q, n) || !all_finite(qd, n) || !all_finite(tau, n) || (needs_qdd && !all_finite(qdd, n)))
+    return fail(GIPDYN_ERROR_NOT_FINITE, "q, qd, qdd or tau holds NaN or Inf");
+  detector->stream.step(q, qd, qdd, tau, ext, contact, margin);
+  if (!all_finite(ext, n))
+    return fail(GIPDYN_ERROR_NOT_FINITE, "the external torque is not finite: the state is far outside the training data");
   return ok();
 }
 

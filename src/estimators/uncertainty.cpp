@@ -25,12 +25,31 @@ struct TorqueUncertainty::Source {
   std::optional<LagrangianEstimator> lip_with_factor;
 };
 
-TorqueUncertainty::TorqueUncertainty(const Estimator& estimator) : source_(std::make_unique<Source>()) {
+namespace {
+
+const LagrangianEstimator& lagrangian_or_throw(const Estimator& estimator) {
   if (!estimator_gives_uncertainty(estimator.name()))
     throw Error("a '" + estimator.name() + "' model gives no predictive standard deviation; these do: " +
                 joined(uncertainty_estimator_names()));
-  const int n = estimator.joints().size();
-  noise_std_.resize(n);
+  const auto* lip = dynamic_cast<const LagrangianEstimator*>(&estimator);
+  if (!lip) throw Error("a '" + estimator.name() + "' model has no predictive standard deviation here");
+  return *lip;
+}
+
+}  // namespace
+
+Eigen::VectorXd learned_noise_std(const Estimator& estimator) {
+  if (const InverseDynamicsModel* model = estimator.gp_model()) {
+    Eigen::VectorXd noise(model->num_joints());
+    for (int j = 0; j < model->num_joints(); ++j)
+      noise(j) = std::sqrt(std::exp(model->joint_gp(j).log_noise_variance())) * model->output_scale()(j);
+    return noise;
+  }
+  return lagrangian_or_throw(estimator).noise_variances().cwiseSqrt();
+}
+
+TorqueUncertainty::TorqueUncertainty(const Estimator& estimator)
+    : source_(std::make_unique<Source>()), noise_std_(learned_noise_std(estimator)) {
   if (const InverseDynamicsModel* model = estimator.gp_model()) {
     if (model->has_variance()) {
       source_->gp = model;
@@ -38,19 +57,15 @@ TorqueUncertainty::TorqueUncertainty(const Estimator& estimator) : source_(std::
       source_->gp_with_factors.emplace(model->with_variance());
       source_->gp = &*source_->gp_with_factors;
     }
-    for (int j = 0; j < n; ++j)
-      noise_std_(j) = std::sqrt(std::exp(model->joint_gp(j).log_noise_variance())) * model->output_scale()(j);
     return;
   }
-  const auto* lip = dynamic_cast<const LagrangianEstimator*>(&estimator);
-  if (!lip) throw Error("a '" + estimator.name() + "' model has no predictive standard deviation here");
-  if (lip->has_variance()) {
-    source_->lip = lip;
+  const LagrangianEstimator& lip = lagrangian_or_throw(estimator);
+  if (lip.has_variance()) {
+    source_->lip = &lip;
   } else {
-    source_->lip_with_factor.emplace(lip->with_variance());
+    source_->lip_with_factor.emplace(lip.with_variance());
     source_->lip = &*source_->lip_with_factor;
   }
-  noise_std_ = lip->noise_variances().cwiseSqrt();
 }
 
 TorqueUncertainty::~TorqueUncertainty() = default;

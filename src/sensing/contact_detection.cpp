@@ -25,6 +25,11 @@ double inverse_erfc(double y) {
   return x;
 }
 
+const ContactOptions& validated(const ContactOptions& options) {
+  options.validate();
+  return options;
+}
+
 }  // namespace
 
 ContactMethod parse_contact_method(const std::string& name) {
@@ -138,6 +143,61 @@ const Eigen::VectorXd& MomentumObserver::step(const Eigen::Ref<const Eigen::Matr
   return r_;
 }
 
+ContactStream::ContactStream(const Estimator& estimator, const ContactOptions& options, const Eigen::VectorXd& sigma)
+    : estimator_(&estimator),
+      method_(options.method),
+      sigma_(sigma),
+      query_(estimator.make_query_workspace()),
+      flagger_(estimator.joints().size(), validated(options).threshold_factor(), options.min_samples()) {
+  const int n = estimator.joints().size();
+  if (sigma_.size() != n || !(sigma_.array() > 0.0).all() || !sigma_.allFinite())
+    throw Error("ContactStream needs one positive, finite sigma per joint (" + std::to_string(n) + ")");
+  if (method_ == ContactMethod::Momentum) {
+    require_physics(estimator);
+    observer_ = std::make_unique<MomentumObserver>(n, options.observer_gain(), options.sample_time);
+  }
+  x_.setZero(3 * n);
+  for (Eigen::VectorXd* v : {&predicted_, &gravity_, &drive_, &ext_}) v->setZero(n);
+  M_.setZero(n, n);
+}
+
+ContactStream::~ContactStream() = default;
+
+void ContactStream::reset() {
+  flagger_.reset();
+  if (observer_) observer_->reset();
+}
+
+void ContactStream::step(const double* q, const double* qd, const double* qdd, const double* tau, double* ext,
+                         int* contact, double* margin) {
+  const Eigen::Index n = sigma_.size();
+  const Eigen::Map<const Eigen::VectorXd> q_(q, n), qd_(qd, n), tau_(tau, n);
+  if (method_ == ContactMethod::Residual) {
+    x_ << q_, qd_, Eigen::Map<const Eigen::VectorXd>(qdd, n);
+    query_->predict(x_.data(), ext_.data());
+    ext_ -= tau_;
+  } else {
+    // M(q) as inertia() gives it (the symmetric part of the learned rows), and n(q, qd) = f(q, qd, 0).
+    x_.setZero();
+    x_.head(n) = q_;
+    query_->predict(x_.data(), gravity_.data());
+    for (Eigen::Index j = 0; j < n; ++j) {
+      x_(2 * n + j) = 1.0;
+      query_->predict(x_.data(), predicted_.data());
+      M_.col(j) = predicted_ - gravity_;
+      x_(2 * n + j) = 0.0;
+    }
+    for (Eigen::Index i = 0; i < n; ++i)
+      for (Eigen::Index j = 0; j < i; ++j) M_(i, j) = M_(j, i) = 0.5 * (M_(i, j) + M_(j, i));
+    x_.segment(n, n) = qd_;
+    query_->predict(x_.data(), predicted_.data());
+    drive_ = tau_ - predicted_;
+    ext_ = observer_->step(M_, qd_, drive_);
+  }
+  Eigen::Map<Eigen::VectorXd>(ext, n) = ext_;
+  flagger_.step(ext, sigma_.data(), contact, margin);
+}
+
 ContactDetector::ContactDetector(const Estimator& estimator, ContactOptions options)
     : estimator_(&estimator), options_(options) {
   options_.validate();
@@ -189,23 +249,22 @@ void ContactDetector::calibrate(const Eigen::Ref<const Eigen::MatrixXd>& X, cons
   calibrated_noise_ = (r.colwise().squaredNorm() / static_cast<double>(r.rows())).cwiseSqrt().transpose();
 }
 
+Eigen::VectorXd ContactDetector::noise_std() const {
+  if (calibrated()) return calibrated_noise_;
+  if (uncertainty_) return uncertainty_->noise_std();
+  throw Error("a '" + estimator_->name() +
+              "' model gives no predictive standard deviation: calibrate the detector on contact-free rows "
+              "(ContactDetector::calibrate), or use one of: " + joined(uncertainty_estimator_names()));
+}
+
 ContactDetection ContactDetector::detect(const Eigen::Ref<const Eigen::MatrixXd>& X,
                                          const Eigen::Ref<const Eigen::MatrixXd>& tau) const {
   const int n = estimator_->joints().size();
   ContactDetection d;
   d.method = options_.method;
   d.threshold_factor = options_.threshold_factor();
-  if (calibrated()) {
-    d.noise_source = "calibration";
-    d.noise_std = calibrated_noise_;
-  } else if (uncertainty_) {
-    d.noise_source = "model";
-    d.noise_std = uncertainty_->noise_std();
-  } else {
-    throw Error("a '" + estimator_->name() +
-                "' model gives no predictive standard deviation: calibrate the detector on contact-free rows "
-                "(ContactDetector::calibrate), or use one of: " + joined(uncertainty_estimator_names()));
-  }
+  d.noise_source = calibrated() ? "calibration" : "model";
+  d.noise_std = noise_std();
   d.external_torque = external_torque(X, tau);
   const Eigen::Index rows = X.rows();
   Eigen::MatrixXd sigma(rows, n);

@@ -20,6 +20,11 @@ bool estimator_gives_uncertainty(const std::string& name);
 // The names of every such estimator, in the table's order.
 std::vector<std::string> uncertainty_estimator_names();
 
+// Per joint, the standard deviation of the noise the estimator learned, in
+// torque units; cheap (no factorisation). Throws gipdyn::Error as
+// TorqueUncertainty does for estimators without one.
+Eigen::VectorXd learned_noise_std(const Estimator& estimator);
+
 // Read-only once made; the estimator must outlive it. It holds a copy of the estimator able to give
 // variances: a loaded GP model computes each joint's Cholesky factor here
 // (O(N^3) per joint), a lip model the factor of its (N n) x (N n) training

@@ -141,6 +141,42 @@ class MomentumObserver {
   Eigen::MatrixXd prev_M_;
 };
 
+// The detection of one row at a time, for a control loop: allocation-free
+// once made wherever the estimator's query workspace is
+// (Estimator::make_query_workspace). Its threshold is k times a constant sigma
+// per joint: the model's predictive variance, O(N^2) a query for an exact GP,
+// does not fit a 1 kHz loop and is left out. Give it the sigma measured on
+// contact-free rows (ContactDetector::noise_std() after calibrate()), which
+// holds the model's error there as well as the noise. With a model without
+// predictive variance and that sigma, it flags exactly the rows
+// ContactDetector::detect flags. The estimator must outlive it.
+class ContactStream {
+ public:
+  // Throws gipdyn::Error for invalid options, a sigma not of n positive
+  // values, and the momentum method on a model without M(q).
+  ContactStream(const Estimator& estimator, const ContactOptions& options, const Eigen::VectorXd& sigma);
+  ~ContactStream();
+  // Starts a new log: the observer's momentum and the minimum-duration counts.
+  void reset();
+  // One row: q, qd, tau (n values each) and qdd (n values; the momentum method
+  // does not read it, and it may be null there). Outputs n values each: the
+  // external torque estimate, the flag (0 or 1) and |ext| / threshold.
+  void step(const double* q, const double* qd, const double* qdd, const double* tau, double* ext, int* contact,
+            double* margin);
+  int num_joints() const { return static_cast<int>(sigma_.size()); }
+  ContactMethod method() const { return method_; }
+
+ private:
+  const Estimator* estimator_;
+  ContactMethod method_;
+  Eigen::VectorXd sigma_;
+  std::unique_ptr<QueryWorkspace> query_;
+  ContactFlagger flagger_;
+  std::unique_ptr<MomentumObserver> observer_;  // the momentum method's
+  Eigen::VectorXd x_, predicted_, gravity_, drive_, ext_;
+  Eigen::MatrixXd M_;
+};
+
 // A detector over one estimator, which must outlive it. Read-only once
 // calibrated.
 class ContactDetector {
@@ -160,6 +196,9 @@ class ContactDetector {
   // it replaces the model's learned noise by the one measured on the robot.
   void calibrate(const Eigen::Ref<const Eigen::MatrixXd>& X, const Eigen::Ref<const Eigen::MatrixXd>& tau);
   bool calibrated() const { return calibrated_noise_.size() > 0; }
+  // Per joint, the noise s_j: the calibrated one, else the model's learned
+  // noise. Throws gipdyn::Error for a model without one that is not calibrated.
+  Eigen::VectorXd noise_std() const;
 
   // Runs the method over consecutive rows of one log, from the first.
   ContactDetection detect(const Eigen::Ref<const Eigen::MatrixXd>& X, const Eigen::Ref<const Eigen::MatrixXd>& tau) const;
