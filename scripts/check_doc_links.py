@@ -29,8 +29,8 @@ def markdown_files(root):
                 yield os.path.join(folder, name)
 
 
-def prose_lines(path):
-    """(line number, text) of the lines outside fenced code, code spans removed."""
+def prose_lines(path, keep_code_spans=False):
+    """(line number, text) of the lines outside fenced code, code spans removed unless kept."""
     fenced = False
     with open(path, encoding="utf-8") as f:
         for number, line in enumerate(f, 1):
@@ -38,7 +38,7 @@ def prose_lines(path):
                 fenced = not fenced
                 continue
             if not fenced:
-                yield number, CODE_SPAN.sub("", line)
+                yield number, line if keep_code_spans else CODE_SPAN.sub("", line)
 
 
 def anchor(heading):
@@ -49,7 +49,7 @@ def anchor(heading):
 def anchors_of(path, cache={}):
     if path not in cache:
         found, counts = set(), {}
-        for _, line in prose_lines(path):
+        for _, line in prose_lines(path, keep_code_spans=True):  # a heading's anchor keeps its code's text
             m = re.match(r"^#{1,6}\s+(.*?)\s*#*\s*$", line)
             if not m:
                 continue

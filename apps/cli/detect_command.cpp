@@ -35,7 +35,7 @@ Command add_detect(CLI::App& app) {
   struct Args {
     std::string model, data, mat_variable, out, calibration, plot, method = "residual";
     ContactOptions options;
-    bool quiet = false;
+    bool quiet = false, noise_only = false;
   };
   auto a = std::make_shared<Args>();
   app.description(
@@ -70,6 +70,9 @@ Command add_detect(CLI::App& app) {
                  "A contact-free log of the same robot (not the training log: a model fits its own rows too well): "
                  "each joint's noise is measured on it. Needed for models without a predictive standard deviation")
       ->check(CLI::ExistingFile);
+  app.add_flag("--noise-only", a->noise_only,
+               "sigma from the noise alone (calibrated or learned), without the model's predictive standard "
+               "deviation, as the C API's detector: faster on long logs and large models");
   app.add_option("--plot", a->plot, "PNG: per joint, the estimated external torque, the threshold band, flagged rows "
                                     "and the true external torque where the log has it");
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
@@ -77,6 +80,7 @@ Command add_detect(CLI::App& app) {
     refuse_overwrites({{"--model", a->model}, {"--data", a->data}, {"--calibration", a->calibration}},
                       {{"--out", a->out}, {"--plot", a->plot}});
     a->options.method = parse_contact_method(a->method);
+    a->options.predictive_variance = !a->noise_only;
     a->options.sample_time = sample_time_of(*dt, a->options.sample_time, a->data);
     a->options.validate();
     const std::unique_ptr<Estimator> model = load_estimator(a->model);

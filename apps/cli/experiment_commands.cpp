@@ -1,4 +1,5 @@
-// `gipdyn experiment accuracy | data-efficiency | real`: the paper's experiments.
+// `gipdyn experiment accuracy | data-efficiency | real | control | contact`: the paper's experiments and
+// the applications of a learned model.
 #include <cstdio>
 #include <memory>
 
@@ -221,6 +222,52 @@ Subcommand add_control(CLI::App& app, const std::shared_ptr<bool>& quiet) {
   }};
 }
 
+// experiment contact: contact detection against simulated contacts.
+Subcommand add_contact(CLI::App& app, const std::shared_ptr<bool>& quiet, const std::string& estimator_help) {
+  struct ContactArgs {
+    ContactExperimentConfig config;
+    std::string estimators = joined(ContactExperimentConfig{}.estimators, ",");
+    EstimatorArgs est;
+  };
+  auto ct = std::make_shared<ContactArgs>();
+  ContactExperimentConfig& c = ct->config;
+  CLI::App* k = app.add_subcommand(
+      "contact", "Contact detection: models learned on a contact-free simulated motion find contacts that act "
+                 "through the robot's dynamics on a new motion (residual and momentum methods); detection rate, "
+                 "delay, torque error and false alarms per model, beside the true dynamics");
+  k->add_option("--robot", c.robot, "The true robot: scara, ur10, a URDF or a JSON DH file")->capture_default_str();
+  k->add_option("--estimators", ct->estimators, estimator_help + "; the true model is always added")
+      ->capture_default_str();
+  k->add_option("--train-samples", c.train_samples, "Rows of the contact-free training motion")->capture_default_str();
+  k->add_option("--train-dt", c.train_dt, "Sampling period of the training motion (s)")->capture_default_str();
+  k->add_option("--seconds", c.seconds, "Length of the calibration, contact and contact-free motions (s)")
+      ->capture_default_str();
+  k->add_option("--dt", c.dt, "Their sampling period: the control period (s)")->capture_default_str();
+  k->add_option("--noise", c.noise, "Torque noise standard deviation of every motion")->capture_default_str();
+  k->add_option("--contacts", c.contacts.count, "Contacts on the contact motion")->capture_default_str();
+  k->add_option("--contact-size", c.contacts.size, "Each contact's torque as a fraction of its joint's torque range")
+      ->capture_default_str();
+  k->add_option("--contact-duration", c.contacts.duration, "Each contact's duration (s)")->capture_default_str();
+  k->add_option("--false-alarm-rate", c.detection.false_alarm_rate,
+                "Probability, per row and joint, that a contact-free residual exceeds the threshold")
+      ->capture_default_str();
+  k->add_option("--min-duration", c.detection.min_duration, "Seconds above the threshold before a contact is flagged")
+      ->capture_default_str();
+  k->add_option("--seed", c.seed, "Seed of the motions, the contacts, the noise and the fits")->capture_default_str();
+  k->add_option("--out", c.out, "Output folder: contacts.csv, summary.md, detection_MODEL_METHOD.csv and .png")
+      ->required();
+  k->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
+  // lip's system is (N n) x (N n): its hyperparameters from a subsample keep the fit in minutes, as a
+  // teacher's are (TeacherOptions::hyperparameter_rows); the others are conditioned on every row all the same.
+  ct->est.hyperparameter_rows = TeacherOptions{}.hyperparameter_rows;
+  ct->est.add_to(*k, false, false);
+  return {k, [=]() -> int {
+    ct->config.estimators = split_list(ct->estimators);
+    ct->config.base = base_options(ct->est);
+    return report(run_contact_experiment(ct->config, printer(*quiet)), *quiet);
+  }};
+}
+
 }  // namespace
 
 Command add_experiment(CLI::App& app) {
@@ -232,7 +279,7 @@ Command add_experiment(CLI::App& app) {
   const std::vector<Subcommand> subcommands{add_accuracy(app, quiet, estimator_help),
                                             add_data_efficiency(app, quiet, estimator_help),
                                             add_real(app, quiet, estimator_help),
-                                            add_control(app, quiet)};
+                                            add_control(app, quiet), add_contact(app, quiet, estimator_help)};
   return [subcommands]() -> int {
     for (const auto& [subcommand, run] : subcommands)
       if (subcommand->parsed()) return run();

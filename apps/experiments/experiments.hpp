@@ -7,6 +7,7 @@
 // other settings is refused rather than mixed in (except the number of runs,
 // so an experiment can be extended).
 #include "experiments/accuracy_experiment.hpp"
+#include "experiments/contact_experiment.hpp"
 #include "experiments/control_experiment.hpp"
 #include "experiments/data_efficiency_experiment.hpp"
 #include "experiments/real_robot_experiment.hpp"

@@ -737,6 +737,9 @@ class ContactDetector:
     momentum_gain : float, default 0 (automatic)
         The observer's gain in 1/s, at most 1 / sample_time; 0 gives a time
         constant of 10 ms or two rows, whichever is longer.
+    predictive_variance : bool, default True
+        Whether the threshold holds the model's predictive standard deviation;
+        False: the noise alone, faster on long logs and large models.
 
     The residual's standard deviation combines the model's predictive standard
     deviation with the noise it learned, or with the noise measured by
@@ -744,7 +747,8 @@ class ContactDetector:
     """
 
     def __init__(self, model, sample_time, method="residual", false_alarm_rate=_CONTACT_DEFAULTS.false_alarm_rate,
-                 min_duration=_CONTACT_DEFAULTS.min_duration, momentum_gain=_CONTACT_DEFAULTS.momentum_gain):
+                 min_duration=_CONTACT_DEFAULTS.min_duration, momentum_gain=_CONTACT_DEFAULTS.momentum_gain,
+                 predictive_variance=_CONTACT_DEFAULTS.predictive_variance):
         if not isinstance(model, InverseDynamicsGP):
             raise TypeError("ContactDetector needs a fitted InverseDynamicsGP or LagrangianGP, not "
                             f"{type(model).__name__}")
@@ -755,6 +759,7 @@ class ContactDetector:
         o.false_alarm_rate = float(false_alarm_rate)
         o.min_duration = float(min_duration)
         o.momentum_gain = float(momentum_gain)
+        o.predictive_variance = bool(predictive_variance)
         o.validate()
         self.model = model
         self.options = o

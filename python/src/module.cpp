@@ -859,6 +859,7 @@ void bind_contact_detection(py::module_& m) {
       .def_readwrite("min_duration", &ContactOptions::min_duration)
       .def_readwrite("sample_time", &ContactOptions::sample_time)
       .def_readwrite("momentum_gain", &ContactOptions::momentum_gain)
+      .def_readwrite("predictive_variance", &ContactOptions::predictive_variance)
       .def("validate", &ContactOptions::validate)
       .def("threshold_factor", &ContactOptions::threshold_factor)
       .def("observer_gain", &ContactOptions::observer_gain);

@@ -202,7 +202,8 @@ ContactDetector::ContactDetector(const Estimator& estimator, ContactOptions opti
     : estimator_(&estimator), options_(options) {
   options_.validate();
   if (options_.method == ContactMethod::Momentum) require_physics(estimator);
-  if (estimator_gives_uncertainty(estimator.name())) uncertainty_ = std::make_unique<TorqueUncertainty>(estimator);
+  if (options_.predictive_variance && estimator_gives_uncertainty(estimator.name()))
+    uncertainty_ = std::make_unique<TorqueUncertainty>(estimator);
 }
 
 ContactDetector::~ContactDetector() = default;
@@ -252,6 +253,7 @@ void ContactDetector::calibrate(const Eigen::Ref<const Eigen::MatrixXd>& X, cons
 Eigen::VectorXd ContactDetector::noise_std() const {
   if (calibrated()) return calibrated_noise_;
   if (uncertainty_) return uncertainty_->noise_std();
+  if (estimator_gives_uncertainty(estimator_->name())) return learned_noise_std(*estimator_);
   throw Error("a '" + estimator_->name() +
               "' model gives no predictive standard deviation: calibrate the detector on contact-free rows "
               "(ContactDetector::calibrate), or use one of: " + joined(uncertainty_estimator_names()));

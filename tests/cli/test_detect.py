@@ -1,6 +1,7 @@
 """`gipdyn simulate --contacts` and `gipdyn detect`: contacts that act through a simulated SCARA's dynamics, found
 again from its joint torques by a model learned on a contact-free log. The checks here read the CSVs themselves: the
 true contacts are the runs of nonzero ext*_true, independent of the detector's own scoring."""
+import csv
 import json
 
 import numpy as np
@@ -93,3 +94,24 @@ def test_detect_plots_and_explains_bad_input(logs, gipdyn_bin):
     bare.write_text((logs / "contacts.csv").read_text())
     r = run(gipdyn_bin, "detect", "--model", model, "--data", str(bare), "--out", str(logs / "bad.csv"))
     assert r.returncode == 1 and "give it with --dt SECONDS" in r.stderr, r.stderr
+
+
+def test_contact_experiment_scores_every_model_and_method_against_the_true_dynamics(tmp_path, gipdyn_bin):
+    out = tmp_path / "contact"
+    r = run(gipdyn_bin, "experiment", "contact", "--robot", "scara", "--estimators", "gip", "--train-samples", "300",
+            "--seconds", "3", "--contacts", "4", "--contact-size", "0.3", "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    rows = {(x["model"], x["method"]): x for x in csv.DictReader(open(out / "contacts.csv"))}
+    assert set(rows) == {("true", "residual"), ("true", "momentum"), ("gip", "residual"), ("gip", "momentum")}
+    for (model, method), x in rows.items():
+        assert int(x["contacts"]) == 4 and 0 <= int(x["detected"]) <= 4
+        assert float(x["requested_rate"]) == 1e-6
+        assert (out / f"detection_{model}_{method}.png").read_bytes()[:4] == b"\x89PNG"
+    # The true dynamics: every contact (30 % of a joint's torque range) found, no false alarm, and the threshold
+    # every ratio is measured by.
+    for method in ("residual", "momentum"):
+        assert float(rows[("true", method)]["threshold_ratio"]) == 1.0
+        assert float(rows[("true", method)]["false_alarms_per_minute"]) == 0.0
+        assert int(rows[("true", method)]["detected"]) == 4, rows[("true", method)]
+    assert "| true | residual |" in (out / "summary.md").read_text()
+    assert json.loads((out / "config.json").read_text())["experiment"] == "contact"

@@ -59,6 +59,11 @@ struct ContactOptions {
   // 1. 0: automatic, a time constant of 10 ms or of two rows, whichever is
   // longer.
   double momentum_gain = 0.0;
+  // Whether sigma holds the model's predictive standard deviation where it has
+  // one. false: the noise alone (calibrated or learned), as in ContactStream;
+  // it spares a loaded model's factorisation (O(N^3) per joint for a GP,
+  // O((N n)^3) for lip) and O(N^2) a row.
+  bool predictive_variance = true;
 
   // Throws gipdyn::Error naming the field.
   void validate() const;
