@@ -29,6 +29,7 @@ LAYERS = [
     "distributed",  # the MPI + ScaLAPACK likelihood
     "model",        # per-joint GP training and the model
     "estimators",   # every estimator, the table, the teacher
+    "sensing",      # what a model senses: contact detection
     "capi",         # the C API
     "reports",      # apps/reports: tables, plots
     "experiments",  # apps/experiments
