@@ -157,6 +157,60 @@ TEST(CompositeKernels, SumNllContractionOfFusedAndUnfusedChildren) {
   }
 }
 
+// A product's contraction reuses the children's Gram matrices its gram_lower
+// left in the scratch, and gives the bits a fresh scratch gives; it computes
+// them again when the hyperparameters, the rows' contents or the kernel changed.
+TEST(CompositeKernels, ContractionAfterGramLowerReusesTheChildrensMatricesOnlyWhileTheyHold) {
+  const FeatureMap fm(JointTypes::parse("RRPR"));
+  Eigen::MatrixXd Z = fm.compute(random_inputs(fm.joints(), 30, 87));
+  const Eigen::Index N = Z.rows();
+  const Eigen::VectorXd alpha = test::random_vector(N, -1.0, 1.0, 88);
+  Eigen::MatrixXd Kinv = test::random_matrix(N, N, -1.0, 1.0, 89);
+  Kinv = (Kinv + Kinv.transpose()).eval();
+  for (const char* name : {"gip-envelope", "gip-envelope+friction"}) {
+    SCOPED_TRACE(name);
+    auto k = make_kernel(name, fm, 1);
+    const Eigen::VectorXd p1 = random_vector(k->num_params(), -0.5, 0.5, 90);
+    const Eigen::VectorXd p2 = random_vector(k->num_params(), -0.5, 0.5, 91);
+    // The gradient of a scratch that never saw gram_lower.
+    const auto fresh = [&](const Eigen::MatrixXd& rows) {
+      KernelScratch clean;
+      Eigen::VectorXd g = Eigen::VectorXd::Zero(k->num_params());
+      k->contract_nll(rows, alpha, Kinv, g, clean);
+      return g;
+    };
+    KernelScratch scratch;
+    Eigen::MatrixXd K;
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(k->num_params());
+    // One evaluation: gram_lower, then the contraction at the same hyperparameters.
+    k->set_log_params(p1);
+    k->gram_lower(Z, K, scratch);
+    k->contract_nll(Z, alpha, Kinv, g, scratch);
+    EXPECT_EQ(g, fresh(Z));
+    Eigen::MatrixXd Kref;
+    k->cross(Z, Z, Kref);
+    EXPECT_EQ(Eigen::MatrixXd(K.triangularView<Eigen::Lower>()), Eigen::MatrixXd(Kref.triangularView<Eigen::Lower>()));
+    // New hyperparameters since gram_lower: the kept matrices are not used.
+    k->set_log_params(p2);
+    g.setZero();
+    k->contract_nll(Z, alpha, Kinv, g, scratch);
+    EXPECT_EQ(g, fresh(Z));
+    // The same matrix object with other contents.
+    k->gram_lower(Z, K, scratch);
+    Z(3, 2) += 0.25;
+    g.setZero();
+    k->contract_nll(Z, alpha, Kinv, g, scratch);
+    EXPECT_EQ(g, fresh(Z));
+    // A copy of the kernel (another instance, same hyperparameters) recomputes and agrees.
+    k->gram_lower(Z, K, scratch);
+    const auto copy = k->clone();
+    g.setZero();
+    copy->contract_nll(Z, alpha, Kinv, g, scratch);
+    EXPECT_EQ(g, fresh(Z));
+    EXPECT_NE(copy->instance(), k->instance());
+  }
+}
+
 // The control-loop mean k(z, Z) alpha through a plan (the friction part folded
 // into four weights) must equal the kernel row dotted with alpha, for every
 // kernel with a friction part and for one without; an empty plan falls back.

@@ -1,6 +1,7 @@
 #include "gipdyn/kernels/composite_kernels.hpp"
 
 #include <cmath>
+#include <cstdint>
 #include <deque>
 
 #include "gipdyn/error.hpp"
@@ -30,11 +31,64 @@ class LevelBuffer {
   LevelBuffer& operator=(const LevelBuffer&) = delete;
   Buffer& operator*() const { return buffers_[first_]; }
   Buffer& operator[](size_t i) const { return buffers_[first_ + i]; }
+  size_t first() const { return first_; }
 
  private:
   std::deque<Buffer>& buffers_;
   size_t& level_;
   size_t first_, count_;
+};
+
+using GramTag = KernelScratch::GramTag;
+
+// FNV-1a over Z's bytes: a Gram tag's check that the rows are the same ones.
+std::uint64_t content_hash(const Eigen::MatrixXd& Z) {
+  std::uint64_t h = 1469598103934665603ull;
+  const auto* bytes = reinterpret_cast<const unsigned char*>(Z.data());
+  for (Eigen::Index i = 0; i < Z.size() * static_cast<Eigen::Index>(sizeof(double)); ++i) {
+    h ^= bytes[i];
+    h *= 1099511628211ull;
+  }
+  return h;
+}
+
+// The tag of k(Z, Z) for `kernel` at its hyperparameters now; z_hash: content_hash(Z).
+GramTag gram_tag(const Kernel& kernel, const Eigen::MatrixXd& Z, std::uint64_t z_hash) {
+  GramTag t;
+  t.kernel = kernel.instance();
+  t.z = Z.data();
+  t.rows = Z.rows();
+  t.cols = Z.cols();
+  t.z_hash = z_hash;
+  t.log_params = kernel.log_params();
+  return t;
+}
+
+bool same_gram(const GramTag& a, const GramTag& b) {
+  return a.kernel != 0 && a.kernel == b.kernel && a.z == b.z && a.rows == b.rows && a.cols == b.cols &&
+         a.z_hash == b.z_hash && a.log_params.size() == b.log_params.size() &&
+         (a.log_params.array() == b.log_params.array()).all();
+}
+
+// A level's N x N buffers of scratch.child_grams with their tags. Written for
+// something other than a child's Gram (keep_tags false), their tags are
+// cleared on entry; a product's contraction keeps them, to find the Gram
+// matrices its gram_lower left.
+class GramSlots {
+ public:
+  GramSlots(KernelScratch& scratch, size_t count, bool keep_tags)
+      : buffers_(scratch.child_grams, scratch.gram_level, count), tags_(scratch.child_gram_tags) {
+    const size_t end = buffers_.first() + count;
+    if (tags_.size() < end) tags_.resize(end);
+    if (!keep_tags)
+      for (size_t i = buffers_.first(); i < end; ++i) tags_[i] = GramTag{};
+  }
+  Eigen::MatrixXd& operator[](size_t i) const { return buffers_[i]; }
+  GramTag& tag(size_t i) const { return tags_[buffers_.first() + i]; }
+
+ private:
+  LevelBuffer<Eigen::MatrixXd> buffers_;
+  std::deque<GramTag>& tags_;
 };
 
 }  // namespace
@@ -117,14 +171,17 @@ void ProductKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, 
 void ProductKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const {
   // The same products as cross(), so fits do not change: the children's
   // lower-triangle paths round differently and were no faster (1000 rows,
-  // the real preset's kernel).
-  children_[0]->cross(Z, Z, K);
-  LevelBuffer<Eigen::MatrixXd> level(scratch.child_grams, scratch.gram_level);
-  Eigen::MatrixXd& Kc = *level;
-  for (size_t c = 1; c < children_.size(); ++c) {
-    children_[c]->cross(Z, Z, Kc);
-    K.array() *= Kc.array();
+  // the real preset's kernel). Each child's matrix stays in its tagged slot
+  // for the contraction of the same evaluation (contract_product).
+  const size_t n = children_.size();
+  GramSlots slots(scratch, n, false);
+  const std::uint64_t z_hash = content_hash(Z);
+  for (size_t c = 0; c < n; ++c) {
+    children_[c]->cross(Z, Z, slots[c]);
+    slots.tag(c) = gram_tag(*children_[c], Z, z_hash);
   }
+  K = slots[0];
+  for (size_t c = 1; c < n; ++c) K.array() *= slots[c].array();
 }
 
 void ProductKernel::diagonal(const Eigen::MatrixXd& Z, Eigen::VectorXd& d) const {
@@ -152,33 +209,49 @@ void ProductKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::Matr
 // with R_c the product of the other children's k(Z1, Z2).
 // The children's matrices and W o R_c live in the scratch's buffers, so that
 // an optimiser's evaluations reuse them instead of allocating (and paging in)
-// n + 1 fresh N x N matrices each time.
+// n + 1 fresh N x N matrices each time. For k(Z, Z), a child's matrix that
+// gram_lower left in its slot, for the same hyperparameters and rows, is used
+// as it is; contract_child gets it too.
 template <class ContractChild>
 void contract_product(const std::vector<std::unique_ptr<Kernel>>& children, const Eigen::MatrixXd& Z1,
                       const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W, KernelScratch& scratch,
                       ContractChild&& contract_child) {
   const size_t n = children.size();
-  LevelBuffer<Eigen::MatrixXd> buffers(scratch.child_grams, scratch.gram_level, n + 1);
-  for (size_t c = 0; c < n; ++c) children[c]->cross(Z1, Z2, buffers[c]);
-  Eigen::MatrixXd& WR = buffers[n];
+  GramSlots slots(scratch, n + 1, true);
+  const bool gram = &Z1 == &Z2;
+  const std::uint64_t z_hash = gram ? content_hash(Z1) : 0;
+  for (size_t c = 0; c < n; ++c) {
+    if (gram) {
+      GramTag tag = gram_tag(*children[c], Z1, z_hash);
+      if (same_gram(slots.tag(c), tag)) continue;
+      children[c]->cross(Z1, Z2, slots[c]);
+      slots.tag(c) = std::move(tag);
+    } else {
+      children[c]->cross(Z1, Z2, slots[c]);
+      slots.tag(c) = GramTag{};
+    }
+  }
+  Eigen::MatrixXd& WR = slots[n];
+  slots.tag(n) = GramTag{};
   for (size_t c = 0; c < n; ++c) {
     WR = W;
     for (size_t o = 0; o < n; ++o)
-      if (o != c) WR.array() *= buffers[o].array();
-    contract_child(c, WR);
+      if (o != c) WR.array() *= slots[o].array();
+    contract_child(c, WR, slots[c]);
   }
 }
 
 void ProductKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                              KernelScratch& scratch) const {
-  contract_product(children_, Z, Z, W, scratch, [&](size_t c, const Eigen::MatrixXd& WR) {
-    children_[c]->contract(Z, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
+  contract_product(children_, Z, Z, W, scratch, [&](size_t c, const Eigen::MatrixXd& WR, const Eigen::MatrixXd& Kc) {
+    children_[c]->contract_with_gram(Z, WR, Kc, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()),
+                                     scratch);
   });
 }
 
 void ProductKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                    Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
-  contract_product(children_, Z1, Z2, W, scratch, [&](size_t c, const Eigen::MatrixXd& WR) {
+  contract_product(children_, Z1, Z2, W, scratch, [&](size_t c, const Eigen::MatrixXd& WR, const Eigen::MatrixXd&) {
     children_[c]->contract_cross(Z1, Z2, WR, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()),
                                  scratch);
   });
@@ -317,8 +390,8 @@ void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelS
   // Each child may use the scratch's other buffers, so the running sum lives
   // in K and each further child's matrix in this level's own buffer.
   children_[0]->gram_lower(Z, K, scratch);
-  LevelBuffer<Eigen::MatrixXd> level(scratch.child_grams, scratch.gram_level);
-  Eigen::MatrixXd& Kc = *level;
+  GramSlots level(scratch, 1, false);
+  Eigen::MatrixXd& Kc = level[0];
   for (size_t c = 1; c < children_.size(); ++c) {
     children_[c]->gram_lower(Z, Kc, scratch);
     K.triangularView<Eigen::Lower>() += Kc;

@@ -1,8 +1,15 @@
 #include "gipdyn/kernels/kernel.hpp"
 
+#include <atomic>
+
 #include <algorithm>
 
 namespace gipdyn {
+
+std::uint64_t Kernel::next_instance() {
+  static std::atomic<std::uint64_t> counter{0};
+  return ++counter;
+}
 
 void Kernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& /*scratch*/) const {
   cross(Z, Z, K);

@@ -85,16 +85,30 @@ void RbfKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd
 
 void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                          KernelScratch& scratch) const {
+  contract_gram(Z, W, nullptr, grad, scratch);
+}
+
+void RbfKernel::contract_with_gram(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, const Eigen::MatrixXd& K,
+                                   Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  contract_gram(Z, W, &K, grad, scratch);
+}
+
+void RbfKernel::contract_gram(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, const Eigen::MatrixXd* K,
+                              Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
   // With M = W o K: sum_ij M_ij (s_id - s_jd)^2 = 2 sum_i s_id^2 (M 1)_i - 2 s_d^T M s_d,
   // or summed directly where that expansion would cancel (expansion_is_accurate).
   const Eigen::MatrixXd S = scaled(Z);
   if (!expansion_is_accurate(S, S)) {
-    contract_cross(Z, Z, W, grad, scratch);
+    contract_cross_gram(Z, Z, W, K, grad, scratch);
     return;
   }
   Eigen::MatrixXd& M = scratch.a;
-  cross(Z, Z, M);
-  M.array() *= W.array();
+  if (K) {
+    M = K->cwiseProduct(W);
+  } else {
+    cross(Z, Z, M);
+    M.array() *= W.array();
+  }
   grad(0) += M.sum();
   const Eigen::VectorXd r = M.rowwise().sum();
   Eigen::MatrixXd& MS = scratch.b;
@@ -105,11 +119,21 @@ void RbfKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eig
 
 void RbfKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                                Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+  contract_cross_gram(Z1, Z2, W, nullptr, grad, scratch);
+}
+
+void RbfKernel::contract_cross_gram(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                                    const Eigen::MatrixXd* K, Eigen::Ref<Eigen::VectorXd> grad,
+                                    KernelScratch& scratch) const {
   // With M = W o K: sum_ij M_ij (a_id - b_jd)^2 = a_d^2 . M 1 + b_d^2 . M^T 1 - 2 a_d^T M b_d,
   // or summed directly where that expansion would cancel (expansion_is_accurate).
   Eigen::MatrixXd& M = scratch.a;
-  cross(Z1, Z2, M);
-  M.array() *= W.array();
+  if (K) {
+    M = K->cwiseProduct(W);
+  } else {
+    cross(Z1, Z2, M);
+    M.array() *= W.array();
+  }
   grad(0) += M.sum();
   const Eigen::MatrixXd A = scaled(Z1), B = scaled(Z2);
   if (!expansion_is_accurate(A, B)) {

@@ -6,6 +6,7 @@
 // Inputs are feature matrices Z with one sample per row (see features.hpp);
 // a kernel reads the columns it was built with.
 #include <Eigen/Dense>
+#include <cstdint>
 #include <deque>
 #include <memory>
 #include <string>
@@ -47,6 +48,19 @@ struct KernelScratch {
   // level likewise: an NLL evaluation then allocates no N x N matrix.
   std::deque<Eigen::MatrixXd> child_grams;
   size_t gram_level = 0;
+  // Whose k(Z, Z) each slot of child_grams holds: a product's gram_lower
+  // leaves its children's there, and its contraction in the same evaluation
+  // reuses them instead of computing each again. A slot written for anything
+  // else has an empty tag; a tag matches only the same kernel, hyperparameters
+  // and rows (pointer, shape and contents).
+  struct GramTag {
+    std::uint64_t kernel = 0;  // Kernel::instance(); 0: none
+    const double* z = nullptr;
+    Eigen::Index rows = 0, cols = 0;
+    std::uint64_t z_hash = 0;
+    Eigen::VectorXd log_params;
+  };
+  std::deque<GramTag> child_gram_tags;
   // The parametric kernel's rigid-body regressor of one query (every joint's
   // row) and the buffers that compute it, made on first use for regressor_robot.
   // Every joint's model of a query asks for the same regressor in turn: the first
@@ -67,6 +81,10 @@ class Kernel {
  public:
   virtual ~Kernel() = default;
   virtual std::unique_ptr<Kernel> clone() const = 0;
+  // A number no other kernel object of the process has had, copies included:
+  // what KernelScratch::GramTag names a Gram matrix's kernel by (an address can
+  // be a freed kernel's).
+  std::uint64_t instance() const { return instance_; }
 
   virtual int num_params() const = 0;
   // Dotted names, one per parameter, e.g. "joint2.cs.factor1.l_sin".
@@ -86,6 +104,14 @@ class Kernel {
   // never forms one N x N matrix per parameter.
   virtual void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                         KernelScratch& scratch) const = 0;
+  // contract() given K = k(Z, Z) already computed (a product's gram_lower
+  // left it): kernels whose contraction needs K override it to skip
+  // computing K again (RbfKernel). The default ignores K.
+  virtual void contract_with_gram(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, const Eigen::MatrixXd& K,
+                                  Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const {
+    (void)K;
+    contract(Z, W, grad, scratch);
+  }
   // grad(p) += sum_ij W(i,j) dk(Z1.row(i), Z2.row(j))/d log(theta_p) for a W of
   // k(Z1, Z2)'s shape, and grad(p) += sum_i w(i) dk(z_i, z_i)/d log(theta_p):
   // the sparse GP's gradients (gp/sparse_gp.hpp). The defaults reduce both to
@@ -140,6 +166,15 @@ class Kernel {
   // into Phi and return true; training then evaluates the NLL in weight space
   // (gp/weight_space_nll.hpp). The default: false, Phi untouched.
   virtual bool weight_space_features(const Eigen::MatrixXd& /*Z*/, Eigen::MatrixXd& /*Phi*/) const { return false; }
+
+ protected:
+  Kernel() : instance_(next_instance()) {}
+  Kernel(const Kernel&) : instance_(next_instance()) {}
+  Kernel& operator=(const Kernel&) { return *this; }  // keeps its own instance
+
+ private:
+  static std::uint64_t next_instance();
+  std::uint64_t instance_;
 };
 
 }  // namespace gipdyn

@@ -24,6 +24,8 @@ class RbfKernel final : public Kernel {
   void gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p, Eigen::MatrixXd& dK) const override;
   void contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                 KernelScratch& scratch) const override;
+  void contract_with_gram(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, const Eigen::MatrixXd& K,
+                          Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
                       Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const override;
   void row(const double* z, const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::VectorXd> out,
@@ -35,6 +37,11 @@ class RbfKernel final : public Kernel {
 
  private:
   Eigen::MatrixXd scaled(const Eigen::MatrixXd& Z) const;  // Z[:, cols] / ell
+  // contract() and contract_cross() with K = k(Z1, Z2) given, or computed where null.
+  void contract_gram(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, const Eigen::MatrixXd* K,
+                     Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const;
+  void contract_cross_gram(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, const Eigen::MatrixXd& W,
+                           const Eigen::MatrixXd* K, Eigen::Ref<Eigen::VectorXd> grad, KernelScratch& scratch) const;
   // Whether |a - b|^2 = |a|^2 + |b|^2 - 2 a.b (one matrix product) is accurate
   // for the scaled inputs S1, S2: it is not when a lengthscale is tiny against
   // the inputs (scaled values of 1e8 leave nothing of a distance of 1 after
