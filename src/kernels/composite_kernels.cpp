@@ -375,6 +375,7 @@ void SumKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd
 
 void SumKernel::contract(const Eigen::MatrixXd& Z, const Eigen::MatrixXd& W, Eigen::Ref<Eigen::VectorXd> grad,
                          KernelScratch& scratch) const {
+  const GramSlots level(scratch, 1, true);  // the children one level below, as in gram_lower
   for (size_t c = 0; c < children_.size(); ++c)
     children_[c]->contract(Z, W, grad.segment(offset(static_cast<int>(c)), children_[c]->num_params()), scratch);
 }
@@ -388,10 +389,12 @@ void SumKernel::contract_cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd&
 
 void SumKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& scratch) const {
   // Each child may use the scratch's other buffers, so the running sum lives
-  // in K and each further child's matrix in this level's own buffer.
-  children_[0]->gram_lower(Z, K, scratch);
+  // in K and each further child's matrix in this level's own buffer. The
+  // children run one level below it, as in contract() and contract_nll(), so
+  // that a product child finds the Gram matrices it left there.
   GramSlots level(scratch, 1, false);
   Eigen::MatrixXd& Kc = level[0];
+  children_[0]->gram_lower(Z, K, scratch);
   for (size_t c = 1; c < children_.size(); ++c) {
     children_[c]->gram_lower(Z, Kc, scratch);
     K.triangularView<Eigen::Lower>() += Kc;
@@ -406,6 +409,7 @@ void SumKernel::contract_nll(const Eigen::MatrixXd& Z, const Eigen::VectorXd& al
   const auto segment = [&](size_t c) {
     return grad.segment(offset(static_cast<int>(c)), children_[c]->num_params());
   };
+  const GramSlots level(scratch, 1, true);  // the children one level below, as in gram_lower
   bool needs_w = false;
   for (size_t c = 0; c < children_.size(); ++c) {
     if (children_[c]->fuses_nll_contraction())
