@@ -3,6 +3,8 @@
 #include <algorithm>
 #include <cmath>
 #include <sstream>
+#include <utility>
+#include <vector>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -23,6 +25,19 @@ double inverse_erfc(double y) {
     if (std::abs(step) <= 1e-14 * std::max(1.0, std::abs(x))) break;
   }
   return x;
+}
+
+// Runs of rows where `on(k)` holds, as [first, last] pairs.
+template <class On>
+std::vector<std::pair<Eigen::Index, Eigen::Index>> runs(Eigen::Index rows, On&& on) {
+  std::vector<std::pair<Eigen::Index, Eigen::Index>> out;
+  for (Eigen::Index k = 0; k < rows; ++k)
+    if (on(k) && (k == 0 || !on(k - 1))) {
+      Eigen::Index last = k;
+      while (last + 1 < rows && on(last + 1)) ++last;
+      out.emplace_back(k, last);
+    }
+  return out;
 }
 
 const ContactOptions& validated(const ContactOptions& options) {
@@ -289,29 +304,11 @@ ContactDetection ContactDetector::detect(const Eigen::Ref<const Eigen::MatrixXd>
   d.margin = margin;
   d.threshold = threshold;
   d.contact = contact;
-  d.contact_count = Eigen::VectorXi::Zero(n);
+  d.contact_count.resize(n);
   for (int j = 0; j < n; ++j)
-    for (Eigen::Index k = 0; k < rows; ++k)
-      if (d.contact(k, j) && (k == 0 || !d.contact(k - 1, j))) ++d.contact_count(j);
+    d.contact_count(j) = static_cast<int>(runs(rows, [&](Eigen::Index k) { return d.contact(k, j) != 0; }).size());
   return d;
 }
-
-namespace {
-
-// Runs of rows where `on(k)` holds, as [first, last] pairs.
-template <class On>
-std::vector<std::pair<Eigen::Index, Eigen::Index>> runs(Eigen::Index rows, On&& on) {
-  std::vector<std::pair<Eigen::Index, Eigen::Index>> out;
-  for (Eigen::Index k = 0; k < rows; ++k)
-    if (on(k) && (k == 0 || !on(k - 1))) {
-      Eigen::Index last = k;
-      while (last + 1 < rows && on(last + 1)) ++last;
-      out.emplace_back(k, last);
-    }
-  return out;
-}
-
-}  // namespace
 
 ContactScore score_contacts(const ContactDetection& detection, const Eigen::Ref<const Eigen::MatrixXd>& true_external,
                             double sample_time) {

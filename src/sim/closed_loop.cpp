@@ -21,6 +21,14 @@ void TrackingOptions::validate(int joints) const {
     throw Error("TrackingOptions::position_noise and TrackingOptions::velocity_noise must be finite standard deviations >= 0");
 }
 
+void critically_damped_gains(const RobotModel& robot, const Eigen::VectorXd& q, double bandwidth, Eigen::VectorXd& kp,
+                             Eigen::VectorXd& kd) {
+  Eigen::MatrixXd M;
+  Eigen::VectorXd h;
+  mass_matrix_and_bias(robot, q, Eigen::VectorXd::Zero(robot.num_joints()), false, M, h);
+  kp = bandwidth * bandwidth * M.diagonal();
+  kd = 2.0 * bandwidth * M.diagonal();
+}
 
 namespace {
 
@@ -87,14 +95,7 @@ TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& r
   TrackingResult r;
   r.kp = options.kp;
   r.kd = options.kd;
-  if (r.kp.size() == 0) {
-    Eigen::MatrixXd M;
-    Eigen::VectorXd h;
-    mass_matrix_and_bias(robot, reference.row(0).head(n).transpose(), reference.row(0).segment(n, n).transpose(), false, M, h);
-    const double w = options.bandwidth;
-    r.kp = w * w * M.diagonal();
-    r.kd = 2.0 * w * M.diagonal();
-  }
+  if (r.kp.size() == 0) critically_damped_gains(robot, reference.row(0).head(n).transpose(), options.bandwidth, r.kp, r.kd);
   const Eigen::VectorXd kp = r.kp, kd = r.kd;
   return run_loop(robot, reference, options,
                   [&](Eigen::Index k, const Eigen::VectorXd& q, const Eigen::VectorXd& qd) -> Eigen::VectorXd {

@@ -7,6 +7,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/robot/dynamics.hpp"
+#include "gipdyn/sim/closed_loop.hpp"
 
 namespace gipdyn {
 namespace {
@@ -63,11 +64,10 @@ void simulate_with_contacts(const RobotModel& robot, const SinusoidTrajectory& t
   for (const Contact& k : contacts)
     drawn.push_back({{"start_s", k.start}, {"joint", k.joint + 1}, {"torque", k.torque}});
 
+  Eigen::VectorXd kp, kd;
+  critically_damped_gains(robot, reference.row(0).head(n).transpose(), o.contacts.bandwidth, kp, kd);
   Eigen::MatrixXd M;
   Eigen::VectorXd h;
-  mass_matrix_and_bias(robot, reference.row(0).head(n).transpose(), Eigen::VectorXd::Zero(n), false, M, h);
-  const double w = o.contacts.bandwidth;
-  const Eigen::VectorXd kp = w * w * M.diagonal(), kd = 2.0 * w * M.diagonal();
   // The controller runs ten times per logged row and at least at 1 kHz, so
   // that the logged torque samples a torque that varies within a row, as a
   // robot's measured torque does, rather than one held over the row.
@@ -75,7 +75,7 @@ void simulate_with_contacts(const RobotModel& robot, const SinusoidTrajectory& t
   const double step = o.dt / substeps;
 
   Eigen::VectorXd q = reference.row(0).head(n).transpose(), qd = reference.row(0).segment(n, n).transpose();
-  Eigen::VectorXd q_ref(n), qd_ref(n), qdd_ref(n), x_ref(3 * n), ext(n), tau(n);
+  Eigen::VectorXd q_ref(n), qd_ref(n), qdd_ref(n), ext(n), tau(n);
   const auto control = [&](double t) {
     traj.evaluate(t, q_ref, qd_ref, qdd_ref);
     tau = inverse_dynamics(robot, q_ref, qd_ref, qdd_ref, o.friction) + kp.cwiseProduct(q_ref - q) +

@@ -38,6 +38,11 @@ struct TrackingResult {
   Eigen::VectorXd rms_torque;            // per joint: the effort
 };
 
+// PD gains critically damped at `bandwidth` rad/s on each joint's own inertia
+// at q: Kp = w^2 M_jj(q), Kd = 2 w M_jj(q).
+void critically_damped_gains(const RobotModel& robot, const Eigen::VectorXd& q, double bandwidth, Eigen::VectorXd& kp,
+                             Eigen::VectorXd& kd);
+
 // reference: steps x 3n (q, qd, qdd) at options.dt; feedforward: steps x n.
 // The robot starts on the reference (q, qd of its first row) and is
 // integrated by semi-implicit Euler at dt. Throws gipdyn::Error for bad shapes
