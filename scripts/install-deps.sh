@@ -14,7 +14,7 @@ PACKAGES=(
   libopenmpi-dev libscalapack-openmpi-dev openmpi-bin
   libtorch-dev
   pybind11-dev python3-dev python3-numpy python3-pytest python3-sklearn
-  python3-scipy python3-matplotlib
+  python3-scipy python3-matplotlib python3-pandas
   python3-pip python3-setuptools python3-wheel
   # tests/abi/other_cpu_test.sh runs the build on emulated CPUs
   qemu-user

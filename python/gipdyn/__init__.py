@@ -1,11 +1,14 @@
 """gipdyn: robot inverse dynamics with Gaussian processes and the GIP kernel.
 
     >>> import gipdyn
-    >>> data = gipdyn.simulate("scara", samples=2000, seed=1)
-    >>> model = gipdyn.InverseDynamicsGP(joints="RRPR").fit(data["X"], data["tau"])
-    >>> model.nmse(test["X"], test["tau_true"])
+    >>> train = gipdyn.simulate("scara", samples=200, seed=1, dt=0.1)
+    >>> test = gipdyn.simulate("scara", samples=100, seed=2, dt=0.1)
+    >>> model = gipdyn.InverseDynamicsGP(joints="RRPR").fit(train["X"], train["tau"])
+    >>> bool(model.nmse(test["X"], test["tau_true"]).max() < 0.05)
+    True
 
-Inputs X are (N, 3n) arrays of [q, qd, qdd]; torques Y are (N, n).
+Inputs X are (N, 3n) arrays of [q, qd, qdd] (or tables with columns q1..,
+qd1.., qdd1..); torques Y are (N, n).
 """
 import inspect
 import json
@@ -91,20 +94,35 @@ def _warn_noisy_joints(model):
         warnings.warn(model.noise_warning, NoiseWarning, stacklevel=3)
 
 
-def _as_matrix(name, a, cols=None):
-    """A float64 2-D array (Fortran order is passed to C++ without a copy)."""
+def _as_matrix(name, a, cols=None, one_row=True):
+    """A float64 2-D array (Fortran order is passed to C++ without a copy).
+
+    one_row: a 1-D array of `cols` values is one row; False refuses it, as
+    scikit-learn's predict does (predict_one takes a single sample)."""
+    if hasattr(a, "tocsr") or type(a).__module__.startswith("scipy.sparse"):
+        raise TypeError(f"{name} is a sparse matrix, and sparse input is not supported: pass {name}.toarray()")
     try:
-        arr = np.asarray(a, dtype=np.float64)
+        arr = np.asarray(a)
+        if np.iscomplexobj(arr):
+            raise ValueError(f"{name} holds complex numbers: Complex data not supported; pass its real part")
+        arr = arr.astype(np.float64, copy=False)
     except (TypeError, ValueError) as e:
+        if "Complex data" in str(e):
+            raise
         raise ValueError(f"{name} must be numeric: {e}") from None
     # One joint: a 1-D array is one value per row (scikit-learn's y), else one row.
     if arr.ndim == 1 and cols == 1:
         arr = arr.reshape(-1, 1)
-    elif arr.ndim == 1 and cols is not None and arr.size == cols:
+    elif arr.ndim == 1 and cols is not None and arr.size == cols and one_row:
         arr = arr.reshape(1, cols)
+    if arr.ndim == 1 and not one_row:
+        raise ValueError(f"{name} must be a 2-D array, got a 1-D array of {arr.size} values. Reshape your data with "
+                         f"{name}.reshape(1, -1) for one sample, or call predict_one")
     if arr.ndim != 2:
         shape = f" (rows x {cols} columns)" if cols is not None else ""
         raise ValueError(f"{name} must be a 2-D array{shape}, got shape {arr.shape}")
+    if arr.shape[1] == 0:
+        raise ValueError(f"{name} has 0 feature(s) (shape={arr.shape}) while a minimum of 1 is required.")
     if cols is not None and arr.shape[1] != cols:
         raise ValueError(f"{name} must have {cols} columns, got {arr.shape[1]}")
     if arr.shape[0] == 0:
@@ -113,6 +131,26 @@ def _as_matrix(name, a, cols=None):
         bad = np.argwhere(~np.isfinite(arr))[0]
         raise ValueError(f"{name} contains NaN or Inf (first at row {bad[0]}, column {bad[1]})")
     return arr
+
+
+def _joint_columns(prefix, n):
+    return [f"{prefix}{i}" for i in range(1, n + 1)]
+
+
+def _by_column_names(name, a, joints, quantities):
+    """A table with named columns (a pandas DataFrame) as the matrix of those columns, in the order of the log
+    format (q1..qn, qd1..qdn, qdd1..qddn; tau1..taun); any other array as it is."""
+    columns = getattr(a, "columns", None)
+    if columns is None or isinstance(a, np.ndarray):
+        return a
+    names = [str(c) for c in columns]
+    wanted = [c for quantity in quantities for c in _joint_columns(quantity, len(joints))]
+    missing = [c for c in wanted if c not in names]
+    if missing:
+        raise ValueError(f"{name} has no column {missing[0]!r}: a table's columns are read by name, "
+                         f"{', '.join(wanted[:3])}, ... for joints={joints!r} (rename its columns, or pass "
+                         f"{name}.to_numpy() with the columns in that order)")
+    return np.asarray(a[wanted], dtype=np.float64)
 
 
 def nmse(Y_true, Y_pred):
@@ -138,80 +176,205 @@ def _estimator_row(name):
 
 
 _DEFAULTS = EstimatorOptions()
+_MISSING_JOINTS = ("the joint types are not known, and a log cannot tell a revolute joint from a prismatic one: give "
+                   "joints= (one R or P per joint, e.g. joints='RRPR'), robot= (a robot whose joints they are), or "
+                   "read the log with gipdyn.read_log(path), whose joints come from the sidecar gipdyn simulate writes")
 _TEACHER_DEFAULTS = TeacherOptions()
 
 
-class InverseDynamicsGP(*_ESTIMATOR_BASES):
-    """One exact GP per joint, hyperparameters by maximum marginal likelihood.
+def _seed(random_state):
+    """The library's seed for scikit-learn's random_state: an int as it is, None as 0 (every fit is seeded, so
+    the same call gives the same model), a NumPy RandomState or Generator as a draw from it."""
+    if random_state is None:
+        return 0
+    if isinstance(random_state, (np.random.RandomState, np.random.Generator)):
+        return int(random_state.integers(2**31) if isinstance(random_state, np.random.Generator)
+                   else random_state.randint(2**31))
+    try:
+        seed = int(random_state)
+    except (TypeError, ValueError):
+        raise ValueError(f"random_state must be an int, None or a NumPy random generator, got {random_state!r}") from None
+    if seed < 0:
+        raise ValueError(f"random_state must be >= 0, got {seed}")
+    return seed
 
-    Parameters mirror `gipdyn train`: joints (one "R" or "P" per joint; None,
-    the default: those of robot where it is given, else the SCARA's "RRPR"), kernel (one of
-    @KERNELS@; those that need robot: @ROBOT_KERNELS@), optimizer ("lbfgs", "adam"), max_iter, restarts,
-    seed, scaling ("standardize", "center", "none"), min_noise, threads,
-    learning_rate (Adam), verbose, robot (the nominal robot of pp/sp: "scara",
-    "ur10", a URDF or JSON file, or a Robot), robot_friction (friction columns in
-    the regressor), mean (prior mean of each joint's GP: "zero", "constant", or
-    "linear" in (q, qd, qdd)), prior ("none" for maximum likelihood, "lognormal"
-    for MAP), prior_width, warm_start_rows (optimise first on a subsample of this
-    many rows, 0: off), gradient_tolerance (convergence: projected NLL
-    gradient per training row) and inducing (a sparse GP conditioned on this
-    many inducing rows chosen among the training rows, hyperparameters by
-    Titsias' variational bound: for data too long for the exact GP; 0: exact),
-    hyperparameter_rows (learn the hyperparameters on a constant-step
-    subsample of this many rows, then condition on every row; 0: all rows),
-    hyperparameter_objective (with inducing and hyperparameter_rows: "bound",
-    the sparse GP's variational bound on the subsample, or "exact", the
-    subsample's exact NLL),
-    teacher ("auto", the default, as `gipdyn train`'s; "none" or None: learn from (X, Y); "lip": fit LIP on (X, Y), then learn
-    from LIP's torques at teacher_states states drawn uniformly from the box
-    X spans, with LIP's residual on (X, Y) as the noise floor; seed draws
-    them. On one short motion this gives a GIP model that extrapolates like
-    LIP and answers like GIP: docs/training.md; "chain": the library's chain
-    estimator teaches instead, a serial chain's geometry identified from
-    (X, Y) (docs/method.md section 16; a rigid arm without friction: from one
-    20 s UR10 motion); "auto": "lip" on a log of at most
-    TeacherOptions().automatic_max_log_values torque values (rows x joints), the
-    taught model kept only if it fits (X, Y) as LIP does, else learned from
-    (X, Y), and only for the gip kernel's exact GP without mean, robot, warm
-    start or distributed, else no teacher (the library's choose_teacher); after
-    fit, teaching_ says which: "taught", "student missed the log", "log too
-    long", "teacher failed", "student failed" or "no teacher", and teaching_failure_ why the teacher or student failed), teacher_states, teacher_hyperparameter_rows (the
-    teacher learns its hyperparameters on that many rows, 0: all),
-    student_hyperparameter_rows (with a teacher, the student learns its
-    hyperparameters on that many of the drawn states, 0: all; a
-    hyperparameter_rows above 0 wins; after fit, teaching_check_ holds the
-    teacher's and the student's nMSE on (X, Y), and a TeachingWarning says
-    when the student misses that log by more than 0.1 of a joint's torque
-    variance and by more than twice its teacher's error, as on real robots'
-    logs; its "teacher_far_ahead" lists the joints, from 0, that the teacher
-    fits ten times better than a student that passes: there teacher_ is
-    likely the more accurate model, with a slower query), serial_chain (True: the joints are ordered from the base to the
-    tip of one serial chain, and the lip teacher's inertia entry ab depends
-    only on the joints after min(a, b); False for joints in another order),
-    start_screening (the lip teacher's starts, and the restarts of each
-    joint's GP, run this many NLL evaluations, then only the best goes on;
-    0: every start to convergence)
-    and distributed (the exact GP's N x N matrix spread over the MPI processes
-    of the run, ScaLAPACK: run the same script with `mpirun -np P /usr/bin/python3
-    script.py`, every process with the same data; mpi_rank() tells the first
-    one, which should be the one that writes). They fill in the library's EstimatorOptions
-    (estimator_options()). The non-GP estimators fe and nn are available from the CLI.
 
-    preset ("default", "real"; see gipdyn/estimators/presets.hpp) starts from a
-    named set of options; kernel and subsample given explicitly override it.
-    preset="real" (logs of real robots) uses the kernel "gip-envelope+friction" and
-    trains on a constant-step subsample of at most 1000 rows. kernel=None: the
-    preset's kernel, else "gip". subsample (None: the preset's limit, else
-    every row) keeps that many training rows, as `gipdyn train --subsample`.
+def _threads(n_jobs):
+    """The library's thread count for scikit-learn's n_jobs: None or -1 all cores (the library's 0), else that many.
+    Results do not depend on it."""
+    if n_jobs is None or int(n_jobs) == -1:
+        return 0
+    if int(n_jobs) < 1:
+        raise ValueError(f"n_jobs must be a positive number of threads, or -1 or None for all cores, got {n_jobs}")
+    return int(n_jobs)
 
+
+# Parameters that were renamed to scikit-learn's spelling: the old name is refused with the new one.
+_RENAMED_PARAMETERS = {"seed": "random_state", "threads": "n_jobs"}
+
+
+class _RefusesRenamedParameters:
+    """Refuses a renamed parameter in one line naming its new spelling, where Python alone would only say that
+    the keyword is unexpected (scikit-learn forbids **kwargs in __init__, so __new__ looks first)."""
+
+    def __new__(cls, *args, **kwargs):
+        for old, new in _RENAMED_PARAMETERS.items():
+            if old in kwargs:
+                raise TypeError(f"{cls.__name__}: the parameter {old}= is now called {new}= (scikit-learn's name)")
+        return super().__new__(cls)
+
+
+class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
+    """Inverse dynamics learned with one Gaussian process per joint.
+
+    Maps a robot's states X = [q, qd, qdd] (N, 3n) to its joint torques (N, n).
+    The default is the library's: the GIP kernel, taught by LIP where that fits
+    the log (teacher="auto"), hyperparameters by maximum marginal likelihood.
+    Every parameter fills in the library's EstimatorOptions
+    (estimator_options()), so the same parameters give the model
+    `gipdyn train` gives with the matching options.
+
+    Parameters
+    ----------
+    joints : str, optional
+        One "R" (revolute) or "P" (prismatic) per joint, e.g. "RRPR". Required
+        unless robot is given: a log cannot tell the two kinds apart (read_log
+        returns those a log's sidecar records).
+    kernel : str, optional
+        The estimator: one of @KERNELS@ (those that need robot:
+        @ROBOT_KERNELS@). None: the preset's, else "gip".
+    optimizer : {"lbfgs", "adam"}, default "lbfgs"
+        The hyperparameter optimiser.
+    max_iter : int
+        Safety cap on NLL evaluations (L-BFGS) or steps (Adam) per joint and start.
+    restarts : int
+        Extra optimiser runs from perturbed starts; the lowest NLL is kept.
+    random_state : int, RandomState or None, default 0
+        Seeds restarts and teacher states. None is 0: every fit is seeded, and
+        the same call gives the same model.
+    scaling : {"standardize", "center", "none"}, default "standardize"
+        Output scaling before the GP.
+    min_noise : float, default 1e-8
+        Noise-variance floor, as a fraction of the scaled output variance.
+    n_jobs : int or None, default None
+        Joints trained at once (None or -1: all cores, shared). Results do not
+        depend on it.
+    learning_rate : float, default 0.01
+        Adam's learning rate.
+    verbose : bool, default False
+        Print the optimiser's progress.
+    robot : str or Robot, optional
+        The nominal robot of the pp and sp kernels ("scara", "ur10", a URDF or
+        JSON file, or a Robot); also gives joints.
+    robot_friction : bool, default False
+        Friction columns in the nominal robot's regressor.
+    mean : {"zero", "constant", "linear"}, default "zero"
+        Prior mean of each joint's GP (linear in (q, qd, qdd)).
+    prior : {"none", "lognormal"}, default "none"
+        Maximum likelihood, or MAP with a log-normal prior on each
+        hyperparameter of standard deviation prior_width.
+    prior_width : float, default 2.0
+    warm_start_rows : int, default 0
+        Optimise first on a constant-step subsample of this many rows (0: off).
+    gradient_tolerance : float
+        Converged when the projected NLL gradient per training row is below it.
+    preset : {"default", "real"}, optional
+        A named set of options; kernel and subsample given here override it.
+        "real" (logs of real robots): the bounded GIP with friction
+        ("gip-envelope+friction") on at most 1000 rows.
+    subsample : int, optional
+        Train on this many rows taken with a constant step (None: the preset's
+        limit, else every row; 0: every row).
+    inducing : int, default 0
+        A sparse GP (variational bound) on this many inducing rows: for logs
+        too long for the exact GP. 0: exact.
+    distributed : bool, default False
+        Spread each joint's N x N matrix over the MPI processes of the run
+        (`mpirun -np P /usr/bin/python3 script.py`, every process with the same
+        data; mpi_rank() == 0 is the one that should write).
+    hyperparameter_rows : int, default 0
+        Learn the hyperparameters on a constant-step subsample of this many
+        rows, then condition the model on every row (0: all rows).
+    hyperparameter_objective : {"bound", "exact"}, default "bound"
+        With inducing and hyperparameter_rows: the subsample's variational
+        bound or its exact NLL.
+    teacher : {"auto", "lip", "chain", "none"} or None, default "auto"
+        "lip" or "chain": fit that estimator on (X, Y), then learn from its
+        torques at teacher_states states drawn from the box X spans (a GIP
+        model that extrapolates like its teacher). "auto": "lip" where the
+        library's rule says it applies (the gip kernel's exact GP on a short
+        log) and the taught model fits (X, Y) as its teacher does; else learn
+        from (X, Y). "none" or None: learn from (X, Y).
+    teacher_states : int
+        How many states the teacher labels.
+    teacher_hyperparameter_rows : int
+        The teacher learns its hyperparameters on this many logged rows (0: all).
+    student_hyperparameter_rows : int
+        The taught model learns its hyperparameters on this many drawn states
+        (0: all; hyperparameter_rows above 0 wins).
+    serial_chain : bool, default True
+        The joints run from the base to the tip of one serial chain (the lip
+        teacher's inertia entry ab then depends only on the joints after
+        min(a, b)). False for joints in another order.
+    start_screening : int
+        Every start runs this many NLL evaluations, then only the best goes on
+        (0: every start to convergence).
+
+    Attributes
+    ----------
+    model_ : gipdyn._core.Model
+        The fitted model (the library's; save() writes it).
+    n_features_in_ : int
+        3n.
+    hyperparameters_ : list of dict
+        Each joint's hyperparameters by name.
+    log_marginal_likelihood_ : ndarray of shape (n,)
+    training_report_ : list of dict
+        Each joint's optimiser outcome (status, evaluations, NLL, noise share).
+    teaching_ : str
+        What became of the teacher: "taught", "student missed the log", "log
+        too long", "teacher failed", "student failed" or "no teacher".
+    teacher_ : LagrangianGP or None
+        The fitted lip teacher, where there was one.
+    teaching_check_ : dict or None
+        The teacher's and the taught model's nMSE on (X, Y), "passed", a
+        "warning" and "teacher_far_ahead" (joints the teacher fits ten times
+        better; there it may be the more accurate model, with a slower query).
+    teacher_report_, label_noise_std_, teaching_failure_
+        The teacher's fit report, its residual per joint (the taught model's
+        noise floor), and why a teacher or student failed.
+
+    See Also
+    --------
+    LagrangianGP : LIP, one GP over every joint with energies.
+    ContactDetector : contacts and external torques with a fitted model.
+
+    Notes
+    -----
     score() follows scikit-learn (higher is better): the mean over joints of
-    1 - nMSE. nmse() and neg_nmse_scorer give the nMSE itself.
+    1 - nMSE, the mean R^2; nmse() and neg_nmse_scorer give the nMSE itself.
+    A table with named columns (a pandas DataFrame) is read by name: q1..qn,
+    qd1..qdn, qdd1..qddn for X, tau1..taun for Y. A 1-D y (one joint) gives
+    1-D predictions. The renamed parameters seed and threads are refused
+    with their new names, random_state and n_jobs.
+
+    Examples
+    --------
+    >>> import gipdyn
+    >>> train = gipdyn.simulate("scara", samples=200, seed=1, dt=0.1)
+    >>> model = gipdyn.InverseDynamicsGP(joints="RRPR").fit(train["X"], train["tau"])
+    >>> model.predict(train["X"][:3]).shape
+    (3, 4)
     """
 
     _MODEL_CLASS = _core.Model  # what model_ is, and how a pickle restores it
 
+    def _more_tags(self):
+        # Every joint is one output: Y is (N, n), and a 1-D y is the one joint of joints="R" or "P".
+        return {"multioutput": True}
+
     def __init__(self, joints=None, kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
-                 restarts=_DEFAULTS.search.restarts, seed=0, scaling="standardize", min_noise=1e-8, threads=0,
+                 restarts=_DEFAULTS.search.restarts, random_state=0, scaling="standardize", min_noise=1e-8, n_jobs=None,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.gp.warm_start_rows,
                  gradient_tolerance=_DEFAULTS.search.gradient_tolerance_per_row, preset=None, subsample=None,
@@ -228,10 +391,10 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self.optimizer = optimizer
         self.max_iter = max_iter
         self.restarts = restarts
-        self.seed = seed
+        self.random_state = random_state
         self.scaling = scaling
         self.min_noise = min_noise
-        self.threads = threads
+        self.n_jobs = n_jobs
         self.learning_rate = learning_rate
         self.verbose = verbose
         self.robot = robot
@@ -262,7 +425,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         settings.states = int(self.teacher_states)
         settings.hyperparameter_rows = int(self.teacher_hyperparameter_rows)
         settings.student_hyperparameter_rows = int(self.student_hyperparameter_rows)
-        settings.seed = int(self.seed)
+        settings.seed = _seed(self.random_state)
         return _core.choose_teacher(choice, options if options is not None else self.estimator_options(), settings)
 
     def _search_options(self):
@@ -272,7 +435,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.search.optimizer.max_iterations = int(self.max_iter)
         o.search.optimizer.adam_learning_rate = float(self.learning_rate)
         o.search.restarts = int(self.restarts)
-        o.search.seed = int(self.seed)
+        o.search.seed = _seed(self.random_state)
         o.search.min_noise_fraction = float(self.min_noise)
         o.search.gradient_tolerance_per_row = float(self.gradient_tolerance)
         o.search.start_screening_evaluations = int(self.start_screening)
@@ -287,7 +450,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         o.name = str(self.kernel) if self.kernel is not None else base.name
         o.gp.scaling = str(self.scaling)
         o.gp.mean = str(self.mean)
-        o.search.threads = int(self.threads)
+        o.search.threads = _threads(self.n_jobs)
         o.gp.warm_start_rows = int(self.warm_start_rows)
         o.sparse.inducing_points = int(self.inducing)
         o.search.hyperparameter_rows = int(self.hyperparameter_rows)
@@ -321,23 +484,24 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     def _joint_types(self, fitted=True):
         """The joint types X is read against: the fitted model's (fitted=False: as fit reads them, from the
-        parameters), else joints, else robot's, else "RRPR"."""
+        parameters), else joints, else robot's; none of them is an error (a log cannot tell R from P)."""
         if fitted and hasattr(self, "model_"):
             return self.model_.joints
         if self.joints is not None:
             return str(self.joints)
         if getattr(self, "robot", None) is not None:
             return (self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))).joint_types
-        return "RRPR"  # the SCARA's, the default before robot= could tell
+        raise ValueError(_MISSING_JOINTS)
 
     def _inputs(self, X, joints=None):
         """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix.
-        joints: those a fit reads X against (_joint_types(fitted=False)); None: the fitted model's."""
+        joints: those a fit reads X against (_joint_types(fitted=False)); None: the fitted model's. A table
+        with named columns (a pandas DataFrame) gives q1..qn, qd1..qdn, qdd1..qddn by name."""
         fitting = joints is not None
         if joints is None:
             joints = self._joint_types()
         n = len(joints)
-        X = _as_matrix("X", X, 3 * n if np.ndim(X) == 1 else None)  # a 1-D X of 3n values is one row
+        X = _as_matrix("X", _by_column_names("X", X, joints, ("q", "qd", "qdd")), one_row=False)
         if X.shape[1] != 3 * n:
             got = X.shape[1]
             if hasattr(self, "model_") and not fitting:
@@ -351,14 +515,16 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
                        f"are {got // 3} joints, e.g. joints={'R' * (got // 3)!r}")
             else:
                 fix = "X needs q, qd and qdd of every joint, in that order"
-            raise ValueError(f"X must have {3 * n} columns (q, qd, qdd of joints={joints!r}), got {got}: {fix}")
+            raise ValueError(f"X has {got} columns (n_features={got}) but must have {3 * n} (q, qd, qdd of "
+                             f"joints={joints!r}): {fix}")
         return X
 
     def _training_arrays(self, X, Y, joints):
         """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
         n = len(joints)
         X = self._inputs(X, joints)
-        Y = _as_matrix("Y", Y, n)
+        self._y_is_1d = np.ndim(Y) == 1 and n == 1 and getattr(Y, "columns", None) is None
+        Y = _as_matrix("Y", _by_column_names("Y", Y, joints, ("tau",)), n)
         if X.shape[0] != Y.shape[0]:
             raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
         X, Y = np.asfortranarray(X), np.asfortranarray(Y)
@@ -426,7 +592,7 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
             return self.fit(X, Y)
         n = self.n_joints
         X = self._inputs(X)
-        Y = _as_matrix("Y", Y, n)
+        Y = _as_matrix("Y", _by_column_names("Y", Y, self.model_.joints, ("tau",)), n)
         self.model_ = self.model_.updated(np.asfortranarray(X), np.asfortranarray(Y), int(window))
         if refit:
             self.model_ = _core.refit(self.model_, self._search_options(), bool(self.verbose))
@@ -457,8 +623,12 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
         self._check_fitted()
         X = np.asfortranarray(self._inputs(X))
         if return_std:  # a loaded model builds its factors on the first call, inside model_, and keeps them
-            return self.model_.predict_with_std(X)
-        return self.model_.predict(X)
+            return tuple(self._as_fitted_y(a) for a in self.model_.predict_with_std(X))
+        return self._as_fitted_y(self.model_.predict(X))
+
+    def _as_fitted_y(self, torques):
+        """Predictions in the shape of the y fit was given: (N,) for a 1-D y of one joint, else (N, n)."""
+        return torques[:, 0] if getattr(self, "_y_is_1d", False) else torques
 
     def predict_one(self, x):
         """One sample (3n,) -> torques (n,): the allocation-free control-loop path."""
@@ -499,8 +669,9 @@ class InverseDynamicsGP(*_ESTIMATOR_BASES):
 
     def nmse(self, X, Y):
         """Per-joint nMSE of the predictions against Y."""
-        Y = _as_matrix("Y", Y, self.n_joints)
-        return nmse(Y, self.predict(X))
+        self._check_fitted()
+        Y = _as_matrix("Y", _by_column_names("Y", Y, self.model_.joints, ("tau",)), self.n_joints)
+        return nmse(Y, self.predict(X).reshape(Y.shape))
 
     def score(self, X, Y, sample_weight=None):
         """The mean over joints of 1 - nMSE: higher is better, 1 is perfect, as
@@ -550,30 +721,58 @@ InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace(
 
 
 class LagrangianGP(InverseDynamicsGP):
-    """LIP: one GP over the torques of all joints, with the priors on the
-    kinetic and potential energy and the torques from the Lagrange equations
-    (docs/method.md section 11). Besides torques, gravity, inertia and Coriolis
-    it estimates the energies: kinetic_energy(X) and potential_energy(q) (the
-    latter up to a constant). The system is (N n) x (N n): train it on a few
-    hundred rows (bench/RESULTS.md times it), or learn the
-    hyperparameters on a few hundred (hyperparameter_rows) and condition on a
-    few thousand.
+    """LIP: one GP over the torques of every joint, built from energies.
 
-    Parameters: joints, optimizer, max_iter, restarts, seed, min_noise,
-    learning_rate, verbose, gradient_tolerance, hyperparameter_rows,
-    serial_chain, as InverseDynamicsGP's; friction=True adds each joint's
-    smooth friction and torque offset beside the energies (the estimator
-    lip+friction). serial_chain=False for joints not ordered from the base to
-    the tip of one serial chain (every inertia entry may then depend on every
-    joint). start_screening: every start (three starting noises plus the
-    restarts) runs this many NLL evaluations, then only the one with the
-    lowest NLL goes on (0: every start to convergence).
+    Priors on the kinetic and potential energy give the torques through the
+    Lagrange equations (docs/method.md section 11). Besides torques, gravity,
+    inertia and Coriolis terms it estimates the energies: kinetic_energy(X)
+    and potential_energy(q) (up to a constant). Its system is (N n) x (N n):
+    train it on a few hundred rows, or learn the hyperparameters on a few
+    hundred (hyperparameter_rows) and condition on a few thousand.
+
+    Parameters
+    ----------
+    joints : str, optional
+        One "R" or "P" per joint; required (a log cannot tell them apart).
+    optimizer, max_iter, restarts, random_state, min_noise, learning_rate, verbose, gradient_tolerance
+        As InverseDynamicsGP's.
+    hyperparameter_rows : int, default 0
+        Learn the hyperparameters on a constant-step subsample of this many
+        rows, then condition on every row (0: all rows).
+    friction : bool, default False
+        Each joint's smooth friction and torque offset beside the energies
+        (the estimator lip+friction).
+    serial_chain : bool, default True
+        False for joints not ordered from the base to the tip of one serial
+        chain: every inertia entry may then depend on every joint.
+    start_screening : int
+        Every start (three starting noises plus the restarts) runs this many
+        NLL evaluations, then only the one with the lowest NLL goes on (0:
+        every start to convergence).
+
+    Attributes
+    ----------
+    model_ : gipdyn._core.LagrangianModel
+    n_features_in_ : int
+    hyperparameters_ : dict
+        The shared hyperparameters by name.
+    noise_variances_ : ndarray of shape (n,)
+        Each joint's noise variance, in torque units squared.
+    training_report_ : list of dict
+
+    Examples
+    --------
+    >>> import gipdyn
+    >>> train = gipdyn.simulate("scara", samples=100, seed=1, dt=0.2)
+    >>> lip = gipdyn.LagrangianGP(joints="RRPR").fit(train["X"], train["tau"])
+    >>> lip.potential_energy(train["q"][:2]).shape
+    (2,)
     """
 
     _MODEL_CLASS = _core.LagrangianModel
 
-    def __init__(self, joints="RRPR", optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
-                 restarts=_DEFAULTS.search.restarts, seed=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
+    def __init__(self, joints=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
+                 restarts=_DEFAULTS.search.restarts, random_state=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
                  gradient_tolerance=_DEFAULTS.search.gradient_tolerance_per_row,
                  hyperparameter_rows=_DEFAULTS.search.hyperparameter_rows, friction=False,
                  serial_chain=_DEFAULTS.serial_chain,
@@ -585,7 +784,7 @@ class LagrangianGP(InverseDynamicsGP):
         self.optimizer = optimizer
         self.max_iter = max_iter
         self.restarts = restarts
-        self.seed = seed
+        self.random_state = random_state
         self.min_noise = min_noise
         self.learning_rate = learning_rate
         self.verbose = verbose
@@ -626,10 +825,10 @@ class LagrangianGP(InverseDynamicsGP):
         (the first such call factorises the (N n)^2 training covariance once)."""
         self._check_fitted()
         X = np.asfortranarray(self._inputs(X))
-        mean = self.model_.predict(X)
+        mean = self._as_fitted_y(self.model_.predict(X))
         if not return_std:
             return mean
-        return mean, self.model_.predict_std(X)  # a loaded model builds its factor once, inside model_
+        return mean, self._as_fitted_y(self.model_.predict_std(X))  # a loaded model builds its factor once, inside model_
 
     def predict_one(self, x):
         return self.predict(np.atleast_2d(x))[0]

@@ -136,7 +136,7 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     # Same data (read back from the same CSV), same options, same seed, each front end's default teacher: the
     # same model, taught by the same rule (the library's choose_teacher).
     csv = np.loadtxt(tmp_path / "train.csv", delimiter=",", skiprows=1)
-    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, seed=3).fit(csv[:, :12], csv[:, 12:])
+    py = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=25, random_state=3).fit(csv[:, :12], csv[:, 12:])
     assert py.teaching_ == "taught"
     X_test = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :12]
     assert np.array_equal(py.predict(X_test), cli_pred)
@@ -203,7 +203,7 @@ def test_sklearn_cross_validation_and_grid_search(scara):
 
 
 @pytest.mark.parametrize("X, Y, message", [
-    (np.zeros((10, 11)), np.zeros((10, 4)), "12 columns"),
+    (np.zeros((10, 11)), np.zeros((10, 4)), "must have 12"),
     (np.zeros((10, 12)), np.zeros((10, 3)), "4 columns"),
     (np.zeros((10, 12)), np.zeros((9, 4)), "rows"),
     (np.zeros(12), np.zeros(4), None),
@@ -220,17 +220,17 @@ def test_bad_input_raises_value_error(X, Y, message):
 
 
 def test_inputs_of_another_joint_count_name_the_joints_and_the_fix():
-    # joints defaults to the SCARA's RRPR: a 6R arm's 18 columns must say so and how to fix it.
+    # A 6R arm's 18 columns read against a SCARA's joints: the error says so and how to fix it.
     X, Y = np.zeros((10, 18)), np.zeros((10, 6))
     with pytest.raises(ValueError) as err:
-        gipdyn.InverseDynamicsGP(max_iter=2).fit(X, Y)
-    assert "X must have 12 columns (q, qd, qdd of joints='RRPR'), got 18" in str(err.value)
+        gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=2).fit(X, Y)
+    assert "X has 18 columns (n_features=18) but must have 12 (q, qd, qdd of joints='RRPR')" in str(err.value)
     assert "18 columns are 6 joints, e.g. joints='RRRRRR'" in str(err.value)
     d = gipdyn.simulate("scara", samples=40, seed=3)
     m = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=2).fit(d["X"], d["tau"])
     with pytest.raises(ValueError, match="the model was trained on these joints"):
         m.predict(X)
-    assert m.predict(d["X"][0]).shape == (1, 4)  # one state as a 1-D row
+    assert m.predict(d["X"][:1]).shape == (1, 4) and m.predict_one(d["X"][0]).shape == (4,)
 
 
 def test_a_robot_gives_the_joint_types_when_joints_is_not_given():
@@ -241,7 +241,7 @@ def test_a_robot_gives_the_joint_types_when_joints_is_not_given():
     # A robot of another joint count than X: the message names the robot.
     with pytest.raises(ValueError) as err:
         gipdyn.InverseDynamicsGP(kernel="pp", robot="scara", max_iter=5).fit(d["X"], d["tau"])
-    assert "X must have 12 columns (q, qd, qdd of joints='RRPR'), got 18" in str(err.value)
+    assert "X has 18 columns (n_features=18) but must have 12 (q, qd, qdd of joints='RRPR')" in str(err.value)
     assert "they are the joints of robot='scara'" in str(err.value)
     with pytest.raises(ValueError, match="they are the joints of robot='scara'"):  # a Robot object, by its name
         gipdyn.InverseDynamicsGP(kernel="pp", robot=gipdyn.Robot.load("scara"), max_iter=5).fit(d["X"], d["tau"])
@@ -258,8 +258,10 @@ def test_one_joint_takes_a_1d_target_like_scikit_learn():
     tau = 0.2 * X[:, 2] + 1.5 * np.cos(X[:, 0]) + 0.001 * rng.standard_normal(60)
     as_vector = gipdyn.InverseDynamicsGP(joints="R", teacher="none").fit(X, tau)
     as_column = gipdyn.InverseDynamicsGP(joints="R", teacher="none").fit(X, tau[:, None])
-    np.testing.assert_array_equal(as_vector.predict(X[:5]), as_column.predict(X[:5]))
-    assert gipdyn.nmse(tau[:, None], as_vector.predict(X)).max() < 1e-3
+    # The same model; predictions in the shape of the target, as scikit-learn's regressors give them.
+    np.testing.assert_array_equal(as_vector.predict(X[:5]), as_column.predict(X[:5])[:, 0])
+    assert as_vector.predict(X[:5]).shape == (5,) and as_column.predict(X[:5]).shape == (5, 1)
+    assert gipdyn.nmse(tau[:, None], as_vector.predict(X)[:, None]).max() < 1e-3
 
 
 def test_read_log_reads_what_the_command_line_reads(tmp_path):
@@ -392,7 +394,7 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
 
 
 def test_estimator_options_are_the_librarys_own():
-    o = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, seed=5,
+    o = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, random_state=5,
                                  scaling="center", min_noise=1e-6, mean="linear", prior="lognormal",
                                  prior_width=1.5).estimator_options()
     assert isinstance(o, gipdyn.EstimatorOptions)
@@ -700,14 +702,14 @@ def test_preset_real_sets_the_kernel_and_subsample_and_explicit_parameters_overr
     assert gipdyn.InverseDynamicsGP(preset="real", kernel="gip").estimator_options().name == "gip"
     assert gipdyn.InverseDynamicsGP(preset="default").estimator_options().name == "gip"
     d = gipdyn.simulate("scara", samples=1200, seed=3, dt=0.05)
-    m = gipdyn.InverseDynamicsGP(preset="real", max_iter=5).fit(d["X"], d["tau"])
+    m = gipdyn.InverseDynamicsGP(joints="RRPR", preset="real", max_iter=5).fit(d["X"], d["tau"])
     assert m.model_.num_training_samples == 1000 and m.model_.kernel == "gip-envelope+friction"
-    m = gipdyn.InverseDynamicsGP(preset="real", subsample=150, max_iter=5).fit(d["X"], d["tau"])
+    m = gipdyn.InverseDynamicsGP(joints="RRPR", preset="real", subsample=150, max_iter=5).fit(d["X"], d["tau"])
     assert m.model_.num_training_samples == 150
     with pytest.raises(ValueError, match="unknown preset 'fancy'"):
-        gipdyn.InverseDynamicsGP(preset="fancy").fit(d["X"], d["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", preset="fancy").fit(d["X"], d["tau"])
     with pytest.raises(ValueError, match="subsample must be >= 0"):
-        gipdyn.InverseDynamicsGP(subsample=-1).fit(d["X"], d["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", subsample=-1).fit(d["X"], d["tau"])
 
 
 MPIRUN = __import__("shutil").which("mpirun")
@@ -719,7 +721,7 @@ def test_distributed_fit_under_mpirun_gives_the_in_process_model(tmp_path):
     script.write_text(
         "import sys, numpy as np, gipdyn\n"
         "d = gipdyn.simulate('scara', samples=220, seed=31)\n"
-        "est = gipdyn.InverseDynamicsGP(joints='RRPR', max_iter=12, min_noise=1e-3, threads=1, distributed=True,\n"
+        "est = gipdyn.InverseDynamicsGP(joints='RRPR', max_iter=12, min_noise=1e-3, n_jobs=1, distributed=True,\n"
         "                               teacher='auto')\n"
         "est.fit(d['X'], d['tau'])\n"
         "t = gipdyn.simulate('scara', samples=50, seed=32)\n"
@@ -733,7 +735,7 @@ def test_distributed_fit_under_mpirun_gives_the_in_process_model(tmp_path):
     assert r.returncode == 0, r.stderr
     assert "processes 2 teaching no teacher" in r.stdout  # teacher="auto" chooses none for a distributed fit
     d = gipdyn.simulate("scara", samples=220, seed=31)
-    single = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=12, min_noise=1e-3, threads=1).fit(d["X"], d["tau"])
+    single = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=12, min_noise=1e-3, n_jobs=1).fit(d["X"], d["tau"])
     a = single.predict(gipdyn.simulate("scara", samples=50, seed=32)["X"])
     b = np.load(out)
     assert np.linalg.norm(a - b) < 1e-7 * np.linalg.norm(a)
@@ -791,7 +793,7 @@ def test_neighbour_consistency_finds_the_noise_and_a_changed_torque():
 def test_gip_taught_by_lip_learns_lips_torques_at_drawn_states():
     train = gipdyn.simulate("scara", samples=120, seed=1)
     kwargs = dict(joints="RRPR", max_iter=40, teacher="lip", teacher_states=150, teacher_hyperparameter_rows=0,
-                  student_hyperparameter_rows=100, seed=3)
+                  student_hyperparameter_rows=100, random_state=3)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", gipdyn.ConvergenceWarning)
         taught = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"], train["tau"])
@@ -857,7 +859,7 @@ def test_auto_teacher_is_for_the_gip_kernel_alone():
     # The library's choose_teacher: teacher="auto" on another kernel has no teacher and learns from the log, as the
     # CLI's default train does (the teacher that cannot start: tests/cli, under an address-space limit).
     train = gipdyn.simulate("scara", samples=80, seed=2)
-    kwargs = dict(joints="RRPR", kernel="rbf", max_iter=10, seed=1)
+    kwargs = dict(joints="RRPR", kernel="rbf", max_iter=10, random_state=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         auto = gipdyn.InverseDynamicsGP(teacher="auto", **kwargs).fit(train["X"], train["tau"])
@@ -916,7 +918,7 @@ def test_gip_taught_by_an_identified_chain():
     # tracks KDL's torques on a new motion as well as it tracks its teacher.
     train = gipdyn.simulate("scara", samples=300, seed=1, dt=0.05)
     test = gipdyn.simulate("scara", samples=200, seed=2, dt=0.05)
-    taught = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="chain", teacher_states=600, seed=4).fit(
+    taught = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="chain", teacher_states=600, random_state=4).fit(
         train["X"], train["tau"])
     assert taught.teaching_ == "taught"
     assert taught.teacher_ is None  # only a LIP teacher is kept as a Python object
