@@ -748,6 +748,60 @@ TEST(AtomicFiles, TemporariesOfDeadProcessesAreRemoved) {
   EXPECT_EQ(file_text(dir / "out.csv"), "a\n1\n");
 }
 
+// A log exported by another tool, read with LogColumns, is the same dataset as the log under gipdyn's names.
+TEST(LogColumns, ALogUnderOtherNamesReadsAsTheSameLogUnderGipdynsNames) {
+  const JointTypes rr = JointTypes::parse("RR");
+  const std::string values = "0.0,1,2,3,4,5,6,7,8\n0.1,1.5,2.5,3.5,4.5,5.5,6.5,7.5,8.5\n";
+  const std::string ours = write_text_file("ours.csv", "t,q1,q2,qd1,qd2,qdd1,qdd2,tau1,tau2\n" + values);
+  // ROS joint_states: joints counted from 0, in another column order; numbered from 1 with a suffix.
+  const std::string ros = write_text_file(
+      "ros.csv", "t,position_0,position_1,velocity_0,velocity_1,acc_0,acc_1,effort_0,effort_1\n" + values);
+  const std::string suffixed = write_text_file("suffixed.csv", "t,j1_pos,j2_pos,qd1,qd2,qdd1,qdd2,tau1,tau2\n" + values);
+  const Dataset expected = read_dataset(ours, rr, true);
+  const LogColumns ros_names = parse_log_columns("q=position_{i0},qd=velocity_{i0},qdd=acc_{i0},tau=effort_{i0}");
+  const Dataset from_ros = read_dataset(ros, rr, true, "", ros_names);
+  EXPECT_EQ(from_ros.X, expected.X);
+  EXPECT_EQ(from_ros.tau, expected.tau);
+  const Dataset from_suffixed = read_dataset(suffixed, rr, true, "", parse_log_columns("q=j{i}_pos"));
+  EXPECT_EQ(from_suffixed.X, expected.X);
+  // The same patterns from a JSON file.
+  const std::string json = write_text_file(
+      "columns.json", R"({"q": "position_{i0}", "qd": "velocity_{i0}", "qdd": "acc_{i0}", "tau": "effort_{i0}"})");
+  EXPECT_EQ(read_dataset(ros, rr, true, "", parse_log_columns(json)).X, expected.X);
+  EXPECT_EQ(ros_names.log_name("tau", 2), "effort_1");
+  EXPECT_TRUE(parse_log_columns("").is_default());
+  EXPECT_FALSE(ros_names.is_default());
+}
+
+TEST(LogColumns, PatternsThatCannotBeRightAreRefusedByName) {
+  const auto contains = [](const std::string& text, const std::string& part) {
+    return text.find(part) != std::string::npos;
+  };
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns("q=position"); }),
+                       "LogColumns::q ('position') must hold exactly one {i}"));
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns("q={i}_{i0}"); }), "exactly one"));
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns("q=p{i},tau=p{i}"); }),
+                       "LogColumns::q and LogColumns::tau are both ('p{i}')"));
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns("torque=effort_{i}"); }), "unknown quantity 'torque'"));
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns("q=a{i},q=b{i}"); }), "name q twice"));
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns("q:position_{i0}"); }), "neither"));
+  EXPECT_TRUE(contains(error_of([] { parse_log_columns(write_text_file("bad.json", "[1]")); }), "not a JSON object"));
+  const JointTypes rr = JointTypes::parse("RR");
+  const std::string header_and_row = ",qd1,qd2,qdd1,qdd2,tau1,tau2\n1,2,3,4,5,6,7,8,9\n";
+  // Two columns under one name: both p1 and p01 would be q1.
+  const std::string both = write_text_file("both.csv", "p1,p2,p01" + header_and_row);
+  EXPECT_TRUE(contains(error_of([&] { read_dataset(both, rr, true, "", parse_log_columns("q=p{i}")); }),
+                       "columns 'p1' and 'p01' would both be q1"));
+  // gipdyn's own name of a renamed quantity is not read as it.
+  const std::string plain = write_text_file("plain.csv", "q1,q2,x" + header_and_row);
+  EXPECT_TRUE(contains(error_of([&] { read_dataset(plain, rr, true, "", parse_log_columns("q=pos{i}")); }),
+                       "has a column 'q1', gipdyn's name of a joint's q, but LogColumns::q says the log calls them pos{i}"));
+  // A missing column is named as the log would call it.
+  const std::string no_tau = write_text_file("no_tau.csv", "q1,q2,qd1,qd2,qdd1,qdd2,e1,e2\n1,2,3,4,5,6,7,8\n");
+  EXPECT_TRUE(contains(error_of([&] { read_dataset(no_tau, rr, true, "", parse_log_columns("tau=effort_{i}")); }),
+                       "has no column 'effort_1' (tau1 under the log's column names, LogColumns)"));
+}
+
 TEST(Dataset, ReadsColumnsByNameInAnyOrderAndNamesEachProblem) {
   const fs::path dir = temp_dir();
   const auto write = write_text_file;

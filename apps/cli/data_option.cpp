@@ -11,17 +11,27 @@
 
 namespace gipdyn::cli {
 
-void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, const std::string& csv_help) {
+void add_columns_option(CLI::App& app, std::string& columns) {
+  app.add_option("--columns", columns,
+                 "What the log calls gipdyn's columns, when it has other names: q=PATTERN,qd=PATTERN,qdd=PATTERN,"
+                 "tau=PATTERN, {i} the joint's number from 1 and {i0} from 0 (e.g. q=position_{i0},qd=velocity_{i0},"
+                 "tau=effort_{i0} for a ROS joint_states export), or a JSON file of them; quantities not named keep "
+                 "gipdyn's names (README.md, \"Data files\")");
+}
+
+void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, std::string& columns,
+                     const std::string& csv_help) {
   app.add_option("--data", path, csv_help + ", or a .mat file with --mat-variable")
       ->required()
       ->check(CLI::ExistingFile);
   app.add_option("--mat-variable", mat_variable,
                  "--data is a MATLAB .mat file: read this matrix variable, whose columns are q, qd, qdd (and tau) of "
                  "every joint, in that order");
+  add_columns_option(app, columns);
 }
 
 JointTypes joint_types_option(const std::string& joints, const std::string& path, const std::string& mat_variable,
-                              const std::string& robot) {
+                              const std::string& robot, const LogColumns& columns) {
   if (!joints.empty()) {
     const JointTypes given = JointTypes::parse(joints);
     if (mat_variable.empty()) {
@@ -39,7 +49,7 @@ JointTypes joint_types_option(const std::string& joints, const std::string& path
   std::string found;
   int n = 0;  // joints the CSV's columns name; 0 for a .mat file, whose columns name none
   if (mat_variable.empty()) {
-    n = joint_column_count(read_csv_header(path));
+    n = joint_column_count(read_csv_header(path, columns));
     if (const std::optional<JointTypes> recorded = sidecar_joint_types(path)) {
       if (static_cast<int>(recorded->size()) != n)
         throw Error("'" + path + ".json' records " + std::to_string(recorded->size()) + " joint types (" +

@@ -33,7 +33,7 @@ double sample_time_of(const CLI::Option& option, double given, const std::string
 
 Command add_detect(CLI::App& app) {
   struct Args {
-    std::string model, data, mat_variable, out, calibration, plot, method = "residual";
+    std::string model, data, mat_variable, columns, out, calibration, plot, method = "residual";
     ContactOptions options;
     bool quiet = false, noise_only = false;
   };
@@ -47,7 +47,7 @@ Command add_detect(CLI::App& app) {
       "standard deviation (" + joined(uncertainty_estimator_names()) + ") with the noise it learned, or\n"
       "with the noise measured on --calibration rows; k follows from --false-alarm-rate.");
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
-  add_data_option(app, a->data, a->mat_variable,
+  add_data_option(app, a->data, a->mat_variable, a->columns,
                   "Log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun, consecutive rows at a "
                   "constant period; ext1_true..extn_true where the true external torque is known (simulate --contacts)");
   app.add_option("--out", a->out,
@@ -85,12 +85,12 @@ Command add_detect(CLI::App& app) {
     a->options.validate();
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     const std::string owner = "the model '" + a->model + "'";
-    const Dataset log = read_robot_log(a->data, a->mat_variable, model->joints(), true, owner);
+    const Dataset log = read_robot_log(a->data, a->mat_variable, model->joints(), true, owner, parse_log_columns(a->columns));
     const int n = model->joints().size();
     const Eigen::MatrixXd& truth = log.external_true;
     ContactDetector detector(*model, a->options);
     if (!a->calibration.empty()) {
-      const Dataset calibration = read_robot_log(a->calibration, "", model->joints(), true, owner);
+      const Dataset calibration = read_robot_log(a->calibration, "", model->joints(), true, owner, parse_log_columns(a->columns));
       detector.calibrate(calibration.X, calibration.tau);
     }
     const ContactDetection d = detector.detect(log.X, log.tau);

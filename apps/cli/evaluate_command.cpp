@@ -232,12 +232,12 @@ int write_diagnostics(const std::string& dir, int window, const Estimator& model
 
 Command add_evaluate(CLI::App& app) {
   struct Args {
-    std::string model, data, mat_variable, json, plots, physics;
+    std::string model, data, mat_variable, columns, json, plots, physics;
     int plot_window = 1000;
   };
   auto a = std::make_shared<Args>();
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
-  add_data_option(app, a->data, a->mat_variable, "Test log: CSV with q, qd, qdd and tau columns (tau*_true used when present)");
+  add_data_option(app, a->data, a->mat_variable, a->columns, "Test log: CSV with q, qd, qdd and tau columns (tau*_true used when present)");
   app.add_option("--json", a->json, "Also write the report as JSON (keys nmse, mse, gmse)");
   app.add_option("--plots", a->plots,
                  "Diagnostics folder: predicted vs measured torque over time, residual histograms and, for GP "
@@ -252,7 +252,7 @@ Command add_evaluate(CLI::App& app) {
     std::unique_ptr<PhysicsComparison> physics;
     if (a->plot_window < 1) throw Error("--plot-window must be >= 1");
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
-    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
+    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'", parse_log_columns(a->columns));
     const bool noise_free = data.tau_true.size() > 0;
     const Eigen::MatrixXd& target = noise_free ? data.tau_true : data.tau;
     const Eigen::MatrixXd prediction = model->predict(data.X);

@@ -78,6 +78,11 @@ const FieldNames& cli_field_names() {
       {"PreprocessOptions::drop_rest", "--drop-rest"},
       {"PreprocessOptions::segment_starts", "--segment-starts"},
       {"PreprocessOptions::max_gap_steps", "--max-gap"},
+      {"LogColumns::qdd", "--columns qdd"},
+      {"LogColumns::qd", "--columns qd"},
+      {"LogColumns::q", "--columns q"},
+      {"LogColumns::tau", "--columns tau"},
+      {"LogColumns", "--columns"},
   };
   return names;
 }

@@ -27,7 +27,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct InspectArgs {
-  std::string data, mat_variable, joints, train_rows, test_rows, test, out, plot;
+  std::string data, mat_variable, columns, joints, train_rows, test_rows, test, out, plot;
   NeighbourConsistencyOptions options;
   bool quiet = false;
 };
@@ -93,14 +93,14 @@ int run_inspect(const InspectArgs& a) {
   refuse_overwrites(inputs, outputs);
   a.options.validate();
 
-  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable);
+  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, "", parse_log_columns(a.columns));
   NeighbourConsistencyOptions options = a.options;
   options.joints = joints.str();  // revolute positions compared on the circle
-  const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true);
+  const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true, "", parse_log_columns(a.columns));
   const Dataset train = rows_of(log, a.train_rows, "--train-rows");
   std::optional<Dataset> test;
   if (!a.test_rows.empty()) test = rows_of(log, a.test_rows, "--test-rows");
-  if (!a.test.empty()) test = read_robot_log(a.test, a.mat_variable, joints, true);
+  if (!a.test.empty()) test = read_robot_log(a.test, a.mat_variable, joints, true, "", parse_log_columns(a.columns));
 
   if (test) {
     if (const Eigen::Index shared = count_shared_rows(train.X, test->X); shared > 0)
@@ -184,7 +184,7 @@ int run_inspect(const InspectArgs& a) {
 
 Command add_inspect(CLI::App& app) {
   auto a = std::make_shared<InspectArgs>();
-  add_data_option(app, a->data, a->mat_variable, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
+  add_data_option(app, a->data, a->mat_variable, a->columns, "Robot log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints,
                  "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRRRRR (default: those the log's .json sidecar records, as simulate writes them; else required)");
   app.add_option("--train-rows", a->train_rows, "Training rows FIRST-LAST of --data (1-based data rows; default: all)");

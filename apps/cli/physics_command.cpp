@@ -4,6 +4,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "data_option.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
@@ -16,7 +17,7 @@ namespace gipdyn::cli {
 
 Command add_physics(CLI::App& app) {
   struct Args {
-    std::string model, data, out;
+    std::string model, data, columns, out;
   };
   auto a = std::make_shared<Args>();
   app.description(
@@ -28,6 +29,7 @@ Command add_physics(CLI::App& app) {
   app.add_option("--model", a->model, "Model file from `gipdyn train`")->required()->check(CLI::ExistingFile);
   app.add_option("--data", a->data, "CSV of states: q1..qn, and qd1..qdn for the velocity terms (others ignored)")
       ->required()->check(CLI::ExistingFile);
+  add_columns_option(app, a->columns);
   app.add_option("--out", a->out,
                  "Output CSV: g1..gn, M1_1..Mn_n (row i, column j), [coriolis1..n, friction1..n], "
                  "M_asymmetry, M_min_eigenvalue; lip: potential_energy [, kinetic_energy]")
@@ -37,14 +39,15 @@ Command add_physics(CLI::App& app) {
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     require_physics(*model);
     const int n = model->joints().size();
-    const CsvHeader columns = read_csv_header(a->data);
+    const LogColumns log_columns = parse_log_columns(a->columns);
+    const CsvHeader columns = read_csv_header(a->data, log_columns);
     require_joint_columns(columns, a->data, model->joints(), "the model '" + a->model + "'");
-    const Eigen::MatrixXd Q = read_csv_columns(a->data, joint_column_names("q", n));
+    const Eigen::MatrixXd Q = read_csv_columns(a->data, joint_column_names("q", n), log_columns);
     const bool with_velocity = columns.has("qd1");
     const Eigen::MatrixXd g = gravity(*model, Q);
     const std::vector<Eigen::MatrixXd> M = inertia(*model, Q);
     const std::vector<Eigen::MatrixXd> M_learned = inertia(*model, Q, InertiaForm::AsLearned);
-    const Eigen::MatrixXd QD = with_velocity ? read_csv_columns(a->data, joint_column_names("qd", n)) : Eigen::MatrixXd();
+    const Eigen::MatrixXd QD = with_velocity ? read_csv_columns(a->data, joint_column_names("qd", n), log_columns) : Eigen::MatrixXd();
     VelocityTerms v;
     if (with_velocity) v = velocity_terms(*model, Q, QD);
 

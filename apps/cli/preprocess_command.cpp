@@ -3,6 +3,7 @@
 #include <memory>
 
 #include "commands.hpp"
+#include "data_option.hpp"
 #include "output_guard.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/csv.hpp"
@@ -14,6 +15,7 @@ Command add_preprocess(CLI::App& app) {
   struct Args {
     std::string in, out;
     PreprocessOptions options;
+    std::string columns;  // --columns, parsed into options.columns
     bool quiet = false;
   };
   auto a = std::make_shared<Args>();
@@ -25,6 +27,7 @@ Command add_preprocess(CLI::App& app) {
       "tau1..taun (qd1..qn optional). Writes t, q, qd, qdd, tau columns and OUT.json, which records every step.");
   app.add_option("--data,--in", a->in, "Raw log (CSV with a header row); --in is the older name")->required()->check(CLI::ExistingFile);
   app.add_option("--out", a->out, "Output dataset CSV (+ OUT.json)")->required();
+  add_columns_option(app, a->columns);
   app.add_option("--time-column", a->options.time_column, "Name of the time column in seconds (default: t, else time)");
   app.add_option("--log-period", a->options.log_period,
                  "The log has no time column: its rows are this many seconds apart (e.g. 0.008 for 125 Hz)");
@@ -54,6 +57,7 @@ Command add_preprocess(CLI::App& app) {
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
     refuse_overwrites({{"--data", a->in}}, {{"--out", a->out}, {"--out (its .json report)", a->out + ".json"}});
+    a->options.columns = parse_log_columns(a->columns);
     const PreprocessedLog log = preprocess_log(a->in, a->options);
     write_csv_with_sidecar(a->out, log.column_names(), log.table(), log.report);
     for (const auto& s : log.report["steps"])

@@ -29,7 +29,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, mat_variable, joints, kernel = default_estimator_name(), out, preset, teacher = kAutomaticTeacher, teacher_out;
+  std::string data, mat_variable, columns, joints, kernel = default_estimator_name(), out, preset, teacher = kAutomaticTeacher, teacher_out;
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -98,7 +98,7 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
     throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
   check_estimator_options(o);
   if (!a.preset.empty() && app.count("--subsample") == 0) a.subsample = preset_max_training_rows(a.preset);
-  data = read_robot_log(a.data, a.mat_variable, joints, true);
+  data = read_robot_log(a.data, a.mat_variable, joints, true, "", parse_log_columns(a.columns));
   for (const auto& w : training_input_warnings(data.X, joints, a.data)) data_warnings.push_back(w);
   plan.total = data.rows();
   if (a.subsample > 0) data = data.subset(constant_step_indices(plan.total, a.subsample));
@@ -233,7 +233,7 @@ int run_train(TrainArgs& a, const CLI::App& app) {
   std::unique_ptr<DistributedRun> mpi;
   if (a.distributed) mpi = std::make_unique<DistributedRun>();
   if (mpi && !mpi->is_root()) a.quiet = true;
-  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, a.estimator.robot);
+  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, a.estimator.robot, parse_log_columns(a.columns));
   TrainPlan plan;
   std::string setup_error;
   try {
@@ -296,7 +296,7 @@ const char* const kTeacherOptions = "Teacher (GIP taught by LIP: train's default
 
 Command add_train(CLI::App& app) {
   auto a = std::make_shared<TrainArgs>();
-  add_data_option(app, a->data, a->mat_variable, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
+  add_data_option(app, a->data, a->mat_variable, a->columns, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else those of --robot; else required)");
   app.add_option("--kernel", a->kernel,
                  "Estimator, one of those listed under Estimators below (docs/choosing-a-model.md says which for "

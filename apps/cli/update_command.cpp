@@ -22,7 +22,7 @@ namespace gipdyn::cli {
 
 Command add_update(CLI::App& app) {
   struct Args {
-    std::string model, data, mat_variable, out;
+    std::string model, data, mat_variable, columns, out;
     long window = 0;
     bool quiet = false, refit = false, replace = false;
     int max_iter = OptimizerOptions{}.max_iterations, threads = 0;
@@ -30,7 +30,7 @@ Command add_update(CLI::App& app) {
   auto a = std::make_shared<Args>();
   app.add_option("--model", a->model, "GP model file from `gipdyn train` (or an earlier update)")
       ->required()->check(CLI::ExistingFile);
-  add_data_option(app, a->data, a->mat_variable, "New samples: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
+  add_data_option(app, a->data, a->mat_variable, a->columns, "New samples: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--window", a->window,
                  "Keep only the newest this many rows (a sliding window; 0: keep every row)")
       ->capture_default_str();
@@ -55,7 +55,7 @@ Command add_update(CLI::App& app) {
     if (!model)
       throw Error("--model holds a " + estimator->name() +
                   " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
-    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'");
+    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'", parse_log_columns(a->columns));
     if (a->replace && model->is_sparse())
       throw Error("--replace needs an exact GP model: a sparse model's inducing rows come from its own data "
                   "(train the sparse model on the new log instead)");

@@ -29,6 +29,7 @@
 // Distributed training (MPI + ScaLAPACK, gipdyn::distributed) is not included
 // here, so that this header never needs mpi.h: gipdyn/distributed/distributed_nll.hpp.
 #include "gipdyn/io/csv.hpp"
+#include "gipdyn/io/log_columns.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/joint_types.hpp"

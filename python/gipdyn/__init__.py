@@ -855,11 +855,16 @@ class LagrangianGP(InverseDynamicsGP):
 
 
 
-def read_log(path, joints=None, mat_variable=None, torques=True):
+def read_log(path, joints=None, mat_variable=None, torques=True, columns=None):
     """Read a robot log as the command line does: a CSV with columns q1..qn,
     qd1..qdn, qdd1..qddn and tau1..taun (any order and separator; README.md,
     "Data files"), or, with mat_variable, that matrix of a MATLAB .mat file
-    (columns by position). joints is the joint-type string ("RRPR"); None:
+    (columns by position). columns says what a CSV calls gipdyn's columns
+    when it has other names: a dict of patterns, {i} the joint's number from 1
+    and {i0} from 0, e.g. {"q": "position_{i0}", "qd": "velocity_{i0}",
+    "tau": "effort_{i0}"} for a ROS joint_states export (quantities not named
+    keep gipdyn's names), or the path of a JSON file of them, as the command
+    line's --columns. joints is the joint-type string ("RRPR"); None:
     the types the CSV's PATH.json sidecar records (`gipdyn simulate` writes
     them). Returns a dict of NumPy arrays q, qd, qdd, X (= [q, qd, qdd]), tau
     (None when torques=False) and tau_true (None unless the file has
@@ -870,7 +875,9 @@ def read_log(path, joints=None, mat_variable=None, torques=True):
         if joints is None:
             raise ValueError(f"joints is required for '{path}': one 'R' (revolute) or 'P' (prismatic) per joint, which "
                              "a log cannot tell apart (a log written by gipdyn simulate records them in its .json sidecar)")
-    return _core.read_log(str(path), str(joints), mat_variable or "", bool(torques))
+    if isinstance(columns, dict):
+        columns = ",".join(f"{quantity}={pattern}" for quantity, pattern in columns.items())
+    return _core.read_log(str(path), str(joints), mat_variable or "", bool(torques), columns or "")
 
 
 def simulate(robot="scara", samples=2000, seed=0, noise=0.01, dt=0.01, perturb_kinematics=False, friction=False,

@@ -90,6 +90,11 @@ const FieldNames& python_field_names() {
       {"ContactOptions::sample_time", "sample_time"},
       {"ContactOptions::momentum_gain", "momentum_gain"},
       {"ContactDetector::calibrate", "ContactDetector.calibrate(X, tau)"},
+      {"LogColumns::qdd", "columns[\"qdd\"]"},
+      {"LogColumns::qd", "columns[\"qd\"]"},
+      {"LogColumns::q", "columns[\"q\"]"},
+      {"LogColumns::tau", "columns[\"tau\"]"},
+      {"LogColumns", "read_log(columns=...)"},
       {kMatFileAdvice, "read it with gipdyn.read_log(path, joints, mat_variable=NAME)"},
       {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: subsample=N)"},
   };
@@ -786,12 +791,14 @@ void bind_data(py::module_& m) {
 
   m.def(
       "read_log",
-      [](const std::string& path, const std::string& joints, const std::string& mat_variable, bool require_tau) {
+      [](const std::string& path, const std::string& joints, const std::string& mat_variable, bool require_tau,
+         const std::string& columns) {
         const JointTypes types = JointTypes::parse(joints);
+        const LogColumns log_columns = parse_log_columns(columns);
         Dataset d;
         {
           py::gil_scoped_release release;
-          d = read_robot_log(path, mat_variable, types, require_tau);
+          d = read_robot_log(path, mat_variable, types, require_tau, "", log_columns);
         }
         const int n = types.size();
         py::dict out;
@@ -804,7 +811,8 @@ void bind_data(py::module_& m) {
         out["joints"] = types.str();
         return out;
       },
-      py::arg("path"), py::arg("joints"), py::arg("mat_variable") = "", py::arg("require_tau") = true);
+      py::arg("path"), py::arg("joints"), py::arg("mat_variable") = "", py::arg("require_tau") = true,
+      py::arg("columns") = "");
   m.def(
       "sidecar_joint_types",
       [](const std::string& path) -> std::optional<std::string> {

@@ -298,6 +298,16 @@ def test_read_log_reads_what_the_command_line_reads(tmp_path):
     (tmp_path / "log.csv.json").write_text('{"joints": "RRXR"}')
     with pytest.raises(gipdyn.GipdynError, match="log.csv.json' of .* records bad joint types"):
         gipdyn.read_log(csv)
+    # A ROS joint_states export (joints counted from 0) by its own names, from a dict of patterns.
+    ros_names = {"q": "position_{i0}", "qd": "velocity_{i0}", "qdd": "acceleration_{i0}", "tau": "effort_{i0}"}
+    ros = [ros_names[k].replace("{i0}", str(j - 1)) for k in ("q", "qd", "qdd", "tau") for j in range(1, 5)]
+    np.savetxt(tmp_path / "ros.csv", np.hstack([data["X"], data["tau"]]), delimiter=",", comments="", fmt="%.17g",
+               header=",".join(ros))
+    from_ros = gipdyn.read_log(tmp_path / "ros.csv", "RRPR", columns=ros_names)
+    np.testing.assert_array_equal(from_ros["X"], data["X"])
+    np.testing.assert_array_equal(from_ros["tau"], data["tau"])
+    with pytest.raises(gipdyn.GipdynError, match=r'columns\["q"\] \(\'position\'\) must hold exactly one'):
+        gipdyn.read_log(tmp_path / "ros.csv", "RRPR", columns={"q": "position"})
 
 
 def test_version_is_the_projects():

@@ -94,7 +94,8 @@ struct HeaderPosition {
 // that line is data: then it is the comment just before it (numpy.savetxt
 // writes "# q1 q2 ...", rostopic "%time,field..."), and the comments before
 // are a preamble.
-CsvHeader parse_header(std::ifstream& in, const std::string& path, HeaderPosition* position = nullptr) {
+CsvHeader parse_header(std::ifstream& in, const std::string& path, const LogColumns& log_columns,
+                       HeaderPosition* position = nullptr) {
   std::string line, last_comment;
   bool found = false, after_comment = false;
   long lines_read = 0;
@@ -150,6 +151,7 @@ CsvHeader parse_header(std::ifstream& in, const std::string& path, HeaderPositio
                   " of the header); rename or remove one");
     h.names.push_back(name);
   }
+  h.names = log_columns.renamed(h.names, path);
   return h;
 }
 
@@ -178,8 +180,23 @@ std::string canonical_column(const std::string& name) {
 // Names the file's columns, and one that differs from the wanted one only in
 // case, separators or a common spelling ("Q_1" or "pos1" for "q1", "dq1" for
 // "qd1"), so that a log with its own naming is fixed by renaming, not guessed at.
-std::string missing_column_message(const std::string& path, const std::string& wanted, const CsvHeader& header) {
+std::string missing_column_message(const std::string& path, const std::string& wanted, const CsvHeader& header,
+                                   const LogColumns& log_columns) {
   std::string message = "'" + path + "' has no column '" + wanted + "'";
+  if (!log_columns.is_default()) {  // name the column the log's names give it
+    const size_t digits = wanted.find_first_of("0123456789");
+    const std::string quantity = wanted.substr(0, digits);
+    const auto& quantities = log_column_quantities();
+    if (digits != std::string::npos && std::find(quantities.begin(), quantities.end(), quantity) != quantities.end() &&
+        wanted.find_first_not_of("0123456789", digits) == std::string::npos) {
+      const std::string log_name = log_columns.log_name(quantity, std::stoi(wanted.substr(digits)));
+      if (log_name != wanted)
+        return message = "'" + path + "' has no column '" + log_name + "' (" + wanted +
+                         " under the log's column names, LogColumns)";
+      message += " (LogColumns keeps gipdyn's name for " + quantity + ": give the log's name of it there)";
+      return message;
+    }
+  }
   for (const auto& name : header.names)
     if (canonical_column(name) == canonical_column(wanted))
       return message + " (its column '" + name + "' looks like it: rename it)";
@@ -196,28 +213,30 @@ void require_joints_counted_from_one(const CsvHeader& header, const std::string&
     if (canonical_column(name) == "q0")
       throw Error("'" + path + "' has a column '" + name +
                   "': its joints are counted from 0, gipdyn's from 1 (q1 is the first joint); rename the columns "
-                  "q0..q(n-1) to q1..qn, and qd, qdd and tau likewise");
+                  "q0..q(n-1) to q1..qn, and qd, qdd and tau likewise, or say what the log calls them (LogColumns, "
+                  "e.g. q=" + name.substr(0, name.find_first_of("0123456789")) + "{i0})");
 }
 
 bool CsvHeader::has(const std::string& name) const {
   return std::find(names.begin(), names.end(), name) != names.end();
 }
 
-CsvHeader read_csv_header(const std::string& path) {
+CsvHeader read_csv_header(const std::string& path, const LogColumns& columns) {
   auto in = open(path);
-  return parse_header(in, path);
+  return parse_header(in, path, columns);
 }
 
-Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns) {
+Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns,
+                                 const LogColumns& log_columns) {
   auto in = open(path);
   HeaderPosition position;
-  const CsvHeader header = parse_header(in, path, &position);
+  const CsvHeader header = parse_header(in, path, log_columns, &position);
   std::unordered_map<std::string, size_t> index;
   for (size_t k = 0; k < header.names.size(); ++k) index.emplace(header.names[k], k);
   std::vector<size_t> wanted;
   for (const auto& c : columns) {
     auto it = index.find(c);
-    if (it == index.end()) throw Error(missing_column_message(path, c, header));
+    if (it == index.end()) throw Error(missing_column_message(path, c, header, log_columns));
     wanted.push_back(it->second);
   }
 

@@ -41,7 +41,7 @@ void require_joint_columns(const CsvHeader& header, const std::string& path, con
 }
 
 Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau,
-                     const std::string& joints_owner) {
+                     const std::string& joints_owner, const LogColumns& columns) {
   const int n = joints.size();
   if (std::ifstream probe(path, std::ios::binary); probe) {
     char magic[6] = {};
@@ -49,7 +49,7 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
     if (std::string(magic, sizeof magic) == "MATLAB")
       throw Error("'" + path + "' is a MATLAB .mat file, not a CSV; " + kMatFileAdvice);
   }
-  const CsvHeader header = read_csv_header(path);
+  const CsvHeader header = read_csv_header(path, columns);
   require_joint_columns(header, path, joints, joints_owner);
   Dataset d;
   std::vector<std::string> cols = input_column_names(n);
@@ -61,7 +61,7 @@ Dataset read_dataset(const std::string& path, const JointTypes& joints, bool req
   const auto external_cols = external_torque_column_names(n, "_true");
   const bool has_external = require_tau && header.has(external_cols.front());
   if (has_external) cols.insert(cols.end(), external_cols.begin(), external_cols.end());
-  const Eigen::MatrixXd all = read_csv_columns(path, cols);
+  const Eigen::MatrixXd all = read_csv_columns(path, cols, columns);
   if (all.rows() == 0) throw Error("'" + path + "' has a header but no data rows");
   d.X = all.leftCols(3 * n);
   if (require_tau) d.tau = all.middleCols(3 * n, n);

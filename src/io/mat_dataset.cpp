@@ -57,8 +57,11 @@ Dataset read_mat_dataset(const std::string& path, const std::string& variable, c
 }
 
 Dataset read_robot_log(const std::string& path, const std::string& mat_variable, const JointTypes& joints,
-                       bool require_tau, const std::string& joints_owner) {
-  if (mat_variable.empty()) return read_dataset(path, joints, require_tau, joints_owner);
+                       bool require_tau, const std::string& joints_owner, const LogColumns& columns) {
+  if (mat_variable.empty()) return read_dataset(path, joints, require_tau, joints_owner, columns);
+  if (!columns.is_default())
+    throw Error("'" + path + "': a .mat variable's columns are positional (q, qd, qdd, tau of every joint) and have "
+                "no names for LogColumns to rename; leave LogColumns at gipdyn's names");
   return read_mat_dataset(path, mat_variable, joints, require_tau);
 }
 

@@ -135,6 +135,7 @@ PreprocessedLog concatenate(const std::vector<PreprocessedLog>& parts, int n) {
 }  // namespace
 
 void PreprocessOptions::validate() const {
+  columns.validate();
   if (dt < 0.0 || !std::isfinite(dt)) throw Error("PreprocessOptions::dt must be > 0 (or 0: the log's mean step)");
   if (cutoff_hz < 0.0 || !std::isfinite(cutoff_hz)) throw Error("PreprocessOptions::cutoff_hz must be > 0 Hz (or 0: no filter)");
   if (filter_order < 1 || filter_order > 10) throw Error("PreprocessOptions::filter_order must be 1..10");
@@ -178,10 +179,13 @@ struct RawLog {
 };
 
 RawLog read_raw_log(const std::string& path, const PreprocessOptions& o) {
-  const CsvHeader header = read_csv_header(path);
+  const CsvHeader header = read_csv_header(path, o.columns);
   require_joints_counted_from_one(header, path);
   const int n = joint_column_count(header);
-  if (n == 0) throw Error("'" + path + "' has no column q1; name the joint positions q1, q2, ...");
+  if (n == 0)
+    throw Error("'" + path + "' has no column " + o.columns.log_name("q", 1) +
+                "; name the joint positions q1, q2, ..., or say what the log calls them (LogColumns, e.g. "
+                "q=position_{i0})");
   for (const auto& c : numbered("tau", n))
     if (!header.has(c))
       throw Error("'" + path + "' has q1..q" + std::to_string(n) + " but no column " + c +
@@ -204,7 +208,7 @@ RawLog read_raw_log(const std::string& path, const PreprocessOptions& o) {
   if (has_qd)
     for (const auto& c : numbered("qd", n)) columns.push_back(c);
   for (const auto& c : numbered("tau", n)) columns.push_back(c);
-  Eigen::MatrixXd raw = read_csv_columns(path, columns);
+  Eigen::MatrixXd raw = read_csv_columns(path, columns, o.columns);
   const Eigen::Index rows = raw.rows();
   if (rows < 3) throw Error("'" + path + "' has " + std::to_string(rows) + " samples; at least 3 are needed");
   if (time_column.empty()) {  // rows log_period apart, from t = 0

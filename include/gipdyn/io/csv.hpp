@@ -12,6 +12,7 @@
 #include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
+#include "gipdyn/io/log_columns.hpp"
 
 namespace gipdyn {
 
@@ -21,7 +22,8 @@ struct CsvHeader {
   bool has(const std::string& name) const;
 };
 
-CsvHeader read_csv_header(const std::string& path);
+// The header's names, those that `columns` matches renamed to gipdyn's (LogColumns::renamed).
+CsvHeader read_csv_header(const std::string& path, const LogColumns& columns = {});
 
 // Throws gipdyn::Error when the header counts joints from 0 (a column q0, or
 // another spelling of it such as pos_0): gipdyn's joints are q1..qn, and
@@ -32,7 +34,9 @@ void require_joints_counted_from_one(const CsvHeader& header, const std::string&
 // Throws gipdyn::Error for a missing file or column, a header that names a
 // column twice, a row with more or fewer cells than the header, a non-numeric
 // cell, a number outside the range of a double, or NaN/Inf.
-Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns);
+// `columns` are gipdyn's names; `log_columns` says what the file calls them.
+Eigen::MatrixXd read_csv_columns(const std::string& path, const std::vector<std::string>& columns,
+                                 const LogColumns& log_columns = {});
 
 // Writes header + rows atomically, with enough digits to round-trip doubles.
 // Throws gipdyn::Error, writing nothing, if any value is NaN or Inf.

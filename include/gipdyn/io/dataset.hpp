@@ -56,7 +56,8 @@ std::optional<double> sidecar_sample_time(const std::string& path);
 
 // Throws gipdyn::Error for a MATLAB file, a missing column, a joint count that does not match
 // the file (e.g. joints RRPR on a file with q5; joints_owner as above), bad cells or no rows.
+// `columns`: what the log calls q1.., qd1.., qdd1.., tau1.. (LogColumns).
 Dataset read_dataset(const std::string& path, const JointTypes& joints, bool require_tau,
-                     const std::string& joints_owner = "");
+                     const std::string& joints_owner = "", const LogColumns& columns = {});
 
 }  // namespace gipdyn

@@ -13,9 +13,10 @@ namespace gipdyn {
 Dataset read_mat_dataset(const std::string& path, const std::string& variable, const JointTypes& joints,
                          bool require_tau);
 
-// A robot log either way: the CSV at path (read_dataset; joints_owner as there) when mat_variable is
-// empty, else that variable of the .mat file at path.
+// A robot log either way: the CSV at path (read_dataset; joints_owner and columns as there) when
+// mat_variable is empty, else that variable of the .mat file at path, whose columns are positional
+// (columns other than the default are refused there).
 Dataset read_robot_log(const std::string& path, const std::string& mat_variable, const JointTypes& joints,
-                       bool require_tau, const std::string& joints_owner = "");
+                       bool require_tau, const std::string& joints_owner = "", const LogColumns& columns = {});
 
 }  // namespace gipdyn

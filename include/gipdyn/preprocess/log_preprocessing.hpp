@@ -17,10 +17,12 @@
 #include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
+#include "gipdyn/io/log_columns.hpp"
 
 namespace gipdyn {
 
 struct PreprocessOptions {
+  LogColumns columns;          // what the log calls q1.., qd1.., tau1.. (a qdd column is ignored: recomputed)
   std::string time_column;     // "": "t", else "time"
   double log_period = 0.0;     // > 0: the log has no time column, its rows are this many seconds apart
   double dt = 0.0;             // resampling period (s); 0: the log's mean step
