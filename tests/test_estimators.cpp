@@ -6,6 +6,7 @@
 #include <atomic>
 #include <cmath>
 #include <map>
+#include <mutex>
 #include <set>
 #include <filesystem>
 #include <thread>
@@ -14,6 +15,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -435,4 +437,125 @@ TEST(HyperparameterPrior, MapTrainingKeepsHyperparametersNearTheirStart) {
               p.validate();
             }).find("HyperparameterPrior::width"),
             std::string::npos);
+}
+
+// The choice by evidence (model_selection.hpp) against the same fits made by hand.
+namespace {
+
+Eigen::MatrixXd first_rows(const Eigen::MatrixXd& M, Eigen::Index rows) { return M.topRows(rows); }
+
+Eigen::VectorXd held_out_nmse(const Estimator& e, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, Eigen::Index fit) {
+  return compute_accuracy(Y.bottomRows(Y.rows() - fit), e.predict(X.bottomRows(X.rows() - fit))).nmse;
+}
+
+// A teacher that teaches at few states, for fits of seconds.
+TeacherOptions quick_teaching() {
+  TeacherOptions teaching;
+  teaching.states = 300;
+  teaching.student_hyperparameter_rows = 150;
+  return teaching;
+}
+
+}  // namespace
+
+TEST(ModelSelection, ScoresEachCandidateOnTheHeldOutBlockAsAHandMadeFitDoes) {
+  const SimulationResult log = scara_split(0.01, 200).train;
+  EstimatorOptions base = options("gip");
+  SelectionOptions so;
+  so.candidates = {"rbf", "gip"};
+  const TeacherOptions teaching = quick_teaching();
+  const SelectionResult r = fit_selected_estimator(base, so, log.X, log.tau, scara_robot().joint_types(), teaching);
+  const Selection& s = r.selection;
+  ASSERT_EQ(s.candidates.size(), 2u);
+  EXPECT_EQ(s.fit_rows, 150);
+  EXPECT_EQ(s.held_out_rows, 50);
+  for (const CandidateScore& c : s.candidates) {
+    ASSERT_TRUE(c.ok) << c.name << ": " << c.failure;
+    const FitResult by_hand = fit_estimator(candidate_options(c.name, base, teaching), first_rows(log.X, 150),
+                                            first_rows(log.tau, 150), scara_robot().joint_types());
+    ASSERT_TRUE(by_hand.report.ok());
+    EXPECT_TRUE(c.nmse.isApprox(held_out_nmse(*by_hand.estimator, log.X, log.tau, 150), 1e-9)) << c.name;
+    EXPECT_DOUBLE_EQ(c.mean_nmse, c.nmse.mean());
+  }
+  // On a rigid arm GIP beats the RBF GP on a motion it did not see, by far more than the tie tolerance.
+  EXPECT_LT(s.candidates[1].mean_nmse, 0.5 * s.candidates[0].mean_nmse);
+  EXPECT_EQ(s.best, "gip");
+  EXPECT_EQ(s.chosen, "gip");
+  // The chosen candidate refitted on every row, the choice recorded in the model and its file.
+  ASSERT_TRUE(r.fit.report.ok());
+  EXPECT_EQ(r.refit_rows, 200);
+  EXPECT_EQ(r.options.name, "gip");
+  EXPECT_EQ(r.fit.estimator->name(), "gip");
+  ASSERT_NE(r.fit.estimator->selection_record(), nullptr);
+  EXPECT_EQ(*r.fit.estimator->selection_record(), s.record());
+  EXPECT_EQ(s.record()["chosen"], "gip");
+  const std::string path = temp_path("selected.gipdyn");
+  save_estimator(*r.fit.estimator, path);
+  const auto loaded = load_estimator(path);
+  ASSERT_NE(loaded->selection_record(), nullptr);
+  EXPECT_EQ((*loaded->selection_record())["candidates"][0]["name"], "rbf");
+  EXPECT_NE(s.brief_report().find("chose gip: the lowest mean nMSE"), std::string::npos) << s.brief_report();
+}
+
+TEST(ModelSelection, CandidatesThatScoreAlikeGoToTheFirstInTheOrderOfPreference) {
+  const SimulationResult log = scara_split(0.01, 120).train;
+  EstimatorOptions base = options("gip");
+  SelectionOptions so;
+  so.candidates = {"rbf", "gip"};
+  so.tie_tolerance = 1e6;  // everything scores alike
+  const SelectionResult r = fit_selected_estimator(base, so, log.X, log.tau, scara_robot().joint_types());
+  EXPECT_EQ(r.selection.best, "gip");
+  EXPECT_EQ(r.selection.chosen, "rbf");
+  EXPECT_EQ(r.fit.estimator->name(), "rbf");
+  EXPECT_NE(r.selection.brief_report().find("chose rbf: within"), std::string::npos);
+}
+
+TEST(ModelSelection, GipsTeacherIsScoredAsTheLipCandidateAndMatchesItsOwnFit) {
+  const SimulationResult log = scara_split(0.01, 160).train;
+  EstimatorOptions base = options("gip");
+  SelectionOptions so;
+  so.candidates = {"gip", "lip"};
+  TeacherOptions teaching = quick_teaching();
+  teaching.hyperparameter_rows = 80;
+  std::vector<std::string> notes;
+  std::mutex mu;
+  const ProgressCallback progress = [&](const ProgressEvent& e) {
+    std::lock_guard<std::mutex> lock(mu);
+    if (e.iteration == 0 && !e.finished) notes.push_back(e.estimator + ": " + e.message);
+  };
+  const SelectionResult r =
+      fit_selected_estimator(base, so, log.X, log.tau, scara_robot().joint_types(), teaching, progress);
+  const CandidateScore& lip = r.selection.candidates[1];
+  ASSERT_TRUE(lip.ok) << lip.failure;
+  // Not fitted a second time: scored as gip's teacher.
+  EXPECT_NE(std::find(notes.begin(), notes.end(), "lip: scored as gip's teacher, fitted on the same rows"), notes.end());
+  EXPECT_EQ(std::count_if(notes.begin(), notes.end(), [](const std::string& n) { return n.rfind("lip: candidate", 0) == 0; }), 0);
+  // The lip candidate fitted on its own, with its candidate options, predicts as the teacher did.
+  const FitResult own = fit_estimator(candidate_options("lip", base, teaching), first_rows(log.X, 120),
+                                      first_rows(log.tau, 120), scara_robot().joint_types());
+  ASSERT_TRUE(own.report.ok());
+  EXPECT_TRUE(lip.nmse.isApprox(held_out_nmse(*own.estimator, log.X, log.tau, 120), 1e-9))
+      << lip.nmse.transpose() << " vs " << held_out_nmse(*own.estimator, log.X, log.tau, 120).transpose();
+}
+
+TEST(ModelSelection, ALogTooShortOrBadOptionsAreRefusedBeforeAnyWork) {
+  const SimulationResult log = scara_split(0.01, 30).train;
+  const JointTypes joints = scara_robot().joint_types();
+  EXPECT_NE(error_of([&] { fit_selected_estimator(options("gip"), {}, log.X, log.tau, joints); })
+                .find("a log of 30 rows is too short to choose an estimator by evidence"),
+            std::string::npos);
+  SelectionOptions bad;
+  bad.held_out_fraction = 1.0;
+  EXPECT_NE(error_of([&] { fit_selected_estimator(options("gip"), bad, log.X, log.tau, joints); })
+                .find("SelectionOptions::held_out_fraction must be in (0, 1)"),
+            std::string::npos);
+  SelectionOptions unknown;
+  unknown.candidates = {"gip", "magic"};
+  EXPECT_NE(error_of([&] { fit_selected_estimator(options("gip"), unknown, log.X, log.tau, joints); }).find("magic"),
+            std::string::npos);
+  // The table's candidates in their order of preference: the default first, the RBF baseline last.
+  const std::vector<std::string> candidates = selection_candidates();
+  ASSERT_GE(candidates.size(), 3u);
+  EXPECT_EQ(candidates.front(), default_estimator_name());
+  EXPECT_EQ(candidates.back(), "rbf");
 }

@@ -83,6 +83,7 @@ const FieldNames& cli_field_names() {
       {"LogColumns::q", "--columns q"},
       {"LogColumns::tau", "--columns tau"},
       {"LogColumns", "--columns"},
+      {"EstimatorOptions::name", "--kernel"},
   };
   return names;
 }

@@ -4,6 +4,7 @@
 #include <memory>
 #include <mutex>
 #include <optional>
+#include <unistd.h>
 #include <string>
 
 #include "commands.hpp"
@@ -13,9 +14,11 @@
 #include "estimator_args.hpp"
 #include "field_names.hpp"
 #include "long_fit_notice.hpp"
+#include "progress_display.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/presets.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
@@ -48,7 +51,20 @@ struct TrainPlan {
   // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
   std::vector<std::string> data_warnings;
   Eigen::Index total = 0;  // the log's rows, before --subsample
+  // --kernel auto: the estimator is chosen by evidence (fit_selected_estimator); o holds the shared search options.
+  bool select = false;
+  TeacherOptions teacher_settings;
 };
+
+// --kernel auto: the options that name one model or one way of fitting, which the choice by evidence makes itself.
+void refuse_options_beside_a_choice(const CLI::App& app) {
+  for (const char* name : {"--preset", "--teacher", "--teacher-out", "--robot", "--inducing", "--distributed",
+                           "--mean", "--warm-start-rows"})
+    if (app.count(name) > 0)
+      throw Error(std::string(name) + " chooses part of the model, and --kernel " + kAutomaticEstimator +
+                  " chooses the whole model by evidence: name an estimator with --kernel to use " + name +
+                  ", or drop it");
+}
 
 void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const JointTypes& joints, TrainPlan& plan) {
   EstimatorOptions& o = plan.o;
@@ -56,8 +72,10 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
   std::vector<std::string>& data_warnings = plan.data_warnings;
   refuse_overwrites({{"--data", a.data}, {"--robot", a.estimator.robot}},
                     {{"--out", a.out}, {"--teacher-out", a.teacher_out}});
+  plan.select = a.kernel == kAutomaticEstimator;
+  if (plan.select) refuse_options_beside_a_choice(app);
   o = a.preset.empty()
-          ? a.estimator.build(a.kernel)
+          ? a.estimator.build(plan.select ? default_estimator_name() : a.kernel)
           : a.estimator.build_over(preset_options(a.preset), app, a.kernel, app.count("--kernel") > 0);
   if (a.subsample < 0) throw Error("--subsample must be >= 0");
   if (mpi) {
@@ -73,7 +91,8 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
   settings.hyperparameter_rows = a.teacher_hyperparameter_rows;
   settings.student_hyperparameter_rows = a.student_hyperparameter_rows;
   settings.seed = o.search.seed;
-  o.teacher = choose_teacher(a.teacher, o, settings);
+  plan.teacher_settings = settings;
+  o.teacher = choose_teacher(plan.select ? kNoTeacher : a.teacher, o, settings);
   const bool teaches = o.teacher.has_value();
   // The teacher's options where no teacher teaches: left over beside --teacher none, but a
   // misunderstanding beside the default, which the user may have expected to teach.
@@ -83,7 +102,7 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
                                  kAutomaticTeachingConditions
                            : std::string("--teacher none trains without one")) +
                 ": name a teacher (e.g. --teacher lip), or drop --teacher-out");
-  if (!teaches)
+  if (!teaches && !plan.select)
     for (const char* name : {"--teacher-states", "--teacher-hyperparameter-rows", "--student-hyperparameter-rows"}) {
       if (app.count(name) == 0) continue;
       if (!automatic) {
@@ -109,6 +128,15 @@ void print_plan(const TrainArgs& a, const TrainPlan& plan, const DistributedRun*
   const EstimatorOptions& o = plan.o;
   const Dataset& data = plan.data;
   const Eigen::Index total = plan.total;
+  if (plan.select) {
+    const std::vector<std::string> candidates = selection_candidates();
+    std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator chosen by evidence among %s: each "
+                "fitted on the first %.0f %% of the rows and scored on the rest, the best refitted on every row\n",
+                static_cast<long>(data.rows()), static_cast<long>(total), a.data.c_str(), joints.str().c_str(),
+                joined(candidates).c_str(), 100.0 * (1.0 - SelectionOptions{}.held_out_fraction));
+    std::fflush(stdout);
+    return;
+  }
   std::printf("gipdyn train: %ld of %ld rows from %s, joints %s, estimator %s", static_cast<long>(data.rows()),
               static_cast<long>(total), a.data.c_str(), joints.str().c_str(), o.name.c_str());
   if (!a.preset.empty()) std::printf(" (preset %s)", a.preset.c_str());
@@ -246,25 +274,33 @@ int run_train(TrainArgs& a, const CLI::App& app) {
   if (!a.quiet) print_plan(a, plan, mpi.get(), joints);
   const EstimatorOptions& o = plan.o;
   const Dataset& data = plan.data;
+  std::optional<Selection> selection;
   std::mutex mu;
   ProgressCallback progress;
   LongFitNotice notice(joints.size(), joints_trained_at_once(o.train_options(), data.rows(), joints.size()));
+  ProgressDisplay display(stdout, joints.size(), isatty(fileno(stdout)) != 0);
   if (!a.quiet) {
-    progress = [&mu, &notice, sparse = o.sparse.inducing_points > 0](const ProgressEvent& e) {
-      std::lock_guard<std::mutex> lock(mu);
-      if (const std::string note = sparse ? "" : notice.observe(e); !note.empty()) {
-        std::printf("  %s\n", note.c_str());
-        std::fflush(stdout);
+    progress = [&mu, &notice, &display, sparse = o.sparse.inducing_points > 0](const ProgressEvent& e) {
+      std::string note;
+      {
+        std::lock_guard<std::mutex> lock(mu);
+        if (!sparse) note = notice.observe(e);
       }
-      // The optimiser reports every evaluation and a network every epoch: print a sample.
-      if (!e.finished && e.iteration != 1 && e.iteration % 10 != 0) return;
-      std::printf("  %s\n", describe(e).c_str());
-      std::fflush(stdout);
+      if (!note.empty()) display.note(note);
+      display.observe(e);
     };
   }
   FitResult r;
   try {
-    r = fit_estimator(o, data.X, data.tau, joints, progress);
+    if (plan.select) {
+      SelectionResult chosen =
+          fit_selected_estimator(o, SelectionOptions{}, data.X, data.tau, joints, plan.teacher_settings, progress);
+      selection = std::move(chosen.selection);
+      r = std::move(chosen.fit);
+      plan.o = std::move(chosen.options);  // the chosen candidate's, which the outcome describes
+    } else {
+      r = fit_estimator(o, data.X, data.tau, joints, progress);
+    }
   } catch (...) {
     if (!mpi) throw;
     mpi->fail(std::current_exception());
@@ -274,6 +310,8 @@ int run_train(TrainArgs& a, const CLI::App& app) {
     if (!r.report.ok()) throw ExitQuietly();
     return 0;
   }
+  display.finish();
+  if (selection && !a.quiet) std::printf("\n%s", selection->brief_report().c_str());
   if (!r.report.ok()) throw Error("training failed: " + r.report.message);
   save_estimator(*r.estimator, a.out);
   // Whatever became of the taught model: the teacher's fit is the user's to keep.
@@ -299,8 +337,12 @@ Command add_train(CLI::App& app) {
   add_data_option(app, a->data, a->mat_variable, a->columns, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else those of --robot; else required)");
   app.add_option("--kernel", a->kernel,
-                 "Estimator, one of those listed under Estimators below (docs/choosing-a-model.md says which for "
-                 "which log)")
+                 std::string("Estimator, one of those listed under Estimators below (docs/choosing-a-model.md says "
+                             "which for which log), or ") + kAutomaticEstimator +
+                     ": choose among " + joined(selection_candidates()) +
+                     " by evidence, each fitted on the log's earlier rows and scored on its last " +
+                     std::to_string(static_cast<int>(100.0 * SelectionOptions{}.held_out_fraction)) +
+                     " %, the best refitted on every row")
       ->capture_default_str();
   app.footer(estimator_table_text());
   app.add_option("--subsample", a->subsample,

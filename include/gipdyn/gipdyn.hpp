@@ -9,6 +9,7 @@
 #include "gipdyn/estimators/estimator_registry.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"

@@ -95,6 +95,7 @@ const FieldNames& python_field_names() {
       {"LogColumns::q", "columns[\"q\"]"},
       {"LogColumns::tau", "columns[\"tau\"]"},
       {"LogColumns", "read_log(columns=...)"},
+      {"EstimatorOptions::name", "kernel"},
       {kMatFileAdvice, "read it with gipdyn.read_log(path, joints, mat_variable=NAME)"},
       {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: subsample=N)"},
   };

@@ -40,12 +40,14 @@ std::unique_ptr<Estimator> read_estimator(const ModelContainer& c, const std::st
 std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, const std::string& what) {
   std::unique_ptr<Estimator> e = read_estimator(c, what);
   if (c.header.contains("teacher")) e->set_teaching_record(c.header.at("teacher"));
+  if (c.header.contains("selection")) e->set_selection_record(c.header.at("selection"));
   return e;
 }
 
 ModelContainer estimator_container(const Estimator& estimator) {
   ModelContainer c = estimator.to_container();
   if (const nlohmann::json* record = estimator.teaching_record()) c.header["teacher"] = *record;
+  if (const nlohmann::json* record = estimator.selection_record()) c.header["selection"] = *record;
   return c;
 }
 

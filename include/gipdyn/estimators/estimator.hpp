@@ -54,9 +54,14 @@ class Estimator {
   const nlohmann::json* teaching_record() const { return teaching_record_.get(); }
   // A null record clears it.
   void set_teaching_record(const nlohmann::json& record);
+  // How this estimator was chosen among candidates (model_selection.hpp): the
+  // model file's "selection" block; null where it was named.
+  const nlohmann::json* selection_record() const { return selection_record_.get(); }
+  void set_selection_record(const nlohmann::json& record);
 
  private:
   std::shared_ptr<const nlohmann::json> teaching_record_;
+  std::shared_ptr<const nlohmann::json> selection_record_;
 };
 
 }  // namespace gipdyn

@@ -37,6 +37,12 @@ struct EstimatorSpec {
   // the most rows it trains on (a constant-step subsample of longer logs); 0: every row.
   std::string preset;
   int preset_max_training_rows = 0;
+  // A candidate of the choice by evidence (model_selection.hpp) where above 0:
+  // of candidates that score alike, the lowest rank wins. It is fitted on at
+  // most selection_max_rows rows (a constant-step subsample; 0: every row),
+  // where its fit stays in minutes.
+  int selection_rank = 0;
+  int selection_max_rows = 0;
   // Compared by the experiment commands unless they are given a list (those
   // that need a robot only where one is known).
   bool compared_by_default = false;
@@ -67,6 +73,8 @@ std::vector<std::string> robot_compared_estimators();
 // The rows in_paper_accuracy_comparison, and in_paper_data_efficiency_comparison.
 std::vector<std::string> paper_accuracy_estimators();
 std::vector<std::string> paper_data_efficiency_estimators();
+// The candidates of the choice by evidence, by selection_rank.
+std::vector<std::string> selection_candidates();
 // The rows marked default_estimator and default_teacher.
 const std::string& default_estimator_name();
 const std::string& default_teacher_name();

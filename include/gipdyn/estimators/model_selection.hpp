@@ -1,0 +1,84 @@
+#pragma once
+// Choosing an estimator by evidence. No fixed rule picks the best model of
+// every log (a simulated arm, a real arm with friction, a log of one motion or
+// of many), so the candidates of the estimator table (selection_candidate) are
+// each fitted on the earlier part of the log and scored on its later part,
+// a block of time the fits did not see; the best is refitted on the whole log.
+#include <Eigen/Dense>
+#include <memory>
+#include <nlohmann/json_fwd.hpp>
+#include <string>
+#include <vector>
+
+#include "gipdyn/eigen_abi.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
+
+namespace gipdyn {
+
+// The name front ends give for "choose by evidence" where they take an estimator's name.
+inline constexpr const char* kAutomaticEstimator = "auto";
+
+struct SelectionOptions {
+  // Names from the estimator table, in order of preference; empty: selection_candidates().
+  std::vector<std::string> candidates;
+  // The last held_out_fraction of the log's rows (in the order logged) score the candidates.
+  double held_out_fraction = 0.25;
+  // Candidates whose mean held-out nMSE is within this fraction of the best score alike: differences that
+  // small are within what one block of a noisy log can tell apart. Of those, the first in candidates wins.
+  double tie_tolerance = 0.05;
+  // Throws gipdyn::Error naming the field.
+  void validate() const;
+};
+
+struct CandidateScore {
+  std::string name;
+  bool ok = false;
+  std::string failure;       // why it has no score (a failed fit, options it cannot honour)
+  Eigen::VectorXd nmse;      // per joint, on the held-out rows
+  double mean_nmse = 0.0;    // over the joints; +inf without a score
+  Eigen::Index fit_rows = 0; // the rows it was fitted on
+  double seconds = 0.0;      // its fit and prediction
+};
+
+struct Selection {
+  std::vector<CandidateScore> candidates;  // in the order fitted
+  // The first candidate within SelectionOptions::tie_tolerance of the lowest mean nMSE; empty where none has a score.
+  std::string chosen;
+  std::string best;  // the lowest mean nMSE
+  Eigen::Index fit_rows = 0, held_out_rows = 0;
+  double tie_tolerance = 0.0;  // SelectionOptions::tie_tolerance
+  // A table of the candidates' held-out nMSE per joint and mean, and a line saying what was chosen and why.
+  std::string brief_report() const;
+  // The model file's "selection" block (docs/model-format.md).
+  nlohmann::json record() const;
+};
+
+// The options of candidate `name` under the user's `base` options (its search,
+// threads, seed, teacher settings): the GP's search as given; gip taught by
+// its automatic teacher (choose_teacher "auto"); lip with the search that
+// teacher has (TeacherOptions::teacher_search), so that gip's teacher is the
+// lip candidate and is scored as it, without a second fit.
+EstimatorOptions candidate_options(const std::string& name, const EstimatorOptions& base,
+                                   const TeacherOptions& teacher_settings = {});
+
+// The rows a candidate is fitted on out of `rows`: a constant-step subsample
+// of at most its table's selection_max_rows.
+std::vector<Eigen::Index> candidate_rows(const std::string& name, Eigen::Index rows);
+
+struct SelectionResult {
+  Selection selection;
+  FitResult fit;               // the chosen candidate refitted on the whole log; its estimator holds selection.record()
+  EstimatorOptions options;    // the chosen candidate's options
+  Eigen::Index refit_rows = 0; // the rows of the whole log it was refitted on
+};
+
+// Scores every candidate (Selection) and refits the best on (X, Y) (its rows
+// as candidate_rows says). Bad options or data, or a log too short to hold
+// out a block, throw gipdyn::Error before any work; where no candidate fits,
+// the result's fit.report says why. progress sees every candidate's fit.
+SelectionResult fit_selected_estimator(const EstimatorOptions& base, const SelectionOptions& options,
+                                       const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, const JointTypes& joints,
+                                       const TeacherOptions& teacher_settings = {},
+                                       const ProgressCallback& progress = {});
+
+}  // namespace gipdyn
