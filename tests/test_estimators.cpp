@@ -16,6 +16,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/model_selection.hpp"
+#include "gipdyn/estimators/online_update.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -558,4 +559,54 @@ TEST(ModelSelection, ALogTooShortOrBadOptionsAreRefusedBeforeAnyWork) {
   ASSERT_GE(candidates.size(), 3u);
   EXPECT_EQ(candidates.front(), default_estimator_name());
   EXPECT_EQ(candidates.back(), "rbf");
+}
+
+// The update rule every front end follows (online_update.hpp).
+TEST(OnlineUpdateRule, ReLearnsWhereTheCheckFailsRefusesOnRequestAndRefusesATaughtModel) {
+  const Split s = scara_split(0.01, 120);
+  // Every other row of the motion, then the rows between them: the same motion.
+  const Eigen::MatrixXd X_even = s.train.X(Eigen::seq(0, Eigen::last, 2), Eigen::all);
+  const Eigen::MatrixXd Y_even = s.train.tau(Eigen::seq(0, Eigen::last, 2), Eigen::all);
+  const Eigen::MatrixXd X_odd = s.train.X(Eigen::seq(1, Eigen::last, 2), Eigen::all);
+  const Eigen::MatrixXd Y_odd = s.train.tau(Eigen::seq(1, Eigen::last, 2), Eigen::all);
+  EstimatorOptions o = options("gip");
+  const FitResult fit = fit_estimator(o, X_even, Y_even, scara_robot().joint_types());
+  ASSERT_TRUE(fit.report.ok());
+  // The rows between: the check passes and the hyperparameters stay.
+  UpdateOptions keep;
+  keep.refit = UpdateRefit::Never;
+  const UpdateResult same = update_estimator(*fit.estimator, X_odd, Y_odd, keep);
+  ASSERT_TRUE(same.check.has_value());
+  EXPECT_TRUE(same.check->passed()) << same.check->brief_report();
+  EXPECT_FALSE(same.refitted);
+  EXPECT_EQ(same.estimator->gp_model()->num_training_samples(), 120);
+  // A heavier arm's rows: refused with UpdateRefit::Never, re-learned from the data-driven start by default.
+  Eigen::MatrixXd heavier = Y_odd;
+  heavier.col(0) *= 3.0;
+  EXPECT_NE(error_of([&] { update_estimator(*fit.estimator, X_odd, heavier, keep); })
+                .find("UpdateOptions::refit where-misfit"),
+            std::string::npos);
+  UpdateOptions relearn;
+  relearn.search.optimizer.max_iterations = 30;
+  const UpdateResult misfit = update_estimator(*fit.estimator, X_odd, heavier, relearn);
+  EXPECT_TRUE(misfit.refitted);
+  EXPECT_EQ(misfit.refit_start, RefitStart::DataDriven);
+  EXPECT_EQ(misfit.check->misfit_joints().front(), 0);
+  UpdateOptions always = relearn;
+  always.refit = UpdateRefit::Always;
+  const UpdateResult periodic = update_estimator(*fit.estimator, X_odd, Y_odd, always);
+  EXPECT_TRUE(periodic.refitted);
+  EXPECT_EQ(periodic.refit_start, RefitStart::CurrentHyperparameters);
+  // A taught model: refused, naming its teacher and the fix.
+  EstimatorOptions taught_options = o;
+  TeacherOptions teaching = quick_teaching();
+  teaching.mode = TeachingMode::Always;
+  taught_options.teacher = teaching;
+  const FitResult taught = fit_estimator(taught_options, s.train.X, s.train.tau, scara_robot().joint_types());
+  ASSERT_EQ(taught.teaching, TeachingOutcome::Taught);
+  EXPECT_NE(error_of([&] { update_estimator(*taught.estimator, s.test.X.topRows(5), s.test.tau.topRows(5), {}); })
+                .find("this model was taught by lip"),
+            std::string::npos);
+  EXPECT_EQ(parse_update_refit(to_string(UpdateRefit::Never)), UpdateRefit::Never);
+  EXPECT_NE(error_of([] { parse_update_refit("sometimes"); }).find("UpdateOptions::refit must be"), std::string::npos);
 }

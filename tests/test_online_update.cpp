@@ -5,6 +5,7 @@
 #include <gtest/gtest.h>
 
 #include "gipdyn/model/training.hpp"
+#include "gipdyn/model/update_check.hpp"
 #include "test_util.hpp"
 
 namespace gipdyn {
@@ -176,4 +177,65 @@ TEST(OnlineUpdate, BadNewSamplesAreNamed) {
 }
 
 }  // namespace
+}  // namespace gipdyn
+
+namespace gipdyn {
+namespace {
+
+double gaussian_log_density(double residual, double variance) {
+  return -0.5 * (std::log(2.0 * M_PI * variance) + residual * residual / variance);
+}
+
+}  // namespace
+
+// The check's densities against the same GP refitted without each row, and against predictions made by hand.
+TEST(UpdateCheck, OwnRowsAreLeftOutOneAtATimeAndNewRowsPredictedWithTheNoise) {
+  const Stream s = stream(25, 41);
+  const InverseDynamicsModel model = trained(s.X, s.Y, MeanKind::Constant);
+  const Stream fresh = stream(7, 43);
+  const UpdateCheck check = check_update(model, fresh.X, fresh.Y);
+  for (int j = 0; j < 2; ++j) {
+    const double scale = model.output_scale()(j);
+    const double noise = std::exp(model.joint_gp(j).log_noise_variance()) * scale * scale;
+    double own = 0.0;
+    for (Eigen::Index i = 0; i < s.X.rows(); ++i) {
+      Eigen::MatrixXd X(s.X.rows() - 1, s.X.cols()), Y(s.Y.rows() - 1, s.Y.cols());
+      for (Eigen::Index r = 0, k = 0; r < s.X.rows(); ++r)
+        if (r != i) {
+          X.row(k) = s.X.row(r);
+          Y.row(k++) = s.Y.row(r);
+        }
+      const InverseDynamicsModel without = refit_from_scratch(model, X, Y);
+      Eigen::MatrixXd mean, sd;
+      without.predict(s.X.row(i), mean, &sd);
+      own += gaussian_log_density(s.Y(i, j) - mean(0, j), sd(0, j) * sd(0, j) + noise);
+    }
+    EXPECT_NEAR(check.own_rows_lpd(j), own / static_cast<double>(s.X.rows()), 1e-6 * (1.0 + std::abs(own)));
+    Eigen::MatrixXd mean, sd;
+    model.predict(fresh.X, mean, &sd);
+    double fresh_lpd = 0.0;
+    for (Eigen::Index r = 0; r < fresh.X.rows(); ++r)
+      fresh_lpd += gaussian_log_density(fresh.Y(r, j) - mean(r, j), sd(r, j) * sd(r, j) + noise);
+    EXPECT_NEAR(check.new_rows_lpd(j), fresh_lpd / 7.0, 1e-9 * (1.0 + std::abs(fresh_lpd)));
+  }
+}
+
+// Rows of the same function pass; rows of another robot (twice the torques) do not, and the warning names them.
+TEST(UpdateCheck, RowsOfTheSameRobotPassAndRowsTheHyperparametersDoNotFitAreNamed) {
+  const Stream s = stream(60, 51);
+  const InverseDynamicsModel model = trained(s.X, s.Y);
+  const Stream same = stream(40, 53);
+  const UpdateCheck ok = check_update(model, same.X, same.Y);
+  EXPECT_TRUE(ok.passed()) << ok.brief_report();
+  EXPECT_EQ(ok.warning(), "");
+  Stream heavier = same;
+  heavier.Y.col(1) *= 3.0;
+  const UpdateCheck misfit = check_update(model, heavier.X, heavier.Y);
+  EXPECT_EQ(misfit.misfit_joints(), std::vector<int>{1}) << misfit.brief_report();
+  EXPECT_NE(misfit.warning().find("the new rows of joint(s) 2 are"), std::string::npos) << misfit.warning();
+  EXPECT_NE(misfit.brief_report().find("joint 2:"), std::string::npos);
+  EXPECT_NE(error_of([&] { check_update(model, same.X.leftCols(5), same.Y); }).find("needs new rows of 6 inputs"),
+            std::string::npos);
+}
+
 }  // namespace gipdyn

@@ -84,6 +84,10 @@ const FieldNames& cli_field_names() {
       {"LogColumns::tau", "--columns tau"},
       {"LogColumns", "--columns"},
       {"EstimatorOptions::name", "--kernel"},
+      {"UpdateOptions::refit where-misfit", "update without --keep-hyperparameters"},
+      {"UpdateOptions::refit", "--refit or --keep-hyperparameters"},
+      {"UpdateOptions::replace", "--replace"},
+      {"UpdateOptions::window", "--window"},
   };
   return names;
 }

@@ -12,6 +12,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/online_update.hpp"
 #include "gipdyn/io/dataset.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/memory.hpp"
@@ -24,7 +25,7 @@ Command add_update(CLI::App& app) {
   struct Args {
     std::string model, data, mat_variable, columns, out;
     long window = 0;
-    bool quiet = false, refit = false, replace = false;
+    bool quiet = false, refit = false, replace = false, keep_hyperparameters = false;
     int max_iter = OptimizerOptions{}.max_iterations, threads = 0;
   };
   auto a = std::make_shared<Args>();
@@ -43,56 +44,58 @@ Command add_update(CLI::App& app) {
                "Then re-optimise the hyperparameters on all the kept rows, starting from the current ones (the "
                "periodic refit of online learning: minutes at a few thousand rows, against milliseconds per row "
                "without it)");
+  app.add_flag("--keep-hyperparameters", a->keep_hyperparameters,
+               "Refuse, naming the joints, where the new rows show that the hyperparameters no longer fit them "
+               "(by default update then re-learns them, as --refit does)")
+      ->excludes(app.get_option("--refit"));
   app.add_option("--max-iter", a->max_iter, "--refit: safety cap on NLL evaluations per joint")->capture_default_str();
   app.add_option("--threads", a->threads, "--refit: joints trained at once (0: all, sharing the cores)")->capture_default_str();
   app.add_option("--out", a->out, "Updated model file")->required();
   app.add_flag("--quiet", a->quiet, "Print nothing but errors");
   return [a]() -> int {
     refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
-    if (a->window < 0) throw Error("--window must be >= 0 (0: keep every row)");
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
     const InverseDynamicsModel* model = estimator->gp_model();
     if (!model)
       throw Error("--model holds a " + estimator->name() +
                   " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
-    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'", parse_log_columns(a->columns));
-    if (a->replace && model->is_sparse())
-      throw Error("--replace needs an exact GP model: a sparse model's inducing rows come from its own data "
-                  "(train the sparse model on the new log instead)");
-    if (a->replace && data.rows() < kMinTrainingRows)
-      throw Error("--replace: " + a->data + " has " + std::to_string(data.rows()) + " rows; a model needs at least " +
-                  std::to_string(kMinTrainingRows));
-    const long window = a->replace ? static_cast<long>(data.rows()) : a->window;
+    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'",
+                                        parse_log_columns(a->columns));
+    UpdateOptions o;
+    o.window = a->window;
+    o.replace = a->replace;
+    o.refit = a->refit ? UpdateRefit::Always : a->keep_hyperparameters ? UpdateRefit::Never : UpdateRefit::WhereMisfit;
+    o.search.optimizer.max_iterations = a->max_iter;
+    o.search.threads = a->threads;
     // Every joint keeps its N x N Cholesky factor while it is updated (with --replace too: the old rows are
     // dropped from the factor that holds them).
     const double rows = static_cast<double>(model->num_training_samples() + data.rows());
     require_memory(8.0 * rows * rows * (model->num_joints() + 1), "updating a model of " +
                    std::to_string(static_cast<long>(rows)) + " rows", "use --window to keep fewer rows");
-    InverseDynamicsModel updated = model->updated(data.X, data.tau, window);
-    if (!a->quiet && updated.is_sparse())
-      std::printf("updated %s with %ld rows of %s (hyperparameters and %d inducing rows fixed): %ld data rows\n",
-                  a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
-                  static_cast<long>(updated.num_data_rows()));
-    else if (!a->quiet && a->replace)
-      std::printf("conditioned the hyperparameters of %s on the %ld rows of %s alone (its own rows dropped)\n",
-                  a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str());
-    else if (!a->quiet)
-      std::printf("updated %s with %ld rows of %s (hyperparameters fixed): %d training rows%s\n", a->model.c_str(),
-                  static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
-                  a->window > 0 ? (", window " + std::to_string(a->window)).c_str() : "");
-    if (a->refit) {
-      TrainOptions o;
-      o.search.optimizer.max_iterations = a->max_iter;
-      o.search.threads = a->threads;
-      o.gp.keep_factor = false;
-      if (!a->quiet) std::printf("refitting the hyperparameters on %d rows, from the current ones\n", updated.num_training_samples());
-      TrainResult r = refit_model(updated, o);
-      if (!r.report.ok()) throw Error("refit failed: " + r.report.message);
-      if (!a->quiet) std::printf("\n%s", r.report.brief_report().c_str());
-      print_warnings(r.report.warnings());
-      updated = std::move(r.model);
+    const UpdateResult r = update_estimator(*estimator, data.X, data.tau, o);
+    const InverseDynamicsModel& updated = *r.estimator->gp_model();
+    if (!a->quiet) {
+      if (r.check) std::printf("%s", r.check->brief_report().c_str());
+      if (updated.is_sparse())
+        std::printf("updated %s with %ld rows of %s (hyperparameters and %d inducing rows fixed): %ld data rows\n",
+                    a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
+                    static_cast<long>(updated.num_data_rows()));
+      else if (a->replace)
+        std::printf("conditioned the hyperparameters of %s on the %ld rows of %s alone (its own rows dropped)\n",
+                    a->model.c_str(), static_cast<long>(data.rows()), a->data.c_str());
+      else
+        std::printf("updated %s with %ld rows of %s: %d training rows%s\n", a->model.c_str(),
+                    static_cast<long>(data.rows()), a->data.c_str(), updated.num_training_samples(),
+                    a->window > 0 ? (", window " + std::to_string(a->window)).c_str() : "");
+      if (r.refitted)
+        std::printf("%s\n%s", r.refit_start == RefitStart::DataDriven
+                                   ? "the hyperparameters no longer fit the new rows: re-learned them on every row, "
+                                     "from the data as a new training starts"
+                                   : "re-learned the hyperparameters on every row, from the current ones",
+                    r.refit_report->brief_report().c_str());
     }
-    save_estimator(GpEstimator(updated), a->out);
+    if (r.refit_report) print_warnings(r.refit_report->warnings());
+    save_estimator(*r.estimator, a->out);
     if (!a->quiet) std::printf("saved %s\n", a->out.c_str());
     return 0;
   };

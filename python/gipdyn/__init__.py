@@ -548,6 +548,8 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         fit = _core.fit(X, Y, joints, options, teacher, bool(self.verbose))
         self.model_ = fit["model"]
         self.teaching_ = fit["teaching"]
+        # A taught model's rows are drawn states: partial_fit trains it again on the log, so the log is kept.
+        self._taught_log = (X, Y) if self.teaching_ == "taught" else None
         # Set whether or not a teacher was chosen (teaching_ says which).
         self.teacher_ = None  # a fitted LagrangianGP when the teacher is LIP
         if fit["teacher"] is not None:
@@ -577,25 +579,48 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
                 "conditions the model on every row; inducing=500 makes every evaluation O(N M^2)", LongFitWarning,
                 stacklevel=3)
 
-    def partial_fit(self, X, Y, window=0, refit=False):
+    def partial_fit(self, X, Y, window=0, refit=None):
         """Online learning: add the rows of (X, Y) to the fitted model with its
         hyperparameters fixed (O(N^2) per row, a sparse model's O(M^2); the
         first call, on an unfitted estimator, is fit(X, Y)). window > 0 keeps
         only the newest window rows (exact models only); window=len(X)
         conditions the hyperparameters on X alone, e.g. those learned on a
         long, varied log carried to a short one (docs/training.md).
-        refit=True then re-optimises the hyperparameters on the kept rows,
-        starting from the current ones (minutes at a few thousand rows): for
-        when the robot has changed more than new data at old hyperparameters
-        can express."""
+
+        Before conditioning, the new rows are checked against the model: how
+        likely they are under it, against its own rows left out one at a
+        time (update_check_ reports both per joint). Where they are far less
+        likely, the hyperparameters were learned on other motions and no
+        longer fit. refit=None (the default) then re-learns them on every
+        kept row, as a new training starts; refit=True always re-learns them,
+        starting from the current ones (the periodic refit of online
+        learning); refit=False keeps them and raises ValueError where they no
+        longer fit. A model taught by a teacher (teaching_ == "taught") has
+        the teacher's drawn states for rows, not the log, and is not updated
+        but trained again (fit) on the rows it was fitted on and the new ones
+        (the newest window of them where window > 0): minutes, not
+        milliseconds."""
         if not hasattr(self, "model_"):
             return self.fit(X, Y)
+        if getattr(self, "_taught_log", None) is not None:
+            old_X, old_Y = self._taught_log
+            X_all = np.vstack([old_X, self._inputs(X)])
+            Y_all = np.vstack([old_Y, _as_matrix("Y", _by_column_names("Y", Y, self.model_.joints, ("tau",)), self.n_joints)])
+            if int(window) > 0:
+                X_all, Y_all = X_all[-int(window):], Y_all[-int(window):]
+            self.fit(X_all, Y_all)
+            self.update_check_ = None
+            return self
         n = self.n_joints
         X = self._inputs(X)
         Y = _as_matrix("Y", _by_column_names("Y", Y, self.model_.joints, ("tau",)), n)
-        self.model_ = self.model_.updated(np.asfortranarray(X), np.asfortranarray(Y), int(window))
-        if refit:
-            self.model_ = _core.refit(self.model_, self._search_options(), bool(self.verbose))
+        mode = "where-misfit" if refit is None else "always" if refit else "never"
+        result = _core.update(self.model_, np.asfortranarray(X), np.asfortranarray(Y), int(window), False, mode,
+                              self._search_options())
+        self.model_ = result["model"]
+        self.update_check_ = result["check"]
+        if self.verbose and result["refit_report"]:
+            print(result["refit_report"])
         self._set_fitted_attributes()
         return self
 

@@ -17,6 +17,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/online_update.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
 #include "gipdyn/estimators/presets.hpp"
@@ -96,6 +97,10 @@ const FieldNames& python_field_names() {
       {"LogColumns::tau", "columns[\"tau\"]"},
       {"LogColumns", "read_log(columns=...)"},
       {"EstimatorOptions::name", "kernel"},
+      {"UpdateOptions::refit where-misfit", "partial_fit with refit=None"},
+      {"UpdateOptions::refit", "refit"},
+      {"UpdateOptions::replace", "window=len(X)"},
+      {"UpdateOptions::window", "window"},
       {kMatFileAdvice, "read it with gipdyn.read_log(path, joints, mat_variable=NAME)"},
       {kFewerRowsAdvice, "train on fewer rows (a constant-step subsample: subsample=N)"},
   };
@@ -187,6 +192,31 @@ std::shared_ptr<Model> refit(const Model& model, const EstimatorOptions& options
   TrainResult r = fit_without_gil(
       verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, options.train_options(), cb); });
   return std::make_shared<Model>(std::move(r.model));
+}
+
+// The library's update rule (online_update.hpp): {model, check (its report, or None for a sparse model), refitted}.
+py::dict update(const Model& model, ConstRef X, ConstRef Y, Eigen::Index window, bool replace, const std::string& refit,
+                const EstimatorOptions& options) {
+  UpdateOptions o;
+  o.window = window;
+  o.replace = replace;
+  o.refit = parse_update_refit(refit);
+  o.search = options.search;
+  const Eigen::MatrixXd Xm = X, Ym = Y;
+  UpdateResult r;
+  {
+    py::gil_scoped_release release;
+    r = update_estimator(*model.estimator, Xm, Ym, o);
+  }
+  auto* gp = dynamic_cast<GpEstimator*>(r.estimator.get());
+  if (!gp) throw Error("internal: an update did not give a GP estimator");
+  r.estimator.release();
+  py::dict d;
+  d["model"] = std::make_shared<Model>(std::shared_ptr<const GpEstimator>(gp));
+  d["check"] = r.check ? py::cast(r.check->brief_report()) : py::none();
+  d["refitted"] = r.refitted;
+  d["refit_report"] = r.refit_report ? py::cast(r.refit_report->brief_report()) : py::none();
+  return d;
 }
 
 // gravity, inertia and velocity_terms for a model class whose `estimator` points to an Estimator.
@@ -708,6 +738,9 @@ void bind_fitting(py::module_& m) {
         py::arg("verbose") = false,
         "Fits a GP estimator (options.name), taught by `teacher` unless None (gipdyn/estimators/fit_estimator.hpp): "
         "{model, teaching, teacher, teacher_report, label_noise_std, teaching_check}");
+  m.def("update", &update, py::arg("model"), py::arg("X"), py::arg("Y"), py::arg("window"), py::arg("replace"),
+        py::arg("refit"), py::arg("options"),
+        "The library's update rule (gipdyn/estimators/online_update.hpp): {model, check, refitted, refit_report}");
   m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
         "The model with its hyperparameters re-optimised on its own rows, from the current ones "
         "(kernel, robot, scaling and mean from the model; optimiser settings from options)");

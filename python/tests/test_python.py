@@ -581,11 +581,13 @@ def test_mean_function_and_map_prior(scara):
 
 
 def test_partial_fit_adds_samples_with_fixed_hyperparameters(scara):
+    # Every other row of the motion, then the rows between them: the same motion, so the hyperparameters fit.
     train, test = scara
-    first = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=40).fit(train["X"][:120], train["tau"][:120])
+    first = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", max_iter=40).fit(train["X"][::2], train["tau"][::2])
     hyper = [dict(h) for h in first.hyperparameters_]
     err_before = first.nmse(test["X"], test["tau_true"]).mean()
-    first.partial_fit(train["X"][120:], train["tau"][120:])
+    first.partial_fit(train["X"][1::2], train["tau"][1::2], refit=False)
+    assert "joint 4:" in first.update_check_ and "no longer fit" not in first.update_check_
     assert first.model_.num_training_samples == 200
     assert first.hyperparameters_ == hyper  # fixed: only the data changed
     assert first.nmse(test["X"], test["tau_true"]).mean() < err_before
@@ -596,6 +598,36 @@ def test_partial_fit_adds_samples_with_fixed_hyperparameters(scara):
     assert fresh.model_.num_training_samples == 50
     with pytest.raises(ValueError, match="window"):
         first.partial_fit(train["X"][:5], train["tau"][:5], window=2)
+
+
+def test_partial_fit_re_learns_hyperparameters_the_new_motion_shows_wrong_or_refuses(scara):
+    # Fitted on the first 12 s of the motion, then given the last 8 s: the check names the joints whose new
+    # rows the hyperparameters no longer fit; by default they are re-learned, with refit=False it refuses.
+    train, test = scara
+    kwargs = dict(joints="RRPR", teacher="none", max_iter=40)
+    early = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"][:120], train["tau"][:120])
+    with pytest.raises(ValueError, match=r"the new rows of joint\(s\) 1, 2 are .*\(partial_fit with refit=None\)"):
+        pickle.loads(pickle.dumps(early)).partial_fit(train["X"][120:], train["tau"][120:], refit=False)
+    kept = early.model_.updated(np.asfortranarray(train["X"][120:]), np.asfortranarray(train["tau"][120:]))
+    updated = pickle.loads(pickle.dumps(early)).partial_fit(train["X"][120:], train["tau"][120:])
+    assert "joint 1:" in updated.update_check_ and "the hyperparameters no longer fit" in updated.update_check_
+    assert updated.hyperparameters_[0] != early.hyperparameters_[0]
+    full = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"], train["tau"])
+    err = lambda model: gipdyn.nmse(test["tau_true"], model.predict(np.asfortranarray(test["X"]))).mean()
+    assert err(updated.model_) < err(kept)  # better than conditioning with the old hyperparameters
+    assert err(updated.model_) < 3 * err(full.model_)  # and as good as a training on every row, within 3x
+
+
+def test_partial_fit_of_a_taught_model_trains_it_again_on_every_row(scara):
+    # Its rows are drawn states, not the log: partial_fit fits again on the log it was fitted on and the new rows.
+    train, _ = scara
+    kwargs = dict(joints="RRPR", teacher="lip", teacher_states=200, student_hyperparameter_rows=100, max_iter=30)
+    taught = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"][:60], train["tau"][:60])
+    assert taught.teaching_ == "taught"
+    taught.partial_fit(train["X"][60:100], train["tau"][60:100])
+    at_once = gipdyn.InverseDynamicsGP(**kwargs).fit(train["X"][:100], train["tau"][:100])
+    np.testing.assert_array_equal(taught.predict(train["X"][100:]), at_once.predict(train["X"][100:]))
+    assert taught.update_check_ is None and taught.teaching_ == "taught"
 
 
 def test_lagrangian_gp_energies_physics_and_files(scara, tmp_path):

@@ -214,6 +214,15 @@ Eigen::VectorXd GpRegressor::fitted_targets() const {
   return L * t;
 }
 
+Eigen::VectorXd GpRegressor::inverse_diagonal() const {
+  if (is_sparse()) throw Error("leave-one-out predictions need an exact GP; this one is sparse (inducing points)");
+  if (!has_factor()) throw Error("the inverse's diagonal needs the Cholesky factor; call compute_factor first");
+  // diag(K^-1)_i = |column i of L^-1|^2, K = L L'.
+  Eigen::MatrixXd inverse = Eigen::MatrixXd::Identity(L_.rows(), L_.cols());
+  L_.triangularView<Eigen::Lower>().solveInPlace(inverse);
+  return inverse.colwise().squaredNorm().transpose();
+}
+
 CholeskyResult GpRegressor::update(Eigen::Index drop, const Eigen::MatrixXd& Z, Eigen::Index added,
                                    const Eigen::VectorXd& y) {
   if (is_sparse())

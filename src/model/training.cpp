@@ -464,7 +464,7 @@ std::vector<Eigen::VectorXd> learned_log_params(const InverseDynamicsModel& mode
 }
 
 TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& options,
-                        const ProgressCallback& progress) {
+                        const ProgressCallback& progress, RefitStart start) {
   if (model.is_sparse())
     throw Error("refit_model needs an exact GP model; a sparse model keeps its inducing rows, not its training rows");
   const InverseDynamicsModel exact = model.has_variance() ? model : model.with_variance();
@@ -473,7 +473,7 @@ TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& o
   o.robot_prior = model.robot_prior();
   o.gp.scaling = model.output_scaling();
   o.gp.mean = model.mean_kind();
-  o.gp.initial_log_params = learned_log_params(model);
+  if (start == RefitStart::CurrentHyperparameters) o.gp.initial_log_params = learned_log_params(model);
   return train_model(exact.training_inputs(), exact.training_targets(), model.joints(), o, progress);
 }
 

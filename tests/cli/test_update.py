@@ -38,7 +38,14 @@ def test_update_refuses_what_it_cannot_do(tmp_path, gipdyn_bin):
     write_dataset(data, 40, seed=3)
     model = tmp_path / "m.gipdyn"
     assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--max-iter", "5", "--quiet",
-               "--out", str(model)).returncode == 0
+               "--teacher", "none", "--out", str(model)).returncode == 0
+    taught = tmp_path / "t.gipdyn"
+    assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--max-iter", "5", "--quiet",
+               "--teacher", "lip", "--teacher-states", "100", "--out", str(taught)).returncode == 0
+    r = run(gipdyn_bin, "update", "--model", str(taught), "--data", str(data), "--out", str(tmp_path / "x.gipdyn"))
+    assert r.returncode == 1 and len(r.stderr.strip().splitlines()) == 1
+    assert "this model was taught by lip: its rows are the teacher's drawn states" in r.stderr
+    assert "train again on every row" in r.stderr
     before = model.read_bytes()
     for extra, words in [
         (["--out", str(model)], "--out"),
@@ -63,7 +70,7 @@ def test_update_refit_reoptimises_the_hyperparameters(tmp_path, gipdyn_bin):
     r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--refit", "--max-iter", "40",
             "--out", str(refit))
     assert r.returncode == 0, r.stderr
-    assert "refitting the hyperparameters on 100 rows" in r.stdout and "NLL" in r.stdout
+    assert "re-learned the hyperparameters on every row, from the current ones" in r.stdout and "NLL" in r.stdout
 
     h = model_header(refit)
     assert h["num_training_samples"] == 100
@@ -120,17 +127,41 @@ def test_update_replace_refuses_a_window_and_a_sparse_model(tmp_path, gipdyn_bin
     write_dataset(data, 40, seed=9)
     exact, sparse = tmp_path / "e.gipdyn", tmp_path / "s.gipdyn"
     assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--max-iter", "5", "--quiet",
-               "--out", str(exact)).returncode == 0
+               "--teacher", "none", "--out", str(exact)).returncode == 0
     assert run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--inducing", "10", "--max-iter", "5",
                "--quiet", "--out", str(sparse)).returncode == 0
     tiny = tmp_path / "tiny.csv"
     tiny.write_text("\n".join(data.read_text().splitlines()[:4]) + "\n")
     for model, rows, extra, words in [(exact, data, ["--window", "30"], "--window excludes --replace"),
                                       (sparse, data, [], "--replace needs an exact GP model"),
-                                      (exact, tiny, [], "has 3 rows; a model needs at least 5")]:
+                                      (exact, tiny, [], "--replace: the new rows are 3; a model needs at least 5")]:
         out = tmp_path / "x.gipdyn"
         r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(rows), "--replace", *extra, "--out", str(out))
         assert r.returncode != 0
         lines = r.stderr.strip().splitlines()
         assert words in lines[0], r.stderr
         assert not out.exists()
+
+
+def test_update_re_learns_hyperparameters_that_no_longer_fit_or_refuses_with_keep(tmp_path, gipdyn_bin):
+    # A model of a two-link arm, then rows of a heavier one: the check before conditioning says the
+    # hyperparameters no longer fit; by default the update re-learns them, with --keep-hyperparameters it refuses.
+    old, new = tmp_path / "old.csv", tmp_path / "new.csv"
+    write_dataset(old, 60, seed=11)
+    write_dataset(new, 40, seed=12)
+    heavier = [line.split(",") for line in new.read_text().splitlines()]
+    tau2 = heavier[0].index("tau2")
+    for row in heavier[1:]:
+        row[tau2] = repr(3.0 * float(row[tau2]))
+    new.write_text("\n".join(",".join(row) for row in heavier) + "\n")
+    model, out = tmp_path / "m.gipdyn", tmp_path / "u.gipdyn"
+    assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--max-iter", "60", "--quiet",
+               "--teacher", "none", "--out", str(model)).returncode == 0
+    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--keep-hyperparameters", "--out", str(out))
+    assert r.returncode == 1 and not out.exists()
+    assert "the new rows of joint(s) 2 are" in r.stderr and len(r.stderr.strip().splitlines()) == 1
+    assert "re-learn them (update without --keep-hyperparameters), or train on every row" in r.stderr
+    r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--out", str(out))
+    assert r.returncode == 0, r.stderr
+    assert "joint 2:" in r.stdout and "the hyperparameters no longer fit the new rows: re-learned them" in r.stdout
+    assert model_header(out)["joint_models"][1]["log_params"] != model_header(model)["joint_models"][1]["log_params"]

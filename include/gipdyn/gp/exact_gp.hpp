@@ -98,6 +98,10 @@ class GpRegressor {
   // The targets the GP was fitted to (N-vector): kept since fit() or update(),
   // else K alpha from the factor.
   Eigen::VectorXd fitted_targets() const;
+  // The diagonal of (K + noise I)^-1 (the jitter included) from the factor
+  // (needs has_factor(); an exact GP): with alpha, every row's leave-one-out
+  // prediction, y_i - alpha_i / d_i with variance 1 / d_i. O(N^3 / 3).
+  Eigen::VectorXd inverse_diagonal() const;
   // Online learning with the hyperparameters fixed (needs has_factor()): drops
   // the `drop` oldest rows of the factor (one rank-1 update each, O(N^2)),
   // appends the last `added` rows of Z (a bordered factor, O(N^2 added)) and

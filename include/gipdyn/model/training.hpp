@@ -134,14 +134,21 @@ int joints_trained_at_once(const TrainOptions& options, Eigen::Index rows, int j
 // ended (refit_model; warm starts between similar data sets).
 std::vector<Eigen::VectorXd> learned_log_params(const InverseDynamicsModel& model);
 
+// Where refit_model's search starts: the model's current hyperparameters (the
+// periodic refit of online learning, where they are close), or the data-driven
+// start of a new training (where an UpdateCheck shows they no longer fit: a
+// search from them can stall where they left it).
+enum class RefitStart { CurrentHyperparameters, DataDriven };
+
 // Re-optimises every joint's hyperparameters on the model's own rows
-// (training_inputs(), training_targets()), starting from its current ones:
-// the periodic refit of online learning, for when the robot has changed more
-// than new rows at old hyperparameters can express. The kernel, nominal robot,
-// output scaling and mean come from the model; the optimiser settings, restarts
-// and threads from `options`. Throws gipdyn::Error for a sparse model (it keeps
-// no training rows) and whatever train_model throws.
+// (training_inputs(), training_targets()), starting from `start`: for when the
+// robot has changed more than new rows at old hyperparameters can express. The
+// kernel, nominal robot, output scaling and mean come from the model; the
+// optimiser settings, restarts and threads from `options`. Throws
+// gipdyn::Error for a sparse model (it keeps no training rows) and whatever
+// train_model throws.
 TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& options,
-                        const ProgressCallback& progress = {});
+                        const ProgressCallback& progress = {},
+                        RefitStart start = RefitStart::CurrentHyperparameters);
 
 }  // namespace gipdyn
