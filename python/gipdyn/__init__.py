@@ -447,6 +447,10 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         o = self._search_options()
         # kernel=None: the preset's kernel, or the library's default without one.
         base = _core.preset_options(str(self.preset)) if self.preset is not None else EstimatorOptions()
+        if self.kernel == _core.automatic_estimator_name():
+            raise ValueError(f"kernel={self.kernel!r} (the choice by evidence of `gipdyn train --kernel auto`) may choose "
+                             "a model this class cannot hold (the identified chain): choose it with the command line, "
+                             "then load the model file, or name a kernel")
         o.name = str(self.kernel) if self.kernel is not None else base.name
         o.gp.scaling = str(self.scaling)
         o.gp.mean = str(self.mean)

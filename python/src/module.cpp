@@ -17,6 +17,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
+#include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -759,6 +760,8 @@ void bind_fitting(py::module_& m) {
       [](bool friction) { return estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction); },
       py::arg("friction"), "The LIP estimator's name, with or without friction");
   m.def("default_teacher_name", &default_teacher_name, "The estimator that teaches by default (teacher=\"auto\")");
+  m.def("automatic_estimator_name", [] { return std::string(kAutomaticEstimator); },
+        "The name under which front ends choose the estimator by evidence (model_selection.hpp)");
   m.def(
       "choose_teacher",
       [](const std::string& choice, const EstimatorOptions& options, const TeacherOptions& settings) {

@@ -155,3 +155,9 @@ def test_docstrings_are_numpydoc_and_their_examples_run():
         warnings.simplefilter("ignore")
         result = doctest.testmod(gipdyn, optionflags=doctest.ELLIPSIS)
     assert result.attempted >= 8 and result.failed == 0, result
+
+
+def test_the_choice_by_evidence_is_refused_by_name_until_python_can_hold_every_model_it_chooses():
+    d = gipdyn.simulate("scara", samples=40, seed=1)
+    with pytest.raises(ValueError, match=r"kernel='auto' \(the choice by evidence of `gipdyn train --kernel auto`\)"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="auto").fit(d["X"], d["tau"])
