@@ -140,6 +140,13 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     assert py.teaching_ == "taught"
     X_test = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :12]
     assert np.array_equal(py.predict(X_test), cli_pred)
+    # C++: the library's EstimatorOptions and choose_teacher alone, no front end (tests/front_end_fit.cpp).
+    cpp = os.environ.get("GIPDYN_FRONT_END_FIT")
+    if cpp:
+        r = subprocess.run([cpp, str(tmp_path / "train.csv"), "RRPR", "25", "3", str(tmp_path / "test.csv"),
+                            str(tmp_path / "cpp_pred.csv")], capture_output=True, text=True, check=True)
+        assert r.stdout.strip() == "taught"
+        assert np.array_equal(np.loadtxt(tmp_path / "cpp_pred.csv", delimiter=",", skiprows=1), cli_pred)
     # CLI model -> Python.
     loaded = gipdyn.InverseDynamicsGP.load(tmp_path / "cli.gipdyn")
     assert loaded.joints == "RRPR" and loaded.kernel == "gip"
