@@ -55,8 +55,10 @@ Command add_update(CLI::App& app) {
   return [a]() -> int {
     refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
-    require_updatable(*estimator);
     const InverseDynamicsModel* model = estimator->gp_model();
+    if (!model)
+      throw Error("--model holds a " + estimator->name() +
+                  " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
     const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'",
                                         parse_log_columns(a->columns));
     UpdateOptions o;
