@@ -85,12 +85,13 @@ Command add_detect(CLI::App& app) {
     a->options.validate();
     const std::unique_ptr<Estimator> model = load_estimator(a->model);
     const std::string owner = "the model '" + a->model + "'";
-    const Dataset log = read_robot_log(a->data, a->mat_variable, model->joints(), true, owner, parse_log_columns(a->columns));
+    const LogColumns columns = parse_log_columns(a->columns);
+    const Dataset log = read_robot_log(a->data, a->mat_variable, model->joints(), true, owner, columns);
     const int n = model->joints().size();
     const Eigen::MatrixXd& truth = log.external_true;
     ContactDetector detector(*model, a->options);
     if (!a->calibration.empty()) {
-      const Dataset calibration = read_robot_log(a->calibration, "", model->joints(), true, owner, parse_log_columns(a->columns));
+      const Dataset calibration = read_robot_log(a->calibration, "", model->joints(), true, owner, columns);
       detector.calibrate(calibration.X, calibration.tau);
     }
     const ContactDetection d = detector.detect(log.X, log.tau);

@@ -93,14 +93,15 @@ int run_inspect(const InspectArgs& a) {
   refuse_overwrites(inputs, outputs);
   a.options.validate();
 
-  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, "", parse_log_columns(a.columns));
+  const LogColumns log_columns = parse_log_columns(a.columns);
+  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, "", log_columns);
   NeighbourConsistencyOptions options = a.options;
   options.joints = joints.str();  // revolute positions compared on the circle
-  const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true, "", parse_log_columns(a.columns));
+  const Dataset log = read_robot_log(a.data, a.mat_variable, joints, true, "", log_columns);
   const Dataset train = rows_of(log, a.train_rows, "--train-rows");
   std::optional<Dataset> test;
   if (!a.test_rows.empty()) test = rows_of(log, a.test_rows, "--test-rows");
-  if (!a.test.empty()) test = read_robot_log(a.test, a.mat_variable, joints, true, "", parse_log_columns(a.columns));
+  if (!a.test.empty()) test = read_robot_log(a.test, a.mat_variable, joints, true, "", log_columns);
 
   if (test) {
     if (const Eigen::Index shared = count_shared_rows(train.X, test->X); shared > 0)

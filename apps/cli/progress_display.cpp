@@ -59,22 +59,20 @@ void ProgressDisplay::note(const std::string& line) {
 }
 
 void ProgressDisplay::print_plain(const std::string& line, Clock::time_point now) {
-  if (terminal_ && drawn_ > 0) {  // above the block: clear it, print, redraw it below
-    std::fprintf(out_, "\x1b[%dA\x1b[J", drawn_);
-    drawn_ = 0;
-    std::fprintf(out_, "  %s\n", line.c_str());
-    redraw(now);
-    return;
-  }
+  const bool above_the_block = terminal_ && drawn_ > 0;  // clear the block, print, redraw it below
+  if (above_the_block) std::fprintf(out_, "\x1b[%dA\x1b[J", drawn_);
+  drawn_ = 0;
   std::fprintf(out_, "  %s\n", line.c_str());
+  if (above_the_block) redraw(now);
   std::fflush(out_);
 }
 
+int ProgressDisplay::joints_done() const { return static_cast<int>(std::count(done_.begin(), done_.end(), true)); }
+
 void ProgressDisplay::redraw(Clock::time_point now) {
   if (drawn_ > 0) std::fprintf(out_, "\x1b[%dA", drawn_);
-  const int done = static_cast<int>(std::count(done_.begin(), done_.end(), true));
   const double elapsed = std::chrono::duration<double>(now - block_start_).count();
-  std::fprintf(out_, "\x1b[2K  %s: %s\n", estimator_.c_str(), summary(done, joints_, elapsed).c_str());
+  std::fprintf(out_, "\x1b[2K  %s: %s\n", estimator_.c_str(), summary(joints_done(), joints_, elapsed).c_str());
   for (int j = 0; j < joints_; ++j)
     std::fprintf(out_, "\x1b[2K    joint %d: %s\n", j + 1, lines_[static_cast<size_t>(j)].c_str());
   drawn_ = joints_ + 1;
@@ -87,7 +85,7 @@ void ProgressDisplay::observe(const ProgressEvent& e, Clock::time_point now) {
   const bool sampled_out = !e.finished && e.iteration != 1 && e.iteration % kPlainIterationStep != 0;
   if (e.joint < 0 || e.joint >= joints_) {  // a note, a whole fit's iteration (lip, a network) or its end
     if (e.finished) end_block();
-    if (e.iteration == 0 || !sampled_out) print_plain(describe(e), now);
+    if (!sampled_out) print_plain(describe(e), now);  // a note (iteration 0) is never sampled out
     return;
   }
   if (e.estimator != estimator_) start_block(e.estimator, now);
@@ -103,10 +101,7 @@ void ProgressDisplay::observe(const ProgressEvent& e, Clock::time_point now) {
   }
   if (sampled_out) return;
   std::string line = describe(e);
-  if (e.finished) {
-    const int done = static_cast<int>(std::count(done_.begin(), done_.end(), true));
-    line += "; " + summary(done, joints_, std::chrono::duration<double>(now - block_start_).count());
-  }
+  if (e.finished) line += "; " + summary(joints_done(), joints_, std::chrono::duration<double>(now - block_start_).count());
   std::fprintf(out_, "  %s\n", line.c_str());
   std::fflush(out_);
 }

@@ -38,6 +38,7 @@ class ProgressDisplay {
   void end_block();
   void redraw(Clock::time_point now);
   void print_plain(const std::string& line, Clock::time_point now);
+  int joints_done() const;
 
   std::FILE* out_;
   int joints_;

@@ -66,7 +66,8 @@ void refuse_options_beside_a_choice(const CLI::App& app) {
                   ", or drop it");
 }
 
-void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const JointTypes& joints, TrainPlan& plan) {
+void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const JointTypes& joints,
+                   const LogColumns& columns, TrainPlan& plan) {
   EstimatorOptions& o = plan.o;
   Dataset& data = plan.data;
   std::vector<std::string>& data_warnings = plan.data_warnings;
@@ -117,7 +118,7 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
     throw Error("--teacher is not distributed: train without --distributed, or without --teacher");
   check_estimator_options(o);
   if (!a.preset.empty() && app.count("--subsample") == 0) a.subsample = preset_max_training_rows(a.preset);
-  data = read_robot_log(a.data, a.mat_variable, joints, true, "", parse_log_columns(a.columns));
+  data = read_robot_log(a.data, a.mat_variable, joints, true, "", columns);
   for (const auto& w : training_input_warnings(data.X, joints, a.data)) data_warnings.push_back(w);
   plan.total = data.rows();
   if (a.subsample > 0) data = data.subset(constant_step_indices(plan.total, a.subsample));
@@ -261,11 +262,12 @@ int run_train(TrainArgs& a, const CLI::App& app) {
   std::unique_ptr<DistributedRun> mpi;
   if (a.distributed) mpi = std::make_unique<DistributedRun>();
   if (mpi && !mpi->is_root()) a.quiet = true;
-  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, a.estimator.robot, parse_log_columns(a.columns));
+  const LogColumns columns = parse_log_columns(a.columns);
+  const JointTypes joints = joint_types_option(a.joints, a.data, a.mat_variable, a.estimator.robot, columns);
   TrainPlan plan;
   std::string setup_error;
   try {
-    plan_training(a, app, mpi.get(), joints, plan);
+    plan_training(a, app, mpi.get(), joints, columns, plan);
   } catch (const std::exception& e) {
     if (!mpi) throw;
     setup_error = e.what();

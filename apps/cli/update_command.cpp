@@ -55,12 +55,11 @@ Command add_update(CLI::App& app) {
   return [a]() -> int {
     refuse_overwrites({{"--model", a->model}, {"--data", a->data}}, {{"--out", a->out}});
     std::unique_ptr<Estimator> estimator = load_estimator(a->model);
+    // The log is checked against the model's robot first: a log for another robot is the likelier mistake.
+    const Dataset data = read_robot_log(a->data, a->mat_variable, estimator->joints(), true,
+                                        "the model '" + a->model + "'", parse_log_columns(a->columns));
+    require_updatable(*estimator);
     const InverseDynamicsModel* model = estimator->gp_model();
-    if (!model)
-      throw Error("--model holds a " + estimator->name() +
-                  " model; only per-joint GP models can be updated (retrain it with `gipdyn train` on all the rows)");
-    const Dataset data = read_robot_log(a->data, a->mat_variable, model->joints(), true, "the model '" + a->model + "'",
-                                        parse_log_columns(a->columns));
     UpdateOptions o;
     o.window = a->window;
     o.replace = a->replace;

@@ -103,13 +103,13 @@ def _as_matrix(name, a, cols=None, one_row=True):
         raise TypeError(f"{name} is a sparse matrix, and sparse input is not supported: pass {name}.toarray()")
     try:
         arr = np.asarray(a)
-        if np.iscomplexobj(arr):
-            raise ValueError(f"{name} holds complex numbers: Complex data not supported; pass its real part")
-        arr = arr.astype(np.float64, copy=False)
+        complex_data = np.iscomplexobj(arr)  # the conversion would drop the imaginary parts
+        if not complex_data:
+            arr = arr.astype(np.float64, copy=False)
     except (TypeError, ValueError) as e:
-        if "Complex data" in str(e):
-            raise
         raise ValueError(f"{name} must be numeric: {e}") from None
+    if complex_data:
+        raise ValueError(f"{name} holds complex numbers: Complex data not supported; pass its real part")
     # One joint: a 1-D array is one value per row (scikit-learn's y), else one row.
     if arr.ndim == 1 and cols == 1:
         arr = arr.reshape(-1, 1)
@@ -133,10 +133,6 @@ def _as_matrix(name, a, cols=None, one_row=True):
     return arr
 
 
-def _joint_columns(prefix, n):
-    return [f"{prefix}{i}" for i in range(1, n + 1)]
-
-
 def _by_column_names(name, a, joints, quantities):
     """A table with named columns (a pandas DataFrame) as the matrix of those columns, in the order of the log
     format (q1..qn, qd1..qdn, qdd1..qddn; tau1..taun); any other array as it is."""
@@ -144,7 +140,7 @@ def _by_column_names(name, a, joints, quantities):
     if columns is None or isinstance(a, np.ndarray):
         return a
     names = [str(c) for c in columns]
-    wanted = [c for quantity in quantities for c in _joint_columns(quantity, len(joints))]
+    wanted = [c for quantity in quantities for c in _core.joint_column_names(quantity, len(joints))]
     missing = [c for c in wanted if c not in names]
     if missing:
         raise ValueError(f"{name} has no column {missing[0]!r}: a table's columns are read by name, "

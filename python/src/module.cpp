@@ -760,6 +760,8 @@ void bind_fitting(py::module_& m) {
       [](bool friction) { return estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction); },
       py::arg("friction"), "The LIP estimator's name, with or without friction");
   m.def("default_teacher_name", &default_teacher_name, "The estimator that teaches by default (teacher=\"auto\")");
+  m.def("joint_column_names", [](const std::string& prefix, int joints) { return joint_column_names(prefix, joints); },
+        py::arg("prefix"), py::arg("joints"), "The log format's column names of a quantity: q1..qn for prefix q");
   m.def("automatic_estimator_name", [] { return std::string(kAutomaticEstimator); },
         "The name under which front ends choose the estimator by evidence (model_selection.hpp)");
   m.def(

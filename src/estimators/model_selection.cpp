@@ -10,6 +10,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/io/detail/json_numbers.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/training_data.hpp"
 
@@ -24,12 +25,6 @@ double seconds_since(std::chrono::steady_clock::time_point start) {
   return std::chrono::duration<double>(std::chrono::steady_clock::now() - start).count();
 }
 
-Eigen::MatrixXd rows_of(const Eigen::MatrixXd& M, const std::vector<Eigen::Index>& rows) {
-  Eigen::MatrixXd out(static_cast<Eigen::Index>(rows.size()), M.cols());
-  for (size_t k = 0; k < rows.size(); ++k) out.row(static_cast<Eigen::Index>(k)) = M.row(rows[k]);
-  return out;
-}
-
 // The mean of the per-joint nMSE over the joints whose held-out torque varies (a constant one has none).
 double mean_over_varying(const Eigen::VectorXd& nmse, const Eigen::VectorXd& variance) {
   double sum = 0.0;
@@ -41,8 +36,6 @@ double mean_over_varying(const Eigen::VectorXd& nmse, const Eigen::VectorXd& var
     }
   return count > 0 ? sum / count : 0.0;
 }
-
-nlohmann::json finite_or_null(double v) { return std::isfinite(v) ? nlohmann::json(v) : nlohmann::json(nullptr); }
 
 void note(const ProgressCallback& progress, const std::string& estimator, const std::string& message) {
   if (!progress) return;
@@ -125,9 +118,8 @@ nlohmann::json Selection::record() const {
     nlohmann::json row{{"name", c.name}, {"status", c.ok ? "scored" : "failed"}, {"fit_rows", c.fit_rows},
                        {"seconds", c.seconds}};
     if (c.ok) {
-      row["mean_nmse"] = finite_or_null(c.mean_nmse);
-      row["nmse"] = nlohmann::json::array();
-      for (Eigen::Index k = 0; k < c.nmse.size(); ++k) row["nmse"].push_back(finite_or_null(c.nmse(k)));
+      row["mean_nmse"] = number_or_null(c.mean_nmse);
+      row["nmse"] = numbers_or_null(c.nmse);
     } else {
       row["failure"] = c.failure;
     }
@@ -183,7 +175,7 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
         note(progress, c.name,
              "candidate " + std::to_string(k + 1) + " of " + std::to_string(names.size()) + ": fitting on " +
                  std::to_string(c.fit_rows) + " of the first " + std::to_string(s.fit_rows) + " rows");
-        const FitResult r = fit_estimator(o, rows_of(X_fit, fit), rows_of(Y_fit, fit), joints, progress);
+        const FitResult r = fit_estimator(o, X_fit(fit, Eigen::all), Y_fit(fit, Eigen::all), joints, progress);
         if (!r.report.ok()) {
           c.failure = r.report.message;
         } else {
@@ -235,7 +227,7 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
   result.refit_rows = static_cast<Eigen::Index>(refit.size());
   note(progress, s.chosen, "chosen; fitting on " + std::to_string(result.refit_rows) + " of the log's " +
                                std::to_string(rows) + " rows");
-  result.fit = fit_estimator(result.options, rows_of(X, refit), rows_of(Y, refit), joints, progress);
+  result.fit = fit_estimator(result.options, X(refit, Eigen::all), Y(refit, Eigen::all), joints, progress);
   if (result.fit.estimator) result.fit.estimator->set_selection_record(s.record());
   return result;
 }

@@ -3,8 +3,8 @@
 #include <nlohmann/json.hpp>
 
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
-#include "gipdyn/estimators/online_update.hpp"
 
 namespace gipdyn {
 
@@ -29,18 +29,22 @@ void UpdateOptions::validate() const {
   if (replace && window > 0) throw Error("UpdateOptions::replace keeps the new rows alone: leave UpdateOptions::window at 0");
 }
 
-UpdateResult update_estimator(const Estimator& estimator, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
-                              const UpdateOptions& options, const ProgressCallback& progress) {
-  options.validate();
-  const InverseDynamicsModel* model = estimator.gp_model();
-  if (!model)
+void require_updatable(const Estimator& estimator) {
+  if (!estimator.gp_model())
     throw Error("a " + estimator.name() + " model cannot be updated: only per-joint GP models take new rows; train it "
                 "again on every row");
   if (const nlohmann::json* taught = estimator.teaching_record();
-      taught && taught->value("outcome", std::string()) == "taught")
+      taught && taught->value("outcome", std::string()) == to_string(TeachingOutcome::Taught))
     throw Error("this model was taught by " + taught->value("estimator", std::string("a teacher")) +
                 ": its rows are the teacher's drawn states, not the log, and new logged rows mixed into them do not "
                 "give what a training on the whole log gives; train again on every row (the old log and the new)");
+}
+
+UpdateResult update_estimator(const Estimator& estimator, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
+                              const UpdateOptions& options, const ProgressCallback& progress) {
+  options.validate();
+  require_updatable(estimator);
+  const InverseDynamicsModel* model = estimator.gp_model();
   if (options.replace && model->is_sparse())
     throw Error("UpdateOptions::replace needs an exact GP model: a sparse model's inducing rows come from its own "
                 "data (train the sparse model on the new rows instead)");
@@ -49,8 +53,10 @@ UpdateResult update_estimator(const Estimator& estimator, const Eigen::MatrixXd&
                 std::to_string(kMinTrainingRows));
   UpdateResult result;
   bool refit = options.refit == UpdateRefit::Always;
+  // One factorisation serves the check and the update: a loaded exact model has none yet.
+  InverseDynamicsModel factored = model->is_sparse() || model->has_variance() ? *model : model->with_variance();
   if (!model->is_sparse()) {
-    result.check = check_update(*model, X, Y);
+    result.check = check_update(factored, X, Y);
     if (!result.check->passed()) {
       if (options.refit == UpdateRefit::Never)
         throw Error(result.check->warning() + "; re-learn them (UpdateOptions::refit where-misfit), or train on "
@@ -61,7 +67,7 @@ UpdateResult update_estimator(const Estimator& estimator, const Eigen::MatrixXd&
       }
     }
   }
-  InverseDynamicsModel updated = model->updated(X, Y, options.replace ? X.rows() : options.window);
+  InverseDynamicsModel updated = std::move(factored).updated(X, Y, options.replace ? X.rows() : options.window);
   if (refit) {
     TrainOptions o;
     o.search = options.search;

@@ -42,7 +42,7 @@ Eigen::VectorXd learned_noise_std(const Estimator& estimator) {
   if (const InverseDynamicsModel* model = estimator.gp_model()) {
     Eigen::VectorXd noise(model->num_joints());
     for (int j = 0; j < model->num_joints(); ++j)
-      noise(j) = std::sqrt(std::exp(model->joint_gp(j).log_noise_variance())) * model->output_scale()(j);
+      noise(j) = std::sqrt(model->noise_variance(j));
     return noise;
   }
   return lagrangian_or_throw(estimator).noise_variances().cwiseSqrt();

@@ -183,19 +183,13 @@ std::string canonical_column(const std::string& name) {
 std::string missing_column_message(const std::string& path, const std::string& wanted, const CsvHeader& header,
                                    const LogColumns& log_columns) {
   std::string message = "'" + path + "' has no column '" + wanted + "'";
-  if (!log_columns.is_default()) {  // name the column the log's names give it
-    const size_t digits = wanted.find_first_of("0123456789");
-    const std::string quantity = wanted.substr(0, digits);
-    const auto& quantities = log_column_quantities();
-    if (digits != std::string::npos && std::find(quantities.begin(), quantities.end(), quantity) != quantities.end() &&
-        wanted.find_first_not_of("0123456789", digits) == std::string::npos) {
-      const std::string log_name = log_columns.log_name(quantity, std::stoi(wanted.substr(digits)));
-      if (log_name != wanted)
-        return message = "'" + path + "' has no column '" + log_name + "' (" + wanted +
-                         " under the log's column names, LogColumns)";
-      message += " (LogColumns keeps gipdyn's name for " + quantity + ": give the log's name of it there)";
-      return message;
-    }
+  if (const std::optional<JointColumn> joint_column = split_joint_column(wanted);
+      joint_column && !log_columns.is_default()) {  // name the column the log's names give it
+    const std::string log_name = log_columns.log_name(joint_column->quantity, joint_column->joint);
+    if (log_name != wanted)
+      return "'" + path + "' has no column '" + log_name + "' (" + wanted + " under the log's column names, LogColumns)";
+    return message + " (LogColumns keeps gipdyn's name for " + joint_column->quantity +
+           ": give the log's name of it there)";
   }
   for (const auto& name : header.names)
     if (canonical_column(name) == canonical_column(wanted))

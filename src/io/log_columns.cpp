@@ -1,8 +1,8 @@
 #include "gipdyn/io/log_columns.hpp"
 
-#include <cctype>
-#include <filesystem>
+#include <algorithm>
 #include <fstream>
+#include <limits>
 #include <map>
 
 #include <nlohmann/json.hpp>
@@ -61,6 +61,18 @@ const std::vector<std::string>& log_column_quantities() {
   return quantities;
 }
 
+std::optional<JointColumn> split_joint_column(const std::string& name) {
+  const size_t digits = name.find_first_of("0123456789");
+  if (digits == std::string::npos || name.find_first_not_of("0123456789", digits) != std::string::npos)
+    return std::nullopt;
+  const auto& quantities = log_column_quantities();
+  const std::string quantity = name.substr(0, digits);
+  if (std::find(quantities.begin(), quantities.end(), quantity) == quantities.end()) return std::nullopt;
+  // More digits than an int holds name no joint a robot has: the largest number stands for them.
+  const std::string number = name.substr(digits);
+  return JointColumn{quantity, number.size() > 9 ? std::numeric_limits<int>::max() : std::stoi(number)};
+}
+
 void LogColumns::validate() const {
   const auto& quantities = log_column_quantities();
   for (size_t k = 0; k < quantities.size(); ++k) {
@@ -93,6 +105,9 @@ std::string LogColumns::log_name(const std::string& quantity, int joint) const {
 std::vector<std::string> LogColumns::renamed(const std::vector<std::string>& names, const std::string& path) const {
   if (is_default()) return names;
   const auto& quantities = log_column_quantities();
+  std::vector<Pattern> patterns;
+  for (size_t k = 0; k < quantities.size(); ++k) patterns.push_back(split_pattern(field(*this, k)));
+  const LogColumns ours;
   std::vector<std::string> out = names;
   for (auto& name : out) {
     // A placeholder matches digits; where several patterns match, the one with the longest fixed part
@@ -100,7 +115,7 @@ std::vector<std::string> LogColumns::renamed(const std::vector<std::string>& nam
     size_t best_fixed = 0;
     std::string best;
     for (size_t k = 0; k < quantities.size(); ++k) {
-      const Pattern p = split_pattern(field(*this, k));
+      const Pattern& p = patterns[k];
       if (name.size() <= p.prefix.size() + p.suffix.size()) continue;
       if (name.compare(0, p.prefix.size(), p.prefix) != 0) continue;
       if (name.compare(name.size() - p.suffix.size(), p.suffix.size(), p.suffix) != 0) continue;
@@ -121,11 +136,9 @@ std::vector<std::string> LogColumns::renamed(const std::vector<std::string>& nam
     }
     // gipdyn's own name of a quantity the patterns rename is not that quantity here: reading it
     // as such would take a column the patterns say is something else.
-    const LogColumns ours;
-    const size_t digits = name.find_first_of("0123456789");
-    for (size_t k = 0; k < quantities.size() && digits != std::string::npos; ++k)
-      if (field(*this, k) != field(ours, k) && name.substr(0, digits) == quantities[k] &&
-          name.find_first_not_of("0123456789", digits) == std::string::npos)
+    const std::optional<JointColumn> ours_named = split_joint_column(name);
+    for (size_t k = 0; k < quantities.size() && ours_named; ++k)
+      if (field(*this, k) != field(ours, k) && ours_named->quantity == quantities[k])
         throw Error("'" + path + "' has a column '" + name + "', gipdyn's name of a joint's " + quantities[k] +
                     ", but LogColumns::" + quantities[k] + " says the log calls them " + field(*this, k) +
                     ": leave LogColumns::" + quantities[k] + " at gipdyn's name, or rename that column");

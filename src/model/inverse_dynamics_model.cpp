@@ -68,6 +68,11 @@ InverseDynamicsModel::InverseDynamicsModel(const JointTypes& joints, std::string
     }
 }
 
+double InverseDynamicsModel::noise_variance(int j) const {
+  const double scale = y_scale_(j);
+  return std::exp(gps_[static_cast<size_t>(j)].log_noise_variance()) * scale * scale;
+}
+
 std::vector<std::pair<std::string, double>> InverseDynamicsModel::hyperparameters(int j) const {
   const GpRegressor& gp = joint_gp(j);
   const auto names = gp.kernel().param_names();

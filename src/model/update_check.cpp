@@ -69,8 +69,8 @@ UpdateCheck check_update(const InverseDynamicsModel& model, const Eigen::Ref<con
   check.own_rows_lpd.resize(n);
   for (int j = 0; j < n; ++j) {
     const GpRegressor& gp = with_factor.joint_gp(j);
-    const double scale = with_factor.output_scale().size() > j ? with_factor.output_scale()(j) : 1.0;
-    const double noise = std::exp(gp.log_noise_variance()) * scale * scale;  // torque units squared
+    const double scale = with_factor.output_scale()(j);
+    const double noise = with_factor.noise_variance(j);
     double sum = 0.0;
     for (Eigen::Index r = 0; r < X_new.rows(); ++r)
       sum += log_density(Y_new(r, j) - mean(r, j), latent_std(r, j) * latent_std(r, j) + noise);

@@ -44,8 +44,12 @@ struct UpdateResult {
   std::optional<FitReport> refit_report;
 };
 
-// Throws gipdyn::Error (before any work) for a model that is not a per-joint
-// GP, a taught one, rows of another width, a window or replace a sparse model
+// Throws gipdyn::Error, naming the fix, for a model that takes no new rows: one
+// that is not a per-joint GP, or a taught one. Front ends call it before they
+// read the new rows; update_estimator calls it too.
+void require_updatable(const Estimator& estimator);
+
+// Throws gipdyn::Error (before any work) for a model require_updatable refuses, rows of another width, a window or replace a sparse model
 // cannot honour, and, with UpdateRefit::Never, for new rows the hyperparameters
 // no longer fit (UpdateCheck::warning); a refit that fails throws with its message.
 UpdateResult update_estimator(const Estimator& estimator, const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,

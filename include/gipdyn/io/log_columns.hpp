@@ -5,6 +5,7 @@
 // says how, one pattern per quantity, and the CSV reader renames the log's
 // columns to gipdyn's as it reads the header, so every reader and command
 // sees the same names whatever the file calls them.
+#include <optional>
 #include <string>
 #include <vector>
 
@@ -35,6 +36,14 @@ struct LogColumns {
 
 // The quantities a LogColumns names, in the order of its fields: q, qd, qdd, tau.
 const std::vector<std::string>& log_column_quantities();
+
+// gipdyn's name of a joint column split into its quantity and joint number
+// ("qd2": {"qd", 2}); nullopt for any other name.
+struct JointColumn {
+  std::string quantity;
+  int joint = 0;
+};
+std::optional<JointColumn> split_joint_column(const std::string& name);
 
 // A LogColumns from "q=position_{i0},qd=velocity_{i0},tau=effort_{i0}"
 // (quantities not named keep gipdyn's names), or from the JSON file at that

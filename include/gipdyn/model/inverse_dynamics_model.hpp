@@ -63,6 +63,8 @@ class InverseDynamicsModel {
   // in the units of the scaled output, then "noise.variance", then the mean
   // coefficients ("mean.*", signed, stored as they are).
   std::vector<std::pair<std::string, double>> hyperparameters(int j) const;
+  // Joint j's learned noise variance in torque units squared (the GP's, in scaled units, times the output scale squared).
+  double noise_variance(int j) const;
 
   // Torques for every row of X (M x 3n) -> M x n. With stddev, also the latent
   // predictive standard deviation (needs has_variance()).
