@@ -21,7 +21,7 @@ for case in "${CASES[@]}"; do
   for rows in ${sizes//,/ }; do
     for est in lip gip; do
       start=$(date +%s.%N)
-      "$G" train --data "$WORK/train.csv" --joints "$joints" --kernel "$est" --teacher none --subsample "$rows" \
+      "$G" train --data "$WORK/train.csv" --joints "$joints" --model "$est" --teacher none --subsample "$rows" \
         --out "$WORK/m.gipdyn" >"$WORK/train.log" 2>&1
       secs=$(echo "$(date +%s.%N) - $start" | bc)
       evals=$(awk '$1 ~ /^[0-9]+$/ && $2 != "" {s += $4} END {print s}' "$WORK/train.log")

@@ -21,7 +21,8 @@ HEADER = """# Command-line reference
 
 Every command of `gipdyn` and its options, as `gipdyn COMMAND --help` prints
 them. Options take a value unless the help shows none (flags); `=VALUE` is the
-default. Options are grouped under the estimators they configure. Where to
+default. The options a user needs first come first; each model's search
+settings follow under an "Advanced" heading. Where to
 start: the [README](../../README.md) walks through the commands in order, and
 [choosing a model](../choosing-a-model.md) says which estimator suits which
 log.
@@ -35,7 +36,7 @@ checks that it matches.
 |------|---------|
 | 0 | Everything asked for was done (and `gipdyn` alone, which prints the overview below). |
 | 1 | Anything else went wrong: bad data, a value the command refuses (a negative count), a fit that failed, a plot not drawn (its numbers are written), an experiment with failed fits (the others stand). |
-| 2 | The command line itself: an unknown command or option, a value not of the option's type, a required option missing, a file an option names that does not exist. |
+| 2 | The command line itself: an unknown command or option, an option's old name (the error gives the new one: `train --kernel` is `--model`, `experiment --estimators` is `--models`), a value not of the option's type, a required option missing, a file an option names that does not exist. |
 
 Every error is one line on stderr, `gipdyn: error: ...`, naming the problem
 and the fix; warnings are lines starting `gipdyn: warning:`.

@@ -11,5 +11,5 @@ out=${OUT:-out/demo}
 mkdir -p "$out"
 ./build/gipdyn simulate --robot scara --samples 2000 --seed 1 --out "$out/scara_train.csv"
 ./build/gipdyn simulate --robot scara --samples 2000 --seed 2 --out "$out/scara_test.csv"
-./build/gipdyn train --data "$out/scara_train.csv" --joints RRPR --kernel gip --out "$out/scara_gip.gipdyn"
+./build/gipdyn train --data "$out/scara_train.csv" --joints RRPR --model gip --out "$out/scara_gip.gipdyn"
 ./build/gipdyn evaluate --model "$out/scara_gip.gipdyn" --data "$out/scara_test.csv" --json "$out/scara_gip_report.json"

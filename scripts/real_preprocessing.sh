@@ -22,7 +22,7 @@ declare -A VARIANTS=(
 )
 run() {  # name data
   "$G" experiment real --data "$2" --joints RRRRRR --train-rows 1-6340 --test-rows 6341-12349 \
-    --max-train "$ROWS" --estimators "$ESTIMATORS" --threads 1 --out "$OUT/$1" --quiet
+    --max-train "$ROWS" --models "$ESTIMATORS" --threads 1 --out "$OUT/$1" --quiet
   echo "## $1"
   grep '^| ' "$OUT/$1/summary.md"
 }

@@ -16,7 +16,7 @@ std::string estimator_list() {
 std::string estimator_table_text() {
   size_t width = 0;
   for (const EstimatorSpec& e : estimator_table()) width = std::max(width, e.name.size());
-  std::string text = "Estimators (--kernel):\n";
+  std::string text = "Models (--model):\n";
   for (const EstimatorSpec& e : estimator_table())
     text += "  " + e.name + std::string(width + 2 - e.name.size(), ' ') + e.help +
             (e.needs_robot ? " (needs --robot)" : "") + "\n";
@@ -34,6 +34,15 @@ std::string preset_list() {
 }
 
 void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
+  // The model-based estimators' robot first: it chooses a model, the advanced groups after it only search.
+  if (with_robot) {
+    app.add_option("--robot", robot,
+                   "Nominal robot for the model-based estimators fe, pp, sp: scara, ur10, a URDF or a JSON DH file")
+      ->group(kRobotOptions);
+    app.add_flag("--robot-friction", robot_friction,
+                 "fe, pp, sp: add viscous and Coulomb friction parameters to the rigid-body regressor")
+      ->group(kRobotOptions);
+  }
   app.add_option("--optimizer", optimizer, "GP hyperparameter optimiser: lbfgs or adam")->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--max-iter", max_iter,
@@ -97,14 +106,6 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
   app.add_option("--prior-width", prior_width, "GP: standard deviation of the log-normal priors")->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--threads", threads, "GP: joints trained at once; lip: starts run at once (0: all, sharing the cores; results do not depend on it)")->capture_default_str();
-  if (with_robot) {
-    app.add_option("--robot", robot,
-                   "Nominal robot for the model-based estimators fe, pp, sp: scara, ur10, a URDF or a JSON DH file")
-      ->group(kRobotOptions);
-    app.add_flag("--robot-friction", robot_friction,
-                 "fe, pp, sp: add viscous and Coulomb friction parameters to the rigid-body regressor")
-      ->group(kRobotOptions);
-  }
   app.add_flag("--no-serial-chain", no_serial_chain,
                "lip (and the lip teacher): the joints are not ordered from the base to the tip of one serial "
                "chain, so let every entry of the inertia matrix depend on every joint (the LIP paper's kernel; "

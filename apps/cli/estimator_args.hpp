@@ -27,7 +27,7 @@ struct EstimatorArgs {
   NeuralNetworkOptions nn;
   ChainIdentificationOptions chain;
 
-  // GP, robot and network options (not --kernel, whose help differs per command).
+  // GP, robot and network options (not --model, whose help differs per command).
   void add_to(CLI::App& app, bool with_robot, bool with_seed = true);
   // Options for estimator `name`; loads --robot when given. Throws gipdyn::Error
   // for text it cannot parse; the values are checked where they are used.
@@ -48,12 +48,13 @@ std::string estimator_table_text();
 // One clause per preset: "default (gip), real (gip-envelope+friction, at most 1000 rows)".
 std::string preset_list();
 
-// Headings of --help: each estimator's options under its own, so that the
-// options a user needs first (data, kernel, output) are not lost among forty.
-inline const char* const kGpOptions = "GP hyperparameter learning (gip, rbf and the other GP kernels)";
+// Headings of --help: each model's search settings under its own "Advanced"
+// heading, after the options a user needs first (data, joints, model, output),
+// so that those are not lost among forty.
+inline const char* const kGpOptions = "Advanced: GP hyperparameter search (gip, rbf and the other GP kernels)";
 inline const char* const kRobotOptions = "Model-based estimators (fe, pp, sp)";
-inline const char* const kLipOptions = "LIP (lip, and the lip teacher)";
-inline const char* const kNetworkOptions = "Neural network (nn)";
-inline const char* const kChainOptions = "Serial chain identified from the log (chain)";
+inline const char* const kLipOptions = "Advanced: LIP search (lip, and the lip teacher)";
+inline const char* const kNetworkOptions = "Advanced: neural network training (nn)";
+inline const char* const kChainOptions = "Advanced: serial chain identified from the log (chain)";
 
 }  // namespace gipdyn::cli

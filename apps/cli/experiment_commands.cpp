@@ -61,7 +61,7 @@ Subcommand add_accuracy(CLI::App& app, const std::shared_ptr<bool>& quiet, const
       ->capture_default_str();
   a->add_option("--dt", acc->config.dt, "Sampling period of the trajectories (s)")->capture_default_str();
   a->add_option("--noise", acc->config.noise_std, "Torque noise standard deviation")->capture_default_str();
-  a->add_option("--estimators", acc->estimators, estimator_help)->capture_default_str();
+  a->add_option("--models", acc->estimators, estimator_help)->capture_default_str();
   a->add_option("--out", acc->config.out, "Output folder: nmse.csv, summary.md, nmse_boxplot.png")->required();
   a->add_flag("--warm-start-runs", acc->config.warm_start_runs,
               "GP: runs after the first start from the first run's learned hyperparameters (kept in "
@@ -99,7 +99,7 @@ Subcommand add_data_efficiency(CLI::App& app, const std::shared_ptr<bool>& quiet
   d->add_option("--seed", eff->config.seed, "Seed of the trajectories, noise and fits")->capture_default_str();
   d->add_option("--dt", eff->config.dt, "Sampling period of the trajectories (s)")->capture_default_str();
   d->add_option("--noise", eff->config.noise_std, "Torque noise standard deviation")->capture_default_str();
-  d->add_option("--estimators", eff->estimators, estimator_help)->capture_default_str();
+  d->add_option("--models", eff->estimators, estimator_help)->capture_default_str();
   d->add_option("--out", eff->config.out, "Output folder: gmse.csv, summary.md, gmse.png")->required();
   d->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   eff->est.add_to(*d, false, false);
@@ -152,7 +152,7 @@ Subcommand add_real(CLI::App& app, const std::shared_ptr<bool>& quiet, const std
                 "box widened by MARGIN times each input's range, e.g. 0.1 (default: off)");
   r->add_option("--plot-window", real->config.plot_window, "Test rows in the torque-over-time plot")
       ->capture_default_str();
-  r->add_option("--estimators", real->estimators,
+  r->add_option("--models", real->estimators,
                 estimator_help + " (default: " + joined(default_compared_estimators(false), ",") + ", plus " +
                     joined(robot_compared_estimators(), ",") + " when a robot is known)");
   r->add_option("--out", real->config.out,
@@ -236,7 +236,7 @@ Subcommand add_contact(CLI::App& app, const std::shared_ptr<bool>& quiet, const 
                  "through the robot's dynamics on a new motion (residual and momentum methods); detection rate, "
                  "delay, torque error and false alarms per model, beside the true dynamics");
   k->add_option("--robot", c.robot, "The true robot: scara, ur10, a URDF or a JSON DH file")->capture_default_str();
-  k->add_option("--estimators", ct->estimators, estimator_help + "; the true model is always added")
+  k->add_option("--models", ct->estimators, estimator_help + "; the true model is always added")
       ->capture_default_str();
   k->add_option("--train-samples", c.train_samples, "Rows of the contact-free training motion")->capture_default_str();
   k->add_option("--train-dt", c.train_dt, "Sampling period of the training motion (s)")->capture_default_str();
@@ -273,7 +273,7 @@ Subcommand add_contact(CLI::App& app, const std::shared_ptr<bool>& quiet, const 
 Command add_experiment(CLI::App& app) {
   app.require_subcommand(1);
   auto quiet = std::make_shared<bool>(false);
-  const std::string estimator_help = "Comma-separated estimators from: " + estimator_list() +
+  const std::string estimator_help = "Comma-separated models from: " + estimator_list() +
                                      "; or STUDENT@TEACHER, e.g. gip@lip: the student trained on the teacher's torques "
                                      "at 2000 states drawn from the training log's box (train --teacher)";
   const std::vector<Subcommand> subcommands{add_accuracy(app, quiet, estimator_help),

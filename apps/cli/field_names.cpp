@@ -83,7 +83,7 @@ const FieldNames& cli_field_names() {
       {"LogColumns::q", "--columns q"},
       {"LogColumns::tau", "--columns tau"},
       {"LogColumns", "--columns"},
-      {"EstimatorOptions::name", "--kernel"},
+      {"EstimatorOptions::name", "--model"},
       {"UpdateOptions::refit where-misfit", "update without --keep-hyperparameters"},
       {"UpdateOptions::refit", "--refit or --keep-hyperparameters"},
       {"UpdateOptions::replace", "--replace"},

@@ -22,7 +22,7 @@ std::string out_of_memory_advice(const std::string& command) {
   if (command == "train") return "train on fewer rows (--subsample) or fewer joints at once (--threads 1)";
   if (command == "simulate") return "simulate fewer samples (--samples) and concatenate the files";
   if (command == "experiment")
-    return "use fewer training rows (--max-train, --sizes, --train-samples) or one estimator at a time (--estimators)";
+    return "use fewer training rows (--max-train, --sizes, --train-samples) or one estimator at a time (--models)";
   if (command == "update") return "keep fewer rows (--window)";
   if (command == "predict" || command == "evaluate" || command == "physics" || command == "detect")
     return "split --data into smaller files and run them one after another";
@@ -96,6 +96,35 @@ std::string command_help(int argc, char** argv) {
   return words + " --help";
 }
 
+// Options that were renamed: the old spelling is refused with the new one, never read as an alias, so that
+// a script learns the one vocabulary instead of keeping two.
+struct RenamedOption {
+  const char* command;  // the first word after gipdyn
+  const char* old_name;
+  const char* new_name;
+};
+constexpr RenamedOption kRenamedOptions[] = {
+    {"train", "--kernel", "--model"},
+    {"experiment", "--estimators", "--models"},
+};
+
+// "" or the one-line error for an old option name on this command line.
+std::string renamed_option_error(int argc, char** argv) {
+  if (argc < 2) return "";
+  const std::string command = argv[1];
+  for (const RenamedOption& r : kRenamedOptions) {
+    if (command != r.command) continue;
+    const std::string old_name = r.old_name;
+    for (int i = 2; i < argc; ++i) {
+      const std::string word = argv[i];
+      if (word == old_name || word.rfind(old_name + "=", 0) == 0)
+        return "gipdyn " + command + " " + old_name + " is now " + r.new_name + " (same values; " +
+               command_help(argc, argv) + ")";
+    }
+  }
+  return "";
+}
+
 }  // namespace
 
 int main(int argc, char** argv) {
@@ -146,6 +175,10 @@ int main(int argc, char** argv) {
     return gipdyn::cli::kExitSuccess;
   }
   if (const std::string error = command_error(app, argc, argv); !error.empty()) {
+    std::cerr << "gipdyn: error: " << error << "\n";
+    return gipdyn::cli::kExitUsage;
+  }
+  if (const std::string error = renamed_option_error(argc, argv); !error.empty()) {
     std::cerr << "gipdyn: error: " << error << "\n";
     return gipdyn::cli::kExitUsage;
   }

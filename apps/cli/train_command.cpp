@@ -32,7 +32,7 @@ namespace gipdyn::cli {
 namespace {
 
 struct TrainArgs {
-  std::string data, mat_variable, columns, joints, kernel = default_estimator_name(), out, preset, teacher = kAutomaticTeacher, teacher_out;
+  std::string data, mat_variable, columns, joints, model = default_estimator_name(), out, preset, teacher = kAutomaticTeacher, teacher_out;
   long subsample = 0;
   int teacher_states = TeacherOptions{}.states, teacher_hyperparameter_rows = TeacherOptions{}.hyperparameter_rows,
       student_hyperparameter_rows = TeacherOptions{}.student_hyperparameter_rows;
@@ -42,7 +42,7 @@ struct TrainArgs {
 
 // Where --teacher auto teaches (the library's automatic_teaching_applies), in train's flags.
 const char* const kAutomaticTeachingConditions =
-    "(--kernel gip alone, without --inducing, --warm-start-rows, --mean, --robot or --distributed)";
+    "(--model gip alone, without --inducing, --warm-start-rows, --mean, --robot or --distributed)";
 
 // The options, the teacher and the rows of a training, or the first error (thrown).
 struct TrainPlan {
@@ -51,18 +51,18 @@ struct TrainPlan {
   // Printed after training, so that an error stays the only line on stderr when the fit cannot start.
   std::vector<std::string> data_warnings;
   Eigen::Index total = 0;  // the log's rows, before --subsample
-  // --kernel auto: the estimator is chosen by evidence (fit_selected_estimator); o holds the shared search options.
+  // --model auto: the estimator is chosen by evidence (fit_selected_estimator); o holds the shared search options.
   bool select = false;
   TeacherOptions teacher_settings;
 };
 
-// --kernel auto: the options that name one model or one way of fitting, which the choice by evidence makes itself.
+// --model auto: the options that name one model or one way of fitting, which the choice by evidence makes itself.
 void refuse_options_beside_a_choice(const CLI::App& app) {
   for (const char* name : {"--preset", "--teacher", "--teacher-out", "--robot", "--inducing", "--distributed",
                            "--mean", "--warm-start-rows"})
     if (app.count(name) > 0)
-      throw Error(std::string(name) + " chooses part of the model, and --kernel " + kAutomaticEstimator +
-                  " chooses the whole model by evidence: name an estimator with --kernel to use " + name +
+      throw Error(std::string(name) + " chooses part of the model, and --model " + kAutomaticEstimator +
+                  " chooses the whole model by evidence: name a model with --model to use " + name +
                   ", or drop it");
 }
 
@@ -73,11 +73,11 @@ void plan_training(TrainArgs& a, const CLI::App& app, DistributedRun* mpi, const
   std::vector<std::string>& data_warnings = plan.data_warnings;
   refuse_overwrites({{"--data", a.data}, {"--robot", a.estimator.robot}},
                     {{"--out", a.out}, {"--teacher-out", a.teacher_out}});
-  plan.select = a.kernel == kAutomaticEstimator;
+  plan.select = a.model == kAutomaticEstimator;
   if (plan.select) refuse_options_beside_a_choice(app);
   o = a.preset.empty()
-          ? a.estimator.build(plan.select ? default_estimator_name() : a.kernel)
-          : a.estimator.build_over(preset_options(a.preset), app, a.kernel, app.count("--kernel") > 0);
+          ? a.estimator.build(plan.select ? default_estimator_name() : a.model)
+          : a.estimator.build_over(preset_options(a.preset), app, a.model, app.count("--model") > 0);
   if (a.subsample < 0) throw Error("--subsample must be >= 0");
   if (mpi) {
     if (!is_gp_estimator(o.name))
@@ -338,8 +338,8 @@ Command add_train(CLI::App& app) {
   auto a = std::make_shared<TrainArgs>();
   add_data_option(app, a->data, a->mat_variable, a->columns, "Training log: CSV with columns q1..qn, qd1..qdn, qdd1..qddn, tau1..taun");
   app.add_option("--joints", a->joints, "Joint types, one R (revolute) or P (prismatic) per joint, e.g. RRPR (default: those the log's .json sidecar records, as simulate writes them; else those of --robot; else required)");
-  app.add_option("--kernel", a->kernel,
-                 std::string("Estimator, one of those listed under Estimators below (docs/choosing-a-model.md says "
+  app.add_option("--model", a->model,
+                 std::string("Model, one of those listed under Models below (docs/choosing-a-model.md says "
                              "which for which log), or ") + kAutomaticEstimator +
                      ": choose among " + joined(selection_candidates()) +
                      " by evidence, each fitted on the log's earlier rows and scored on its last " +
@@ -355,7 +355,7 @@ Command add_train(CLI::App& app) {
                      "; real is for logs of real robots (docs/real-robots.md)");
   app.add_option(
       "--teacher", a->teacher,
-      "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --kernel on "
+      "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --model on "
       "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
       "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by "
       "LIP\"). auto: lip " + std::string(kAutomaticTeachingConditions) + " on a log of at most " +

@@ -184,7 +184,7 @@ nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<st
 }
 
 void validate_estimators(const std::vector<std::string>& estimators) {
-  if (estimators.empty()) throw Error("--estimators: name at least one estimator");
+  if (estimators.empty()) throw Error("--models: name at least one estimator");
   for (const auto& e : estimators) {
     const StudentTeacherSpec spec = parse_estimator_spec(e);
     require_known_estimator(spec.student);
@@ -194,7 +194,7 @@ void validate_estimators(const std::vector<std::string>& estimators) {
     try {
       teacher.validate();
     } catch (const Error& error) {
-      throw Error("--estimators: '" + e + "' names a teacher it cannot use (" + error.what() +
+      throw Error("--models: '" + e + "' names a teacher it cannot use (" + error.what() +
                   "); write STUDENT@TEACHER, e.g. gip@lip");
     }
   }

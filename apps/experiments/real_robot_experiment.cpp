@@ -50,7 +50,7 @@ void RealRobotConfig::validate() const {
   validate_base_options(base);
   for (const auto& e : estimators)
     if (estimator_needs_robot(parse_estimator_spec(e).student) && robot.empty())
-      throw Error("estimator '" + e + "' needs the nominal robot; pass --robot or drop it from --estimators");
+      throw Error("estimator '" + e + "' needs the nominal robot; pass --robot or drop it from --models");
 }
 
 nlohmann::json RealRobotConfig::to_json() const {

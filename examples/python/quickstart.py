@@ -14,7 +14,7 @@ max_iter = int(sys.argv[2]) if len(sys.argv) > 2 else gipdyn.SearchSettings().op
 train = gipdyn.simulate("scara", samples=samples, seed=1)
 test = gipdyn.simulate("scara", samples=samples, seed=2)
 
-model = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="gip", max_iter=max_iter)
+model = gipdyn.InverseDynamicsGP(joints="RRPR", model="gip", max_iter=max_iter)
 model.fit(train["X"], train["tau"])
 
 print(f"GIP on a simulated SCARA, {samples} training samples")

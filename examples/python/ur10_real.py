@@ -2,10 +2,10 @@
 """The real preset on the real UR10 pick-and-place log (../shared/data/ur10-pick-and-place):
 train on data rows 1-6340 (a constant-step subsample), test on rows 6341-12349
 (other motions), print per-joint nMSE and plot predicted vs measured torque.
-preset="real" is the recommendation for real logs (docs/real-robots.md); --kernel gip
+preset="real" is the recommendation for real logs (docs/real-robots.md); --model gip
 shows plain GIP on the same rows.
 
-    python3 examples/python/ur10_real.py [--data CSV] [--train-rows N] [--kernel K] [--max-iter N] [--out PNG]
+    python3 examples/python/ur10_real.py [--data CSV] [--train-rows N] [--model K] [--max-iter N] [--out PNG]
 """
 import argparse
 import os
@@ -23,7 +23,7 @@ default_data = os.path.join(here, "..", "..", "..", "shared", "data", "ur10-pick
 parser = argparse.ArgumentParser(description=__doc__, formatter_class=argparse.RawDescriptionHelpFormatter)
 parser.add_argument("--data", default=default_data)
 parser.add_argument("--train-rows", type=int, default=1000, help="training rows kept (constant step)")
-parser.add_argument("--kernel", default=None, help="override the preset's kernel (gip-envelope+friction), e.g. gip")
+parser.add_argument("--model", default=None, help="override the preset's model (gip-envelope+friction), e.g. gip")
 parser.add_argument("--max-iter", type=int, default=None, help="safety cap on NLL evaluations per joint (default: the library's)")
 parser.add_argument("--out", default="ur10_real.png")
 args = parser.parse_args()
@@ -44,7 +44,7 @@ if check["status"] == "ok":
           + " ".join(f"{v:.2f}" for v in check["neighbour_nmse"]) + " (1 or more: the test rows follow another function of the state there)")
 
 options = {} if args.max_iter is None else {"max_iter": args.max_iter}
-model = gipdyn.InverseDynamicsGP(joints="RRRRRR", preset="real", kernel=args.kernel, **options)
+model = gipdyn.InverseDynamicsGP(joints="RRRRRR", preset="real", model=args.model, **options)
 model.fit(Xtr, Ytr)
 name = model.model_.kernel
 pred = model.predict(X[test])

@@ -206,17 +206,21 @@ def _threads(n_jobs):
 
 
 # Parameters that were renamed to scikit-learn's spelling: the old name is refused with the new one.
-_RENAMED_PARAMETERS = {"seed": "random_state", "threads": "n_jobs"}
+# Parameters renamed for scikit-learn's spelling, refused with the new name (no silent aliases).
+_RENAMED_SEARCH_PARAMETERS = {"seed": ("random_state", "scikit-learn's name"), "threads": ("n_jobs", "scikit-learn's name")}
 
 
 class _RefusesRenamedParameters:
     """Refuses a renamed parameter in one line naming its new spelling, where Python alone would only say that
-    the keyword is unexpected (scikit-learn forbids **kwargs in __init__, so __new__ looks first)."""
+    the keyword is unexpected (scikit-learn forbids **kwargs in __init__, so __new__ looks first). Each class
+    names its own in _RENAMED_PARAMETERS: {old: (new, why)}."""
+
+    _RENAMED_PARAMETERS = _RENAMED_SEARCH_PARAMETERS
 
     def __new__(cls, *args, **kwargs):
-        for old, new in _RENAMED_PARAMETERS.items():
+        for old, (new, why) in cls._RENAMED_PARAMETERS.items():
             if old in kwargs:
-                raise TypeError(f"{cls.__name__}: the parameter {old}= is now called {new}= (scikit-learn's name)")
+                raise TypeError(f"{cls.__name__}: the parameter {old}= is now called {new}= ({why})")
         return super().__new__(cls)
 
 
@@ -236,8 +240,8 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         One "R" (revolute) or "P" (prismatic) per joint, e.g. "RRPR". Required
         unless robot is given: a log cannot tell the two kinds apart (read_log
         returns those a log's sidecar records).
-    kernel : str, optional
-        The estimator: one of @KERNELS@ (those that need robot:
+    model : str, optional
+        The model: one of @KERNELS@ (those that need robot:
         @ROBOT_KERNELS@). None: the preset's, else "gip".
     optimizer : {"lbfgs", "adam"}, default "lbfgs"
         The hyperparameter optimiser.
@@ -275,7 +279,7 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
     gradient_tolerance : float
         Converged when the projected NLL gradient per training row is below it.
     preset : {"default", "real"}, optional
-        A named set of options; kernel and subsample given here override it.
+        A named set of options; model and subsample given here override it.
         "real" (logs of real robots): the bounded GIP with friction
         ("gip-envelope+friction") on at most 1000 rows.
     subsample : int, optional
@@ -364,12 +368,13 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
     """
 
     _MODEL_CLASS = _core.Model  # what model_ is, and how a pickle restores it
+    _RENAMED_PARAMETERS = {**_RENAMED_SEARCH_PARAMETERS, "kernel": ("model", "as the command line's train --model")}
 
     def _more_tags(self):
         # Every joint is one output: Y is (N, n), and a 1-D y is the one joint of joints="R" or "P".
         return {"multioutput": True}
 
-    def __init__(self, joints=None, kernel=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
+    def __init__(self, joints=None, model=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
                  restarts=_DEFAULTS.search.restarts, random_state=0, scaling="standardize", min_noise=1e-8, n_jobs=None,
                  learning_rate=0.01, verbose=False, robot=None, robot_friction=False, mean="zero", prior="none",
                  prior_width=2.0, warm_start_rows=_DEFAULTS.gp.warm_start_rows,
@@ -383,7 +388,7 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
                  serial_chain=_DEFAULTS.serial_chain,
                  start_screening=_DEFAULTS.search.start_screening_evaluations):
         self.joints = joints
-        self.kernel = kernel
+        self.model = model
         self.optimizer = optimizer
         self.max_iter = max_iter
         self.restarts = restarts
@@ -441,13 +446,13 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
     def estimator_options(self):
         """The library's EstimatorOptions for these parameters (checked when fitting)."""
         o = self._search_options()
-        # kernel=None: the preset's kernel, or the library's default without one.
+        # model=None: the preset's kernel, or the library's default without one.
         base = _core.preset_options(str(self.preset)) if self.preset is not None else EstimatorOptions()
-        if self.kernel == _core.automatic_estimator_name():
-            raise ValueError(f"kernel={self.kernel!r} (the choice by evidence of `gipdyn train --kernel auto`) may choose "
+        if self.model == _core.automatic_estimator_name():
+            raise ValueError(f"model={self.model!r} (the choice by evidence of `gipdyn train --model auto`) may choose "
                              "a model this class cannot hold (the identified chain): choose it with the command line, "
-                             "then load the model file, or name a kernel")
-        o.name = str(self.kernel) if self.kernel is not None else base.name
+                             "then load the model file, or name a model")
+        o.name = str(self.model) if self.model is not None else base.name
         o.gp.scaling = str(self.scaling)
         o.gp.mean = str(self.mean)
         o.search.threads = _threads(self.n_jobs)
@@ -715,7 +720,7 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
     def load(cls, path):
         """Load a model written by `save` or by `gipdyn train`."""
         model = _core.Model.load(str(path))
-        est = cls(joints=model.joints, kernel=model.kernel)
+        est = cls(joints=model.joints, model=model.kernel)
         est.model_ = model
         est._set_fitted_attributes()
         return est
@@ -795,6 +800,7 @@ class LagrangianGP(InverseDynamicsGP):
     """
 
     _MODEL_CLASS = _core.LagrangianModel
+    _RENAMED_PARAMETERS = _RENAMED_SEARCH_PARAMETERS
 
     def __init__(self, joints=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
                  restarts=_DEFAULTS.search.restarts, random_state=0, min_noise=1e-8, learning_rate=0.01, verbose=False,
@@ -871,7 +877,7 @@ class LagrangianGP(InverseDynamicsGP):
 
     @classmethod
     def load(cls, path):
-        """Load a lip model written by `save` or by `gipdyn train --kernel lip`."""
+        """Load a lip model written by `save` or by `gipdyn train --model lip`."""
         model = _core.LagrangianModel.load(str(path))
         est = cls(joints=model.joints, friction=_estimator_row(model.estimator)["friction"])
         est.model_ = model

@@ -97,7 +97,7 @@ const FieldNames& python_field_names() {
       {"LogColumns::q", "columns[\"q\"]"},
       {"LogColumns::tau", "columns[\"tau\"]"},
       {"LogColumns", "read_log(columns=...)"},
-      {"EstimatorOptions::name", "kernel"},
+      {"EstimatorOptions::name", "model"},
       {"UpdateOptions::refit where-misfit", "partial_fit with refit=None"},
       {"UpdateOptions::refit", "refit"},
       {"UpdateOptions::replace", "window=len(X)"},

@@ -10,7 +10,7 @@ import gipdyn
 @pytest.fixture(scope="module")
 def scara():
     train = gipdyn.simulate("scara", samples=400, dt=0.1, seed=1)
-    model = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="gip").fit(train["X"], train["tau"])
+    model = gipdyn.InverseDynamicsGP(joints="RRPR", model="gip").fit(train["X"], train["tau"])
     contacts = gipdyn.simulate("scara", samples=3000, dt=0.001, seed=4, contacts=4)
     calibration = gipdyn.simulate("scara", samples=2000, dt=0.001, seed=5)
     return model, contacts, calibration
@@ -53,6 +53,6 @@ def test_detector_explains_what_it_cannot_do(scara):
         gipdyn.ContactDetector(model, sample_time=0.001).detect(d["X"][:, :8], d["tau"])
     with warnings.catch_warnings():  # a short fit: only its kind matters here
         warnings.simplefilter("ignore")
-        rbf = gipdyn.InverseDynamicsGP(joints="RRPR", kernel="rbf", max_iter=20).fit(d["X"][:200], d["tau"][:200])
+        rbf = gipdyn.InverseDynamicsGP(joints="RRPR", model="rbf", max_iter=20).fit(d["X"][:200], d["tau"][:200])
     with pytest.raises(gipdyn.GipdynError, match="cannot give gravity, inertia"):
         gipdyn.ContactDetector(rbf, sample_time=0.001, method="momentum")

@@ -149,7 +149,7 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
         assert np.array_equal(np.loadtxt(tmp_path / "cpp_pred.csv", delimiter=",", skiprows=1), cli_pred)
     # CLI model -> Python.
     loaded = gipdyn.InverseDynamicsGP.load(tmp_path / "cli.gipdyn")
-    assert loaded.joints == "RRPR" and loaded.kernel == "gip"
+    assert loaded.joints == "RRPR" and loaded.model == "gip"
     assert np.array_equal(loaded.predict(X_test), cli_pred)
     # Python model -> CLI.
     py.save(tmp_path / "py.gipdyn")
@@ -198,13 +198,13 @@ def test_sklearn_cross_validation_and_grid_search(scara):
     # candidates exactly as the nMSE scorer does.
     results = {}
     for name, scoring in (("score", None), ("neg_nmse", gipdyn.neg_nmse_scorer)):
-        grid = GridSearchCV(est, {"kernel": ["rbf", "gip"]}, cv=KFold(2, shuffle=True, random_state=0),
+        grid = GridSearchCV(est, {"model": ["rbf", "gip"]}, cv=KFold(2, shuffle=True, random_state=0),
                             scoring=scoring)
         grid.fit(train["X"], train["tau"])
-        results[name] = (grid.best_params_["kernel"], grid.cv_results_["mean_test_score"])
+        results[name] = (grid.best_params_["model"], grid.cv_results_["mean_test_score"])
     assert results["score"][0] == results["neg_nmse"][0]
     np.testing.assert_allclose(results["score"][1], 1.0 + results["neg_nmse"][1], rtol=1e-12)
-    assert est.set_params(kernel="rbf") is est and est.kernel == "rbf"
+    assert est.set_params(model="rbf") is est and est.model == "rbf"
     with pytest.raises(ValueError):
         est.set_params(colour="red")
 
@@ -243,18 +243,18 @@ def test_inputs_of_another_joint_count_name_the_joints_and_the_fix():
 def test_a_robot_gives_the_joint_types_when_joints_is_not_given():
     # pp on a UR10 log with robot="ur10" alone: the robot's RRRRRR, not the SCARA's default.
     d = gipdyn.simulate("ur10", samples=60, seed=3)
-    m = gipdyn.InverseDynamicsGP(kernel="pp", robot="ur10", max_iter=5).fit(d["X"], d["tau"])
+    m = gipdyn.InverseDynamicsGP(model="pp", robot="ur10", max_iter=5).fit(d["X"], d["tau"])
     assert m.model_.joints == "RRRRRR" and m.predict_one(d["X"][0]).shape == (6,)
     # A robot of another joint count than X: the message names the robot.
     with pytest.raises(ValueError) as err:
-        gipdyn.InverseDynamicsGP(kernel="pp", robot="scara", max_iter=5).fit(d["X"], d["tau"])
+        gipdyn.InverseDynamicsGP(model="pp", robot="scara", max_iter=5).fit(d["X"], d["tau"])
     assert "X has 18 columns (n_features=18) but must have 12 (q, qd, qdd of joints='RRPR')" in str(err.value)
     assert "they are the joints of robot='scara'" in str(err.value)
     with pytest.raises(ValueError, match="they are the joints of robot='scara'"):  # a Robot object, by its name
-        gipdyn.InverseDynamicsGP(kernel="pp", robot=gipdyn.Robot.load("scara"), max_iter=5).fit(d["X"], d["tau"])
+        gipdyn.InverseDynamicsGP(model="pp", robot=gipdyn.Robot.load("scara"), max_iter=5).fit(d["X"], d["tau"])
     # joints, when given, wins; a refit after set_params reads X against the new joints, not the fitted model's.
     s = gipdyn.simulate("scara", samples=40, seed=3)
-    m.set_params(kernel="rbf", robot=None, joints="RRPR")
+    m.set_params(model="rbf", robot=None, joints="RRPR")
     assert m.fit(s["X"], s["tau"]).model_.joints == "RRPR"
 
 
@@ -351,7 +351,7 @@ def test_build_info_is_the_command_lines():
 def test_is_a_scikit_learn_regressor():
     from sklearn.base import BaseEstimator, RegressorMixin, clone, is_regressor
 
-    est = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", min_noise=1e-6)
+    est = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", model="rbf", min_noise=1e-6)
     assert isinstance(est, BaseEstimator) and isinstance(est, RegressorMixin) and is_regressor(est)
     copy = clone(est)
     assert copy is not est and copy.get_params() == est.get_params()
@@ -386,7 +386,7 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
     # pp on the true robot is exact up to the noise of 200 samples: every term within 0.1 % of the robot's.
     train, test = scara
     robot = gipdyn.Robot.load("scara")
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="pp", robot="scara", max_iter=30).fit(train["X"], train["tau"])
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model="pp", robot="scara", max_iter=30).fit(train["X"], train["tau"])
     q, qd = test["q"][:20], test["qd"][:20]
     zero = np.zeros_like(q)
 
@@ -407,11 +407,11 @@ def test_gravity_inertia_and_coriolis_match_the_robot(scara):
     assert relative_error(est.coriolis(q, qd), robot.inverse_dynamics(q, qd, zero) - g_true) < 1e-3
     np.testing.assert_allclose(est.friction(q, qd), 0.0, atol=1e-9)  # no friction columns: nothing odd in qd
     with pytest.raises(ValueError, match="cannot give gravity"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="rbf", max_iter=2).fit(train["X"], train["tau"]).gravity(q)
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model="rbf", max_iter=2).fit(train["X"], train["tau"]).gravity(q)
 
 
 def test_estimator_options_are_the_librarys_own():
-    o = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", kernel="rbf", optimizer="adam", max_iter=7, restarts=2, random_state=5,
+    o = gipdyn.InverseDynamicsGP(joints="RR", teacher="none", model="rbf", optimizer="adam", max_iter=7, restarts=2, random_state=5,
                                  scaling="center", min_noise=1e-6, mean="linear", prior="lognormal",
                                  prior_width=1.5).estimator_options()
     assert isinstance(o, gipdyn.EstimatorOptions)
@@ -434,7 +434,7 @@ def test_estimator_options_are_the_librarys_own():
     ({"teacher": "lip", "start_screening": -1}, "start_screening must be >= 0"),
     ({"gradient_tolerance": -1.0}, "gradient_tolerance must be >= 0"),
     ({"prior": "lognormal", "prior_width": 0.0}, "prior_width must be > 0"),
-    ({"kernel": "pp"}, "needs the nominal robot (robot)"),
+    ({"model": "pp"}, "needs the nominal robot (robot)"),
     ({"scaling": "zscore"}, "scaling 'zscore' is unknown"),
 ])
 def test_option_errors_name_the_keyword(params, message):
@@ -448,7 +448,7 @@ def test_option_errors_name_the_keyword(params, message):
 def test_bad_options_and_unfitted_model_raise_value_error():
     X, Y = np.random.default_rng(0).normal(size=(20, 12)), np.zeros((20, 4))
     with pytest.raises(ValueError, match="unknown kernel"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="matern").fit(X, Y)
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model="matern").fit(X, Y)
     with pytest.raises(ValueError, match="'X'"):
         gipdyn.InverseDynamicsGP(joints="RXPR", teacher="none").fit(X, Y)
     # scikit-learn's NotFittedError (a ValueError and an AttributeError), naming the class.
@@ -539,7 +539,7 @@ def test_ur10_real_example_runs(tmp_path):
 def test_model_based_and_hybrid_kernels(scara, tmp_path):
     train, test = scara
     for kernel in ("pp", "gip+rbf"):
-        est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel=kernel, robot="scara", max_iter=30)
+        est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model=kernel, robot="scara", max_iter=30)
         est.fit(train["X"], train["tau"])
         # About three times what each reaches: pp is exact up to the noise, the hybrid as GIP.
         bound = {"pp": [1e-7, 1e-6, 1e-6, 3e-3], "gip+rbf": [6e-3, 3e-2, 2e-4, 0.15]}[kernel]
@@ -547,10 +547,10 @@ def test_model_based_and_hybrid_kernels(scara, tmp_path):
         assert np.all(e < bound), (kernel, e)
         est.save(tmp_path / "m.gipdyn")
         back = gipdyn.InverseDynamicsGP.load(tmp_path / "m.gipdyn")
-        assert back.kernel == kernel
+        assert back.model == kernel
         np.testing.assert_array_equal(back.predict(test["X"]), est.predict(test["X"]))
     with pytest.raises(ValueError, match="needs the nominal robot"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="sp").fit(train["X"], train["tau"])
+        gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model="sp").fit(train["X"], train["tau"])
 
 
 def test_predicting_with_std_leaves_the_estimator_as_it_was(scara, tmp_path):
@@ -573,12 +573,12 @@ def test_predicting_with_std_leaves_the_estimator_as_it_was(scara, tmp_path):
 
 def test_mean_function_and_map_prior(scara):
     train, test = scara
-    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="gip", mean="constant", prior="lognormal", max_iter=30)
+    est = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model="gip", mean="constant", prior="lognormal", max_iter=30)
     est.fit(train["X"], train["tau"])
     e = gipdyn.nmse(test["tau_true"], est.predict(test["X"]))
     assert np.all(e < [2.5e-2, 3e-2, 2.5e-3, 0.25]), e  # about three times what it reaches
     assert list(est.hyperparameters_[0])[-1] == "mean.constant"
-    linear = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", kernel="rbf", mean="linear", max_iter=5).fit(train["X"], train["tau"])
+    linear = gipdyn.InverseDynamicsGP(joints="RRPR", teacher="none", model="rbf", mean="linear", max_iter=5).fit(train["X"], train["tau"])
     names = list(linear.hyperparameters_[0])
     assert names[-13:] == ["mean.constant"] + [f"mean.x{k}" for k in range(1, 13)]
     with pytest.raises(ValueError, match="mean 'quadratic' is unknown"):
@@ -748,7 +748,7 @@ def _gip_model_file(train, tmp_path):
 def test_preset_real_sets_the_kernel_and_subsample_and_explicit_parameters_override_it():
     assert gipdyn._core.preset_names() == ["default", "real"]
     assert gipdyn.InverseDynamicsGP(preset="real").estimator_options().name == "gip-envelope+friction"
-    assert gipdyn.InverseDynamicsGP(preset="real", kernel="gip").estimator_options().name == "gip"
+    assert gipdyn.InverseDynamicsGP(preset="real", model="gip").estimator_options().name == "gip"
     assert gipdyn.InverseDynamicsGP(preset="default").estimator_options().name == "gip"
     d = gipdyn.simulate("scara", samples=1200, seed=3, dt=0.05)
     m = gipdyn.InverseDynamicsGP(joints="RRPR", preset="real", max_iter=5).fit(d["X"], d["tau"])
@@ -908,7 +908,7 @@ def test_auto_teacher_is_for_the_gip_kernel_alone():
     # The library's choose_teacher: teacher="auto" on another kernel has no teacher and learns from the log, as the
     # CLI's default train does (the teacher that cannot start: tests/cli, under an address-space limit).
     train = gipdyn.simulate("scara", samples=80, seed=2)
-    kwargs = dict(joints="RRPR", kernel="rbf", max_iter=10, random_state=1)
+    kwargs = dict(joints="RRPR", model="rbf", max_iter=10, random_state=1)
     with warnings.catch_warnings():
         warnings.simplefilter("ignore")
         auto = gipdyn.InverseDynamicsGP(teacher="auto", **kwargs).fit(train["X"], train["tau"])

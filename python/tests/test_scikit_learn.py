@@ -43,7 +43,7 @@ def run_checks(estimator):
 
 @pytest.mark.parametrize("estimator, expected_width_failures", [
     (gipdyn.InverseDynamicsGP(joints="R"), INPUT_WIDTH_FIXED_BY_THE_JOINTS | PARTIAL_FIT_WIDTH),
-    (gipdyn.InverseDynamicsGP(joints="P", kernel="rbf", max_iter=30), INPUT_WIDTH_FIXED_BY_THE_JOINTS | PARTIAL_FIT_WIDTH),
+    (gipdyn.InverseDynamicsGP(joints="P", model="rbf", max_iter=30), INPUT_WIDTH_FIXED_BY_THE_JOINTS | PARTIAL_FIT_WIDTH),
     (gipdyn.LagrangianGP(joints="R", max_iter=30), INPUT_WIDTH_FIXED_BY_THE_JOINTS),
 ], ids=["gip", "rbf", "lip"])
 def test_scikit_learns_estimator_checks_pass_but_for_the_input_width(estimator, expected_width_failures):
@@ -64,6 +64,8 @@ def test_scikit_learns_parameter_names_and_old_names_refused():
         gipdyn.InverseDynamicsGP(joints="RR", seed=3)
     with pytest.raises(TypeError, match=r"threads= is now called n_jobs="):
         gipdyn.InverseDynamicsGP(joints="RR", threads=1)
+    with pytest.raises(TypeError, match=r"the parameter kernel= is now called model= \(as the command line's train --model\)"):
+        gipdyn.InverseDynamicsGP(joints="R", kernel="rbf")
     with pytest.raises(TypeError, match=r"LagrangianGP: the parameter seed= is now called random_state="):
         gipdyn.LagrangianGP(joints="RR", seed=3)
     o = gipdyn.InverseDynamicsGP(joints="RR", random_state=7, n_jobs=2).estimator_options()
@@ -80,7 +82,7 @@ def test_scikit_learns_parameter_names_and_old_names_refused():
 
 def test_the_same_random_state_gives_the_same_model_and_another_may_not():
     d = gipdyn.simulate("scara", samples=80, seed=2, dt=0.1)
-    kwargs = dict(joints="RRPR", kernel="rbf", restarts=2, max_iter=15, start_screening=0)
+    kwargs = dict(joints="RRPR", model="rbf", restarts=2, max_iter=15, start_screening=0)
     a = gipdyn.InverseDynamicsGP(random_state=4, **kwargs).fit(d["X"], d["tau"])
     b = gipdyn.InverseDynamicsGP(random_state=4, **kwargs).fit(d["X"], d["tau"])
     c = gipdyn.InverseDynamicsGP(random_state=5, **kwargs).fit(d["X"], d["tau"])
@@ -105,7 +107,7 @@ def test_a_table_with_named_columns_is_read_by_name(tmp_path):
     X = pd.DataFrame(d["X"], columns=names)
     Y = pd.DataFrame(d["tau"], columns=[f"tau{i}" for i in range(1, 5)])
     shuffled = X[list(reversed(names))].assign(time=np.arange(60))  # any order, other columns ignored
-    kwargs = dict(joints="RRPR", kernel="rbf", teacher="none", max_iter=10)
+    kwargs = dict(joints="RRPR", model="rbf", teacher="none", max_iter=10)
     from_table = gipdyn.InverseDynamicsGP(**kwargs).fit(shuffled, Y)
     from_arrays = gipdyn.InverseDynamicsGP(**kwargs).fit(d["X"], d["tau"])
     np.testing.assert_array_equal(from_table.predict(X), from_arrays.predict(d["X"]))
@@ -118,7 +120,7 @@ def test_predictions_take_the_shape_of_the_target_fit_was_given():
     rng = np.random.default_rng(2)
     X = rng.uniform(-1, 1, (40, 3))
     y = np.sin(X[:, 0]) + 0.3 * X[:, 2]
-    for est in (gipdyn.InverseDynamicsGP(joints="R", kernel="rbf", max_iter=10), gipdyn.LagrangianGP(joints="R", max_iter=10)):
+    for est in (gipdyn.InverseDynamicsGP(joints="R", model="rbf", max_iter=10), gipdyn.LagrangianGP(joints="R", max_iter=10)):
         mean, std = est.fit(X, y).predict(X[:5], return_std=True)
         assert mean.shape == (5,) and std.shape == (5,)
         assert est.fit(X, y[:, None]).predict(X[:5]).shape == (5, 1)
@@ -130,7 +132,7 @@ def test_predictions_take_the_shape_of_the_target_fit_was_given():
 def test_unfitted_and_fitted_estimators_pickle_and_clone():
     from sklearn.base import clone
     d = gipdyn.simulate("scara", samples=50, seed=6, dt=0.1)
-    for est in (gipdyn.InverseDynamicsGP(joints="RRPR", kernel="rbf", max_iter=5, random_state=3),
+    for est in (gipdyn.InverseDynamicsGP(joints="RRPR", model="rbf", max_iter=5, random_state=3),
                 gipdyn.LagrangianGP(joints="RRPR", max_iter=5)):
         unfitted = pickle.loads(pickle.dumps(est))
         assert unfitted.get_params() == est.get_params() and not hasattr(unfitted, "model_")
@@ -159,5 +161,5 @@ def test_docstrings_are_numpydoc_and_their_examples_run():
 
 def test_the_choice_by_evidence_is_refused_by_name_until_python_can_hold_every_model_it_chooses():
     d = gipdyn.simulate("scara", samples=40, seed=1)
-    with pytest.raises(ValueError, match=r"kernel='auto' \(the choice by evidence of `gipdyn train --kernel auto`\)"):
-        gipdyn.InverseDynamicsGP(joints="RRPR", kernel="auto").fit(d["X"], d["tau"])
+    with pytest.raises(ValueError, match=r"model='auto' \(the choice by evidence of `gipdyn train --model auto`\)"):
+        gipdyn.InverseDynamicsGP(joints="RRPR", model="auto").fit(d["X"], d["tau"])

@@ -56,19 +56,21 @@ std::vector<EstimatorSpec> make_table() {
     return t.back();
   };
   EstimatorSpec* e = &row("lip", EstimatorFamily::Lagrangian,
-                          "one GP over all joints with priors on the kinetic and potential energies (LIP)");
+                          "one GP over all joints with priors on the kinetic and potential energies (LIP): the most accurate "
+                          "on short clean logs, with slower queries");
   e->rigid_body_terms = e->kernel_method = e->predictive_variance = e->default_teacher = true;
   e->selection_rank = 3;
   e->selection_max_rows = 2000;  // as it teaches gip: hyperparameters on a subsample, conditioned on every row
   e = &row("lip+friction", EstimatorFamily::Lagrangian, "lip + each joint's smooth friction and offset");
   e->rigid_body_terms = e->kernel_method = e->predictive_variance = e->friction = true;
-  e = &row("fe", EstimatorFamily::Fisherian, "least squares on the nominal robot's rigid-body regressor");
+  e = &row("fe", EstimatorFamily::Fisherian, "least squares on the nominal robot's rigid-body regressor: when its URDF is exact");
   e->rigid_body_terms = e->needs_robot = e->compared_by_default = e->in_paper_accuracy_comparison = true;
   e = &row("chain", EstimatorFamily::Fisherian,
-           "fe on a serial chain whose geometry is identified from the log (no robot needed)");
+           "fe on a serial chain whose geometry is identified from the log (no robot needed): simulated or "
+           "rigid arms without friction");
   e->rigid_body_terms = e->identifies_chain = true;
   e->selection_rank = 2;  // least squares on every row
-  e = &row("nn", EstimatorFamily::NeuralNetwork, "fully connected network");
+  e = &row("nn", EstimatorFamily::NeuralNetwork, "fully connected network: the paper's baseline, for long logs");
   e->compared_by_default = e->in_paper_accuracy_comparison = e->in_paper_data_efficiency_comparison = true;
   return t;
 }

@@ -55,15 +55,16 @@ std::vector<KernelSpec> make_table() {
     t.back().help = help;
     return t.back();
   };
-  KernelSpec* k = &row("gip", "GIP kernel: polynomial in the rigid-body dynamics' own functions of q, qd, qdd");
+  KernelSpec* k = &row("gip", "GIP kernel, polynomial in the rigid-body dynamics' own functions of q, qd, qdd: the default, for "
+                       "simulated and clean logs");
   k->gip_kernel = k->rigid_body_terms = k->default_kernel = true;
   k->build = [](F f, int, P) -> std::unique_ptr<Kernel> { return std::make_unique<GipKernel>(f); };
   k = &row("gip-friction", "GIP + viscous and Coulomb friction of the joint's own motor");
   k->gip_kernel = k->rigid_body_terms = true;
   k->build = [](F f, int j, P) -> std::unique_ptr<Kernel> { return std::make_unique<GipKernel>(f, j); };
-  k = &row("rbf", "RBF with ARD lengthscales on (q, qd, qdd)");
+  k = &row("rbf", "RBF with ARD lengthscales on (q, qd, qdd): no structure, the baseline a model must beat");
   k->build = [](F f, int, P) { return make_rbf(f); };
-  k = &row("gip+rbf", "GIP + RBF: a structured part that generalises, a local part for the rest");
+  k = &row("gip+rbf", "GIP + RBF: a structured part that generalises, a local part for what it misses");
   k->build = [](F f, int, P) { return with_rbf(std::make_unique<GipKernel>(f), f); };
   k = &row("gip-friction+rbf", "gip-friction + RBF");
   k->build = [](F f, int j, P) { return with_rbf(std::make_unique<GipKernel>(f, j), f); };
@@ -76,14 +77,14 @@ std::vector<KernelSpec> make_table() {
   k = &row("gip-envelope",
            "GIP x a long-lengthscale RBF envelope: reverts to the prior mean far from the training inputs");
   k->build = [](F f, int, P) { return make_envelope(f); };
-  k = &row("gip-envelope+friction", "gip-envelope + the joint's smooth friction and offset: for real robots' logs");
+  k = &row("gip-envelope+friction", "gip-envelope + the joint's smooth friction and offset: for real robots' logs (the real preset)");
   k->build = [](F f, int j, P) { return with_friction(make_envelope(f), f, j, false); };
-  k = &row("pp", "parametric prior on the nominal robot's rigid-body regressor");
+  k = &row("pp", "parametric prior on the nominal robot's rigid-body regressor: when its URDF is close, short logs");
   k->needs_robot = k->rigid_body_terms = k->finite_features = true;
   k->build = [](F, int j, P p) -> std::unique_ptr<Kernel> {
     return std::make_unique<ParametricKernel>(p.robot, j, p.friction);
   };
-  k = &row("sp", "pp + RBF (semiparametric)");
+  k = &row("sp", "pp + RBF (semiparametric): a nominal robot whose model misses effects the log shows");
   k->needs_robot = true;
   k->build = [](F f, int j, P p) { return with_rbf(std::make_unique<ParametricKernel>(p.robot, j, p.friction), f); };
   return t;

@@ -42,7 +42,7 @@ sys.exit(0 if d <= 1e-12 else 1)' "$a" "$b"); then
 train() {
   local out=$1
   shift
-  "$@" train --data "$work/train.csv" --kernel gip --teacher none --threads 1 --max-iter 40 --quiet --out "$out"
+  "$@" train --data "$work/train.csv" --model gip --teacher none --threads 1 --max-iter 40 --quiet --out "$out"
 }
 
 # This CPU's run: the reference the emulated CPUs must reproduce.

@@ -22,7 +22,7 @@ def chain_model(tmp_path_factory, gipdyn_bin):
     d = tmp_path_factory.mktemp("chain")
     write_dataset(d / "train.csv", 200, seed=11)
     test = write_dataset(d / "test.csv", 300, seed=12)
-    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--joints", "RR", "--kernel", "chain",
+    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--joints", "RR", "--model", "chain",
             "--chain-starts", "16", "--seed", "3", "--out", str(d / "chain.gipdyn"))
     assert r.returncode == 0, r.stderr
     return d, test, r.stdout
@@ -54,7 +54,7 @@ def test_chain_teaches_gip(chain_model, gipdyn_bin):
 def test_bad_chain_options_are_one_line_errors(chain_model, gipdyn_bin, args, says):
     d, _, _ = chain_model
     out = d / "bad.gipdyn"
-    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--joints", "RR", "--kernel", "chain", *args,
+    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--joints", "RR", "--model", "chain", *args,
             "--out", str(out))
     assert r.returncode != 0
     assert says in r.stderr and r.stderr.count("\n") == 1, r.stderr

@@ -105,13 +105,13 @@ def test_quiet_and_subsample(tmp_path, gipdyn_bin):
             str(tmp_path / "m"), "--quiet", "--max-iter", "10")
     assert r.returncode == 0 and r.stdout == "" and r.stderr == ""
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--out",
-            str(tmp_path / "m"), "--subsample", "30", "--max-iter", "10", "--kernel", "rbf", "--optimizer", "adam")
+            str(tmp_path / "m"), "--subsample", "30", "--max-iter", "10", "--model", "rbf", "--optimizer", "adam")
     assert r.returncode == 0, r.stderr
     assert "30 of 100 rows" in r.stdout
 
 
 @pytest.mark.parametrize("command, flags", [
-    ("train", ["--data", "--joints", "--kernel", "--out"]),
+    ("train", ["--data", "--joints", "--model", "--out"]),
     ("predict", ["--model", "--data", "--out"]),
     ("evaluate", ["--model", "--data", "--json", "--plots"]),
     ("simulate", ["--robot", "--samples", "--seed", "--out"]),
@@ -147,12 +147,12 @@ def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin, tmp_path):
     out = run(gipdyn_bin, "train", "--help").stdout
     headings = [line for line in out.splitlines() if line and not line.startswith(" ")][2:]
     assert [h.split(" (")[0] for h in headings] == [
-        "Options:", "Teacher", "GP hyperparameter learning", "Model-based estimators", "LIP",
-        "Serial chain identified from the log", "Neural network", "Estimators"], headings
+        "Options:", "Teacher", "Model-based estimators", "Advanced: GP hyperparameter search", "Advanced: LIP search",
+        "Advanced: serial chain identified from the log", "Advanced: neural network training", "Models"], headings
     # The estimators' list is the library's table, as the error for an unknown name gives it.
-    listed = [line.split()[0] for line in out[out.index("Estimators (--kernel):"):].splitlines()[1:] if line.strip()]
+    listed = [line.split()[0] for line in out[out.index("Models (--model):"):].splitlines()[1:] if line.strip()]
     (tmp_path / "log.csv").write_text("q1\n0\n")
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--kernel", "bogus", "--out",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--model", "bogus", "--out",
             str(tmp_path / "m.gipdyn"))
     assert r.returncode != 0 and "chain" in listed
     assert listed == r.stderr.split("choose one of: ")[1].strip().rstrip(".").split(", "), r.stderr
@@ -161,14 +161,14 @@ def test_train_help_groups_the_options_of_each_estimator(gipdyn_bin, tmp_path):
         before = out[:out.index("  " + flag + " ")]
         return [h for h in headings if h in before][-1]
 
-    for flag in ("--data", "--joints", "--kernel", "--preset", "--out", "--seed"):
+    for flag in ("--data", "--joints", "--model", "--preset", "--out", "--seed"):
         assert section_of(flag) == "Options:", flag
     assert section_of("--teacher-states").startswith("Teacher")
-    assert section_of("--max-iter").startswith("GP hyperparameter learning")
+    assert section_of("--max-iter").startswith("Advanced: GP hyperparameter search")
     assert section_of("--robot").startswith("Model-based")
-    assert section_of("--no-serial-chain").startswith("LIP")
-    assert section_of("--chain-starts").startswith("Serial chain")
-    assert section_of("--nn-epochs").startswith("Neural network")
+    assert section_of("--no-serial-chain").startswith("Advanced: LIP")
+    assert section_of("--chain-starts").startswith("Advanced: serial chain")
+    assert section_of("--nn-epochs").startswith("Advanced: neural network")
 
 
 def write_text(path, text):
@@ -203,16 +203,16 @@ ROWS = "".join(f"{0.1 * k},{0.2 * k},1,2,3,4,5,{k}\n" for k in range(10))
         ("a .mat file", "MATLAB 5.0 MAT-file, Platform: GLNXA64\n" + "x" * 200, "RR", [],
          "is a MATLAB .mat file, not a CSV; convert it to a CSV"),
         ("bad joint string", HEADER + ROWS, "RX", [], "'X'"),
-        ("unknown estimator", HEADER + ROWS, "RR", ["--kernel", "matern"], "unknown estimator"),
+        ("unknown estimator", HEADER + ROWS, "RR", ["--model", "matern"], "unknown estimator"),
         ("unknown optimizer", HEADER + ROWS, "RR", ["--optimizer", "sgd"], "--optimizer 'sgd' is unknown; choose lbfgs or adam"),
         ("no L-BFGS memory", HEADER + ROWS, "RR", ["--lbfgs-memory", "0"], "--lbfgs-memory must be at least 1"),
         ("a teacher that needs a robot", HEADER + ROWS, "RR", ["--teacher", "fe"], "--teacher: 'fe' needs a nominal robot"),
         ("an unknown teacher", HEADER + ROWS, "RR", ["--teacher", "lap"], "unknown teacher 'lap'"),
         ("too few teacher states", HEADER + ROWS, "RR", ["--teacher", "lip", "--teacher-states", "2"],
          "--teacher-states must be at least 5"),
-        ("a GP mean lip cannot honour", HEADER + ROWS, "RR", ["--kernel", "lip", "--mean", "linear"],
+        ("a GP mean lip cannot honour", HEADER + ROWS, "RR", ["--model", "lip", "--mean", "linear"],
          "lip: --mean must be zero"),
-        ("a prior lip cannot honour", HEADER + ROWS, "RR", ["--kernel", "lip+friction", "--prior", "lognormal"],
+        ("a prior lip cannot honour", HEADER + ROWS, "RR", ["--model", "lip+friction", "--prior", "lognormal"],
          "lip+friction: --prior is not supported"),
     ],
 )
@@ -409,7 +409,7 @@ def test_train_lip_records_the_serial_chain_and_no_serial_chain_turns_it_off(tmp
     write_dataset(tmp_path / "log.csv", 40, 1)
     for flags, expected in [([], True), (["--no-serial-chain"], False)]:
         out = tmp_path / f"lip{len(flags)}.gipdyn"
-        r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--kernel", "lip",
+        r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--model", "lip",
                 "--max-iter", "20", "--out", str(out), *flags)
         assert r.returncode == 0, r.stderr
         assert model_header(out)["serial_chain"] is expected
@@ -468,7 +468,7 @@ def test_train_taught_by_lip_learns_from_drawn_states(tmp_path, gipdyn_bin):
     # The teacher's options where the default teacher does not teach: one line that says why, and no model.
     lone = tmp_path / "lone.gipdyn"
     r = run(gipdyn_bin, "train", "--data", str(tmp_path / "log.csv"), "--joints", "RR", "--out", str(lone),
-            "--kernel", "rbf", "--teacher-states", "100")
+            "--model", "rbf", "--teacher-states", "100")
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "--teacher-states sets up a teacher, and --teacher auto does not teach rbf" in r.stderr, r.stderr
     assert not lone.exists()
@@ -714,7 +714,7 @@ def test_lip_trains_and_gives_energies(tmp_path, gipdyn_bin):
     # LIP on 100 rows of the 2R arm: torques, terms and energies from the model file.
     write_dataset(tmp_path / "t.csv", 100, seed=3)
     test = write_dataset(tmp_path / "test.csv", 30, seed=4, noise=0.0)
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "lip",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--model", "lip",
             "--out", str(tmp_path / "lip.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "estimator lip" in r.stdout and "saved lip model" in r.stdout
@@ -746,12 +746,12 @@ def test_lip_trains_and_gives_energies(tmp_path, gipdyn_bin):
     assert header == ["tau1_hat", "tau2_hat", "tau1_std", "tau2_std"]
     assert np.all(table[:, 2:] > 0)
     # Hyperparameters from 50 of the 100 rows, the model on all of them.
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "lip",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--model", "lip",
             "--hyperparameter-rows", "50", "--out", str(tmp_path / "lip50.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "learned on 50 rows" in r.stdout, r.stdout
     # With each joint's friction beside the energies: named as such in the file, physics and energies still there.
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "lip+friction",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--model", "lip+friction",
             "--hyperparameter-rows", "50", "--out", str(tmp_path / "lipf.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "saved lip+friction model" in r.stdout, r.stdout
@@ -768,7 +768,7 @@ def test_evaluate_compares_physics_with_the_robot(tmp_path, gipdyn_bin):
         r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", str(rows), "--dt", "0.1", "--seed", str(seed),
                 "--quiet", "--out", str(tmp_path / f"{name}.csv"))
         assert r.returncode == 0, r.stderr
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RRPR", "--kernel", "lip",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RRPR", "--model", "lip",
             "--quiet", "--out", str(tmp_path / "lip.gipdyn"))
     assert r.returncode == 0, r.stderr
     r = run(gipdyn_bin, "evaluate", "--model", str(tmp_path / "lip.gipdyn"), "--data", str(tmp_path / "test.csv"),
@@ -789,7 +789,7 @@ def test_evaluate_compares_physics_with_the_robot(tmp_path, gipdyn_bin):
 
 def test_physics_refuses_models_without_the_structure(tmp_path, gipdyn_bin):
     write_dataset(tmp_path / "t.csv", 40, seed=3)
-    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--kernel", "rbf",
+    r = run(gipdyn_bin, "train", "--data", str(tmp_path / "t.csv"), "--joints", "RR", "--model", "rbf",
             "--max-iter", "3", "--quiet", "--out", str(tmp_path / "rbf.gipdyn"))
     assert r.returncode == 0, r.stderr
     r = run(gipdyn_bin, "physics", "--model", str(tmp_path / "rbf.gipdyn"), "--data", str(tmp_path / "t.csv"),
@@ -806,7 +806,7 @@ def test_train_preset_real_and_explicit_options_over_it(tmp_path, gipdyn_bin):
             "--out", str(tmp_path / "real.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "1000 of 1200 rows" in r.stdout and "estimator gip-envelope+friction (preset real)" in r.stdout
-    r = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "real", "--kernel", "gip",
+    r = run(gipdyn_bin, "train", "--data", str(data), "--joints", "RR", "--preset", "real", "--model", "gip",
             "--subsample", "300", "--max-iter", "5", "--out", str(tmp_path / "over.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert "300 of 1200 rows" in r.stdout and "estimator gip (preset real)" in r.stdout
@@ -869,7 +869,7 @@ def test_train_and_inspect_take_the_joint_types_a_simulated_logs_sidecar_records
     log = tmp_path / "scara.csv"
     r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "80", "--seed", "1", "--out", str(log), "--quiet")
     assert r.returncode == 0, r.stderr
-    fit = ("--kernel", "rbf", "--max-iter", "5")
+    fit = ("--model", "rbf", "--max-iter", "5")
     r = run(gipdyn_bin, "train", "--data", str(log), *fit, "--out", str(tmp_path / "m.gipdyn"))
     assert r.returncode == 0 and "differs" not in r.stderr, r.stderr
     assert "joints RRPR" in r.stdout and model_header(tmp_path / "m.gipdyn")["joints"] == "RRPR"
@@ -904,12 +904,12 @@ def test_a_model_based_estimator_takes_the_joint_types_of_its_robot(gipdyn_bin, 
     r = run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "80", "--seed", "1", "--out", str(log), "--quiet")
     assert r.returncode == 0, r.stderr
     (tmp_path / "scara.csv.json").unlink()
-    r = run(gipdyn_bin, "train", "--data", str(log), "--kernel", "fe", "--robot", "scara", "--out",
+    r = run(gipdyn_bin, "train", "--data", str(log), "--model", "fe", "--robot", "scara", "--out",
             str(tmp_path / "fe.gipdyn"))
     assert r.returncode == 0, r.stderr
     assert model_header(tmp_path / "fe.gipdyn")["joints"] == "RRPR"
     # A robot of another joint count than the log's columns: one line naming both, and no model.
-    r = run(gipdyn_bin, "train", "--data", str(log), "--kernel", "fe", "--robot", "ur10", "--out",
+    r = run(gipdyn_bin, "train", "--data", str(log), "--model", "fe", "--robot", "ur10", "--out",
             str(tmp_path / "bad.gipdyn"))
     assert r.returncode != 0 and len(r.stderr.strip().splitlines()) == 1, r.stderr
     assert "--robot ur10 has 6 joints (RRRRRR) but" in r.stderr and "has 4 (q1..q4)" in r.stderr, r.stderr
@@ -940,6 +940,10 @@ def test_train_and_inspect_without_joints_say_how_many_the_log_has(trained, gipd
     ("a value the command refuses", ["simulate", "--robot", "scara", "--out", "{tmp}/s.csv", "--samples", "-5"], 1,
      "--samples"),
     ("a robot that does not exist", ["simulate", "--robot", "puma9000", "--out", "{tmp}/s.csv"], 1, "puma9000"),
+    ("an option's old name", ["train", "--data", "{tmp}/log.csv", "--kernel", "rbf", "--out", "{tmp}/m.gipdyn"], 2,
+     "gipdyn train --kernel is now --model (same values; gipdyn train --help)"),
+    ("an option's old name with its value", ["experiment", "accuracy", "--estimators=gip"], 2,
+     "gipdyn experiment --estimators is now --models (same values; gipdyn experiment accuracy --help)"),
 ])
 def test_exit_codes(tmp_path, gipdyn_bin, case, args, code, says):
     # 0: done; 2: the command line (unknown command or option, a value not of its type, a missing required option

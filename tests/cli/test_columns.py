@@ -36,7 +36,7 @@ def test_a_ros_export_trains_evaluates_predicts_and_detects_as_the_same_log_unde
     names = as_ros_export(tmp_path / "train.csv", tmp_path / "train_ros.csv")
     as_ros_export(tmp_path / "test.csv", tmp_path / "test_ros.csv")
     assert "position_0" in names and "q1" not in names
-    common = ["--joints", "RR", "--kernel", "rbf", "--teacher", "none", "--max-iter", "20", "--quiet"]
+    common = ["--joints", "RR", "--model", "rbf", "--teacher", "none", "--max-iter", "20", "--quiet"]
     assert run(gipdyn_bin, "train", "--data", tmp_path / "train.csv", "--out", tmp_path / "a.gipdyn", *common).returncode == 0
     r = run(gipdyn_bin, "train", "--data", tmp_path / "train_ros.csv", "--columns", ROS, "--out", tmp_path / "b.gipdyn", *common)
     assert r.returncode == 0, r.stderr

@@ -9,7 +9,7 @@ def test_control_experiment_ranks_controllers_and_writes_its_files(tmp_path, gip
     train, fe = tmp_path / "train.csv", tmp_path / "fe.gipdyn"
     assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "300", "--dt", "0.1", "--seed", "11",
                "--quiet", "--out", str(train)).returncode == 0
-    assert run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--kernel", "fe", "--robot", "scara",
+    assert run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--model", "fe", "--robot", "scara",
                "--quiet", "--out", str(fe)).returncode == 0
     out = tmp_path / "ctl"
     r = run(gipdyn_bin, "experiment", "control", "--robot", "scara", "--models", str(fe), "--seconds", "1",

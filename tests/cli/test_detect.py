@@ -29,7 +29,7 @@ def logs(tmp_path_factory, gipdyn_bin):
                        "contacts": ["--samples", "3000", "--dt", "0.001", "--seed", "4", "--contacts", "4"]}.items():
         r = run(gipdyn_bin, "simulate", "--robot", "scara", *args, "--out", str(d / (name + ".csv")))
         assert r.returncode == 0, r.stderr
-    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--kernel", "gip", "--teacher", "none",
+    r = run(gipdyn_bin, "train", "--data", str(d / "train.csv"), "--model", "gip", "--teacher", "none",
             "--out", str(d / "gip.gipdyn"), "--quiet")
     assert r.returncode == 0, r.stderr
     return d
@@ -98,7 +98,7 @@ def test_detect_plots_and_explains_bad_input(logs, gipdyn_bin):
 
 def test_contact_experiment_scores_every_model_and_method_against_the_true_dynamics(tmp_path, gipdyn_bin):
     out = tmp_path / "contact"
-    r = run(gipdyn_bin, "experiment", "contact", "--robot", "scara", "--estimators", "gip", "--train-samples", "300",
+    r = run(gipdyn_bin, "experiment", "contact", "--robot", "scara", "--models", "gip", "--train-samples", "300",
             "--seconds", "3", "--contacts", "4", "--contact-size", "0.3", "--out", str(out))
     assert r.returncode == 0, r.stderr
     rows = {(x["model"], x["method"]): x for x in csv.DictReader(open(out / "contacts.csv"))}

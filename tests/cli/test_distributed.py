@@ -70,7 +70,7 @@ def test_a_single_process_run_without_mpirun_works(tmp_path, gipdyn_bin):
     assert "distributed over 1 MPI process" in r.stdout
 
 
-@pytest.mark.parametrize("extra, named", [(["--inducing", "20"], "--inducing"), (["--kernel", "nn"], "nn"),
+@pytest.mark.parametrize("extra, named", [(["--inducing", "20"], "--inducing"), (["--model", "nn"], "nn"),
                                           (["--mean", "linear"], "--mean")])
 def test_options_that_cannot_be_distributed_stop_every_process_with_one_line(tmp_path, gipdyn_bin, mpiexec, extra,
                                                                             named):

@@ -33,14 +33,14 @@ def is_png(path):
 
 def accuracy(binary, out, runs):
     return run(binary, "experiment", "accuracy", "--robot", "scara", "--runs", str(runs), "--samples", "200",
-               "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST)
+               "--dt", "0.1", "--seed", "5", "--models", "fe,pp,gip,nn", "--out", str(out), *FAST)
 
 
 def test_accuracy_compares_a_student_taught_by_lip_with_its_teacher(tmp_path, gipdyn_bin):
     # One short motion of the SCARA (40 samples over 4 s): gip@lip is GIP trained on LIP's torques at drawn states.
     out = tmp_path / "taught"
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "40", "--dt", "0.1",
-            "--seed", "5", "--estimators", "gip,lip,gip@lip", "--out", str(out), "--max-iter", "40")
+            "--seed", "5", "--models", "gip,lip,gip@lip", "--out", str(out), "--max-iter", "40")
     assert r.returncode == 0, r.stderr
     nmse = {(x["estimator"], x["joint"]): float(x["nmse"]) for x in rows(out / "nmse.csv")}
     assert {e for e, _ in nmse} == {"gip", "lip", "gip@lip"}
@@ -62,7 +62,7 @@ def test_accuracy_compares_a_student_taught_by_lip_with_its_teacher(tmp_path, gi
     assert (options["teacher_states"], options["teacher_hyperparameter_rows"]) == (2000, 300)
     assert options["student_hyperparameter_rows"] == 500
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "40",
-            "--estimators", "gip@fe", "--out", str(tmp_path / "bad"))
+            "--models", "gip@fe", "--out", str(tmp_path / "bad"))
     assert r.returncode != 0 and "'gip@fe' names a teacher it cannot use" in r.stderr
     assert not (tmp_path / "bad").exists()
 
@@ -122,7 +122,7 @@ def test_accuracy_writes_documented_files_and_resumes(tmp_path, gipdyn_bin):
 def test_accuracy_warm_start_runs_from_the_first_runs_hyperparameters(tmp_path, gipdyn_bin):
     def e1(out, runs, *extra):
         r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", str(runs), "--samples", "200",
-                "--dt", "0.1", "--seed", "5", "--estimators", "fe,gip", "--out", str(out), "--max-iter", "30",
+                "--dt", "0.1", "--seed", "5", "--models", "fe,gip", "--out", str(out), "--max-iter", "30",
                 *extra)
         assert r.returncode == 0, r.stderr
         return {(x["run"], x["estimator"], x["joint"]): x for x in rows(out / "fit_reports.csv")}
@@ -151,7 +151,7 @@ def test_accuracy_warm_start_runs_from_the_first_runs_hyperparameters(tmp_path, 
 def test_accuracy_concurrent_runs_give_the_same_results(tmp_path, gipdyn_bin):
     def e1(out, *extra):
         r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "3", "--samples", "200",
-                "--dt", "0.1", "--seed", "5", "--estimators", "fe,gip,nn", "--out", str(out), *FAST, *extra)
+                "--dt", "0.1", "--seed", "5", "--models", "fe,gip,nn", "--out", str(out), *FAST, *extra)
         assert r.returncode == 0, r.stderr
         nmse = {(x["run"], x["estimator"], x["joint"]): x["nmse"] for x in rows(out / "nmse.csv")}
         nll = {(x["run"], x["estimator"], x["joint"]): x["nll"] for x in rows(out / "fit_reports.csv")}
@@ -172,7 +172,7 @@ def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
     out = tmp_path / "e1"
     assert accuracy(gipdyn_bin, out, 1).returncode == 0
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "1", "--samples", "300",
-            "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST)
+            "--dt", "0.1", "--seed", "5", "--models", "fe,pp,gip,nn", "--out", str(out), *FAST)
     assert r.returncode != 0
     assert "other settings" in r.stderr and len(r.stderr.strip().splitlines()) == 1
     # Another optimiser memory is another setting: its fits must not join the folder's tables.
@@ -181,7 +181,7 @@ def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
     assert "teacher_states" not in options  # written only with a teacher: older folders still resume
     before = (out / "nmse.csv").read_text()
     r = run(gipdyn_bin, "experiment", "accuracy", "--robot", "scara", "--runs", "2", "--samples", "200",
-            "--dt", "0.1", "--seed", "5", "--estimators", "fe,pp,gip,nn", "--out", str(out), *FAST,
+            "--dt", "0.1", "--seed", "5", "--models", "fe,pp,gip,nn", "--out", str(out), *FAST,
             "--lbfgs-memory", "10")
     assert r.returncode != 0 and "other settings" in r.stderr, r.stderr
     assert (out / "nmse.csv").read_text() == before
@@ -190,7 +190,7 @@ def test_experiment_refuses_to_mix_settings(tmp_path, gipdyn_bin):
 def test_data_efficiency_writes_gmse_table_and_plot(tmp_path, gipdyn_bin):
     out = tmp_path / "e2"
     r = run(gipdyn_bin, "experiment", "data-efficiency", "--robot", "scara", "--train-samples", "200",
-            "--test-samples", "100", "--sizes", "50,200", "--dt", "0.1", "--estimators", "gip,pp,nn",
+            "--test-samples", "100", "--sizes", "50,200", "--dt", "0.1", "--models", "gip,pp,nn",
             "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     assert header(out / "gmse.csv")[:4] == ["run", "size", "estimator", "gmse"]
@@ -224,7 +224,7 @@ def test_real_on_a_csv_log_with_row_ranges(tmp_path, gipdyn_bin):
     out = tmp_path / "real"
     r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-200",
             "--test-rows", "201-300", "--max-train", "100", "--robot", "scara", "--robot-friction",
-            "--estimators", "gip,fe,sp,nn", "--out", str(out), *FAST)
+            "--models", "gip,fe,sp,nn", "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     check_real_outputs(out, ["gip", "fe", "sp", "nn"], 4)
     fe = [x for x in rows(out / "nmse.csv") if x["estimator"] == "fe"]
@@ -241,12 +241,12 @@ def test_real_reads_the_joint_types_a_simulated_log_records(tmp_path, gipdyn_bin
     simulated_log(gipdyn_bin, log, 200)
     out = tmp_path / "real"
     r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--train-rows", "1-150", "--test-rows", "151-200",
-            "--estimators", "rbf", "--out", str(out), *FAST)
+            "--models", "rbf", "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     assert json.loads((out / "config.json").read_text())["joints"] == "RRPR"
     (tmp_path / "log.csv.json").unlink()
     bad = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--train-rows", "1-150", "--test-rows",
-              "151-200", "--estimators", "rbf", "--out", str(tmp_path / "bad"))
+              "151-200", "--models", "rbf", "--out", str(tmp_path / "bad"))
     assert bad.returncode != 0 and "--joints is required" in bad.stderr and "4 joint(s)" in bad.stderr, bad.stderr
     assert not (tmp_path / "bad").exists()
 
@@ -265,7 +265,7 @@ def test_real_warns_about_a_joint_whose_test_torque_is_constant(tmp_path, gipdyn
         w.writerows(table)
     out = tmp_path / "real"
     r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-150",
-            "--test-rows", "151-200", "--estimators", "gip", "--out", str(out), *FAST)
+            "--test-rows", "151-200", "--models", "gip", "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     assert "warning: joint(s) 2: the torque is constant over the test rows" in r.stderr
     nmse = {x["joint"]: float(x["nmse"]) for x in rows(out / "nmse.csv")}
@@ -277,7 +277,7 @@ def test_real_with_alternating_blocks_and_a_subsampled_network(tmp_path, gipdyn_
     simulated_log(gipdyn_bin, log, 300)
     out = tmp_path / "blocks"
     r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--alternate-blocks", "50",
-            "--max-train", "120", "--nn-max-train", "40", "--estimators", "gip,nn", "--out", str(out), *FAST)
+            "--max-train", "120", "--nn-max-train", "40", "--models", "gip,nn", "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     check_real_outputs(out, ["gip", "nn"], 4)
     trained = {x["estimator"]: x["training_rows"] for x in rows(out / "nmse.csv")}
@@ -298,7 +298,7 @@ def test_real_learning_curve_writes_every_size_and_repeat_and_resumes(tmp_path, 
     simulated_log(gipdyn_bin, log, 300)
     out = tmp_path / "curve"
     args = ["experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-200",
-            "--test-rows", "201-300", "--sizes", "15,120", "--repeats", "2", "--estimators", "gip-friction,rbf",
+            "--test-rows", "201-300", "--sizes", "15,120", "--repeats", "2", "--models", "gip-friction,rbf",
             "--max-iter", "100", "--out", str(out)]
     r = run(gipdyn_bin, *args)
     assert r.returncode == 0, r.stderr
@@ -335,7 +335,7 @@ def test_real_saturates_test_inputs_into_the_training_box(tmp_path, gipdyn_bin):
     simulated_log(gipdyn_bin, log, 300)
     out = tmp_path / "sat"
     r = run(gipdyn_bin, "experiment", "real", "--data", str(log), "--joints", "RRPR", "--train-rows", "1-100",
-            "--test-rows", "101-300", "--saturate", "0", "--estimators", "gip", "--out", str(out), *FAST)
+            "--test-rows", "101-300", "--saturate", "0", "--models", "gip", "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     summary = (out / "summary.md").read_text()
     assert "saturated into each estimator's training box widened by 0 " in summary
@@ -355,7 +355,7 @@ def test_real_reads_a_mat_file(tmp_path, gipdyn_bin):
     scipy_io.savemat(tmp_path / "log.mat", {"robotLog": np.column_stack([data[c] for c in cols])})
     out = tmp_path / "real"
     r = run(gipdyn_bin, "experiment", "real", "--data", str(tmp_path / "log.mat"), "--mat-variable", "robotLog",
-            "--joints", "RRPR", "--train-rows", "1-80", "--test-rows", "81-120", "--estimators", "gip",
+            "--joints", "RRPR", "--train-rows", "1-80", "--test-rows", "81-120", "--models", "gip",
             "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     check_real_outputs(out, ["gip"], 4)
@@ -368,7 +368,7 @@ def test_real_reads_a_mat_file(tmp_path, gipdyn_bin):
 def test_real_ur10_protocol(tmp_path, gipdyn_bin):
     out = tmp_path / "ur10"
     r = run(gipdyn_bin, "experiment", "real", "--data", UR10_CSV, "--protocol", "ur10", "--max-train", "60",
-            "--estimators", "gip,fe", "--plot-window", "300", "--out", str(out), *FAST)
+            "--models", "gip,fe", "--plot-window", "300", "--out", str(out), *FAST)
     assert r.returncode == 0, r.stderr
     assert "train rows 1-6340" in r.stdout and "test rows 6341-12349" in r.stdout
     check_real_outputs(out, ["gip", "fe"], 6)

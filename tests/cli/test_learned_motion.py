@@ -15,7 +15,7 @@ def test_learned_robot_follows_the_true_one_with_the_exact_regressor(tmp_path, g
     train, model = tmp_path / "train.csv", tmp_path / "fe.gipdyn"
     assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "300", "--dt", "0.1", "--noise", "0",
                "--seed", "11", "--quiet", "--out", str(train)).returncode == 0
-    r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--kernel", "fe", "--robot", "scara",
+    r = run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--model", "fe", "--robot", "scara",
             "--quiet", "--out", str(model))
     assert r.returncode == 0, r.stderr
     motion, png = tmp_path / "motion.csv", tmp_path / "motion.png"
@@ -39,7 +39,7 @@ def test_models_without_inertia_and_bad_options_are_refused(tmp_path, gipdyn_bin
     assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "60", "--seed", "1", "--quiet",
                "--out", str(train)).returncode == 0
     rbf = tmp_path / "rbf.gipdyn"
-    assert run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--kernel", "rbf", "--max-iter", "3",
+    assert run(gipdyn_bin, "train", "--data", str(train), "--joints", "RRPR", "--model", "rbf", "--max-iter", "3",
                "--quiet", "--out", str(rbf)).returncode == 0
     out = tmp_path / "m.csv"
     cases = [

@@ -132,11 +132,11 @@ def test_evaluate_checks_all_its_options_before_writing(folder, gipdyn_bin):
 
 @pytest.mark.parametrize("args, words", [
     (["simulate", "--robot", "scara", "--samples", "2000000000", "--out", "{d}/s.csv"], ["needs about", "--samples"]),
-    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--kernel", "nn", "--nn-hidden", "2000000000",
+    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--model", "nn", "--nn-hidden", "2000000000",
       "--out", "{d}/n.gipdyn"], ["needs about", "--nn-hidden"]),
     (["train", "--data", "{d}/d.csv", "--joints", "RR", "--restarts", "5000", "--out", "{d}/r.gipdyn"],
      ["--restarts must be between 0 and 1000"]),
-    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--kernel", "lip", "--start-screening", "-1",
+    (["train", "--data", "{d}/d.csv", "--joints", "RR", "--model", "lip", "--start-screening", "-1",
       "--out", "{d}/r.gipdyn"], ["--start-screening must be >= 0"]),
 ])
 def test_sizes_beyond_the_machine_are_refused_before_allocating(folder, gipdyn_bin, args, words):
@@ -188,6 +188,6 @@ def test_constant_columns_and_test_rows_from_training_are_warned_about(folder, g
     assert r.returncode == 0, r.stderr
     assert "warning: 40 of the 40 rows" in r.stderr and "not a test error" in r.stderr
     r = run(gipdyn_bin, "experiment", "real", "--data", str(folder / "d.csv"), "--joints", "RR", "--train-rows",
-            "1-30", "--test-rows", "21-40", "--estimators", "gip", "--max-iter", "3", "--out", str(tmp_path / "e3"))
+            "1-30", "--test-rows", "21-40", "--models", "gip", "--max-iter", "3", "--out", str(tmp_path / "e3"))
     assert r.returncode == 0, r.stderr
     assert "warning: 10 of the 20 test rows also appear among the training rows" in r.stderr

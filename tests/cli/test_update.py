@@ -97,7 +97,7 @@ def test_update_replace_conditions_the_model_hyperparameters_on_the_new_rows_alo
     write_dataset(new, 30, seed=7)
     write_dataset(query, 25, seed=8)
     model, replaced, appended = tmp_path / "m.gipdyn", tmp_path / "r.gipdyn", tmp_path / "a.gipdyn"
-    assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--kernel", "rbf", "--max-iter", "30",
+    assert run(gipdyn_bin, "train", "--data", str(old), "--joints", "RR", "--model", "rbf", "--max-iter", "30",
                "--quiet", "--out", str(model)).returncode == 0
     r = run(gipdyn_bin, "update", "--model", str(model), "--data", str(new), "--replace", "--out", str(replaced))
     assert r.returncode == 0, r.stderr

@@ -68,7 +68,7 @@ def test_control_loop_queries_the_model_as_predict_does_without_allocating(tmp_p
     assert math.isclose(checksum, predicted[:, 0].sum(), rel_tol=1e-5, abs_tol=1e-6), (checksum, predicted[:, 0].sum())
     # A model without the rigid-body structure says so instead of printing physics.
     rbf = tmp_path / "rbf.gipdyn"
-    assert run(GIPDYN, "train", "--data", log, "--kernel", "rbf", "--max-iter", "20", "--quiet", "--out",
+    assert run(GIPDYN, "train", "--data", log, "--model", "rbf", "--max-iter", "20", "--quiet", "--out",
                rbf).returncode == 0
     r = run(example("control_loop_cpp"), rbf, 100)
     assert r.returncode == 0, r.stderr

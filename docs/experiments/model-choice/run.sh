@@ -1,5 +1,5 @@
 #!/bin/bash
-# train --kernel auto against the documented command for each kind of log (docs/experiments/model-choice).
+# train --model auto against the documented command for each kind of log (docs/experiments/model-choice).
 #   bash run.sh [gipdyn binary] [shared data folder] [output folder]
 set -euo pipefail
 G=$(realpath "${1:-build/gipdyn}")
@@ -22,10 +22,10 @@ timed() {  # name command...: the command's output in NAME.log, its wall time in
 }
 for case in "ur RRRRRR" "sa RRRRRRR"; do
   set -- $case
-  timed "$1_auto" $G train --data "$1_train.csv" --joints "$2" --kernel auto --out "$1_auto.gipdyn"
+  timed "$1_auto" $G train --data "$1_train.csv" --joints "$2" --model auto --out "$1_auto.gipdyn"
   timed "$1_real" $G train --data "$1_train.csv" --joints "$2" --preset real --out "$1_real.gipdyn"
   for m in auto real; do $G evaluate --model "$1_$m.gipdyn" --data "$1_test.csv" > "$1_$m.eval" 2>&1; done
 done
-timed u_auto $G train --data u_train.csv --kernel auto --out u_auto.gipdyn
+timed u_auto $G train --data u_train.csv --model auto --out u_auto.gipdyn
 timed u_def $G train --data u_train.csv --out u_def.gipdyn
 for m in auto def; do $G evaluate --model "u_$m.gipdyn" --data u_test.csv > "u_$m.eval" 2>&1; done
