@@ -23,7 +23,7 @@ Every command of `gipdyn` and its options, as `gipdyn COMMAND --help` prints
 them. Options take a value unless the help shows none (flags); `=VALUE` is the
 default. The options a user needs first come first; each model's search
 settings follow under an "Advanced" heading. Where to
-start: the [README](../../README.md) walks through the commands in order, and
+start: the [tutorial](../tutorial.md) walks through the commands in order, and
 [choosing a model](../choosing-a-model.md) says which estimator suits which
 log.
 

@@ -16,7 +16,7 @@ void add_columns_option(CLI::App& app, std::string& columns) {
                  "What the log calls gipdyn's columns, when it has other names: q=PATTERN,qd=PATTERN,qdd=PATTERN,"
                  "tau=PATTERN, {i} the joint's number from 1 and {i0} from 0 (e.g. q=position_{i0},qd=velocity_{i0},"
                  "tau=effort_{i0} for a ROS joint_states export), or a JSON file of them; quantities not named keep "
-                 "gipdyn's names (README.md, \"Data files\")");
+                 "gipdyn's names (docs/reference/log-format.md)");
 }
 
 void add_data_option(CLI::App& app, std::string& path, std::string& mat_variable, std::string& columns,

@@ -10,7 +10,7 @@
 //   build/real_log ../shared/data/ur10-pick-and-place/urPicknPlace.csv RRRRRR 6341
 // (2.5 minutes on 2 cores; mean test nMSE 0.78 with the preset, 2.1 with plain GIP, whose
 // polynomial runs away on joint 5: 8.3). CSV: columns q1..qn, qd1..qdn, qdd1..qddn and
-// tau1..taun (README.md, "Data files").
+// tau1..taun (docs/reference/log-format.md).
 // Its Python twin is examples/python/ur10_real.py; `gipdyn train --preset real` does the same.
 #include <cstdio>
 #include <cstdlib>

@@ -888,8 +888,8 @@ class LagrangianGP(InverseDynamicsGP):
 
 def read_log(path, joints=None, mat_variable=None, torques=True, columns=None):
     """Read a robot log as the command line does: a CSV with columns q1..qn,
-    qd1..qdn, qdd1..qddn and tau1..taun (any order and separator; README.md,
-    "Data files"), or, with mat_variable, that matrix of a MATLAB .mat file
+    qd1..qdn, qdd1..qddn and tau1..taun (any order and separator;
+    docs/reference/log-format.md), or, with mat_variable, that matrix of a MATLAB .mat file
     (columns by position). columns says what a CSV calls gipdyn's columns
     when it has other names: a dict of patterns, {i} the joint's number from 1
     and {i0} from 0, e.g. {"q": "position_{i0}", "qd": "velocity_{i0}",
