@@ -605,6 +605,46 @@ TEST(MeanFunction, DecidesTheExtrapolationOfALocalKernel) {
   EXPECT_THROW(parse_mean_kind("quadratic"), Error);
 }
 
+// A GIP model's rigid-body terms come from one pass over its training rows (GipKernel::affine_coefficients):
+// they must equal the n + 2 queries that define them, for every GIP-family kernel, prior mean and scaling, and
+// for a kernel without the fused path (which answers by those queries).
+TEST(PredictionWorkspace, RigidBodyTermsEqualTheQueriesThatDefineThem) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const int n = joints.size();
+  const Eigen::MatrixXd X = random_inputs(joints, 60, 71);
+  const Eigen::MatrixXd Y = test::random_matrix(60, n, -2.0, 2.0, 72);
+  for (const char* kernel : {"gip", "gip-friction", "rbf"})
+    for (const MeanKind mean : {MeanKind::Zero, MeanKind::Linear}) {
+      TrainOptions o;
+      o.kernel = kernel;
+      o.gp.mean = mean;
+      o.search.optimizer.max_iterations = 8;
+      const TrainResult r = train_model(X, Y, joints, o);
+      ASSERT_TRUE(r.report.ok()) << r.report.message;
+      EXPECT_EQ(r.model.gip_kernels().empty(), std::string(kernel) == "rbf");
+      PredictionWorkspace ws(r.model);
+      const Eigen::MatrixXd states = random_inputs(joints, 4, 73);
+      for (Eigen::Index s = 0; s < states.rows(); ++s) {
+        const Eigen::VectorXd q = states.row(s).head(n).transpose(), qd = states.row(s).segment(n, n).transpose();
+        Eigen::VectorXd gravity(n), bias(n);
+        Eigen::MatrixXd M_rows(n, n);  // row-major: M_rows(j, i) = M(i, j)
+        ws.rigid_body_terms(q.data(), qd.data(), gravity.data(), M_rows.data(), bias.data());
+        Eigen::MatrixXd queries = Eigen::MatrixXd::Zero(n + 2, 3 * n);
+        queries.leftCols(n).rowwise() = q.transpose();
+        for (int j = 0; j < n; ++j) queries(1 + j, 2 * n + j) = 1.0;
+        queries.row(n + 1).segment(n, n) = qd.transpose();
+        const Eigen::MatrixXd tau = r.model.predict(queries);
+        const double scale = 1.0 + tau.cwiseAbs().maxCoeff();
+        const std::string where = std::string(kernel) + " mean " + to_string(mean) + " state " + std::to_string(s);
+        EXPECT_LT((gravity.transpose() - tau.row(0)).cwiseAbs().maxCoeff(), 1e-10 * scale) << where;
+        EXPECT_LT((bias.transpose() - tau.row(n + 1)).cwiseAbs().maxCoeff(), 1e-10 * scale) << where;
+        for (int j = 0; j < n; ++j)
+          for (int i = 0; i < n; ++i)
+            EXPECT_NEAR(M_rows(j, i), tau(1 + j, i) - tau(0, i), 1e-10 * scale) << where << " M(" << i << ", " << j << ")";
+      }
+    }
+}
+
 std::string read_bytes(const fs::path& p) {
   std::ifstream in(p, std::ios::binary);
   return {std::istreambuf_iterator<char>(in), std::istreambuf_iterator<char>()};

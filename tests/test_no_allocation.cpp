@@ -129,13 +129,14 @@ TEST(NoAllocation, SingleQueryPredictionDoesNotAllocate) {
     ASSERT_TRUE(r.report.ok()) << r.report.message;
     PredictionWorkspace ws(r.model);
     const Eigen::MatrixXd Xq = test::random_inputs(joints, 10, 62);
-    Eigen::VectorXd x(12), tau(4), sd(4);
+    Eigen::VectorXd x(12), tau(4), sd(4), M(16);
     ws.predict(Xq.row(0).transpose().eval().data(), tau.data(), sd.data());  // warm-up of the variance path
     EXPECT_EQ(allocations_during([&] {
                 for (int k = 0; k < 10; ++k) {
                   for (int c = 0; c < 12; ++c) x(c) = Xq(k, c);
                   ws.predict(x.data(), tau.data());
                   ws.predict(x.data(), tau.data(), sd.data());
+                  ws.rigid_body_terms(x.data(), x.data() + 4, tau.data(), M.data(), sd.data());
                 }
               }),
               0)

@@ -202,21 +202,17 @@ gipdyn_status gipdyn_gravity(gipdyn_workspace* ws, const double* q, int n, doubl
 
 namespace {
 
-// The rows as the joints' models learn them (what forward dynamics inverts), or their symmetric part.
-gipdyn_status inertia_into(gipdyn_workspace* ws, const double* q, int n, double* M, bool symmetric) {
+// The rows as the joints' models learn them (what forward dynamics inverts), or their symmetric part; with qd,
+// also the bias f(q, qd, 0) into the workspace's tau.
+gipdyn_status inertia_into(gipdyn_workspace* ws, const double* q, const double* qd, int n, double* M,
+                           bool symmetric) {
   if (const gipdyn_status s = check_query(ws, n, M); s != GIPDYN_OK) return s;
   if (!q) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q is NULL");
   if (const gipdyn_status s = check_physics(ws); s != GIPDYN_OK) return s;
-  if (const gipdyn_status s = gravity_into_workspace(ws, q); s != GIPDYN_OK) return s;
-  for (int j = 0; j < n; ++j) {
-    double* qdd = ws->x.data() + 2 * n;
-    qdd[j] = 1.0;
-    const gipdyn_status s = predict_into(ws, ws->tau.data());
-    qdd[j] = 0.0;
-    if (s != GIPDYN_OK) return s;
-    for (int i = 0; i < n; ++i)
-      M[i * n + j] = ws->tau[static_cast<size_t>(i)] - ws->gravity[static_cast<size_t>(i)];
-  }
+  if (!all_finite(q, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "q holds NaN or Inf");
+  ws->prediction->rigid_body_terms(q, qd, ws->gravity.data(), M, qd ? ws->tau.data() : nullptr);
+  if (!all_finite(ws->gravity.data(), n) || !all_finite(M, n * n) || (qd && !all_finite(ws->tau.data(), n)))
+    return fail(GIPDYN_ERROR_NOT_FINITE, "the prediction is not finite: the state is far outside the training data");
   if (symmetric)
     for (int i = 0; i < n; ++i)
       for (int j = i + 1; j < n; ++j) M[i * n + j] = M[j * n + i] = 0.5 * (M[i * n + j] + M[j * n + i]);
@@ -226,7 +222,7 @@ gipdyn_status inertia_into(gipdyn_workspace* ws, const double* q, int n, double*
 }  // namespace
 
 gipdyn_status gipdyn_inertia(gipdyn_workspace* ws, const double* q, int n, double* M) {
-  return inertia_into(ws, q, n, M, true);
+  return inertia_into(ws, q, nullptr, n, M, true);
 }
 
 gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* ws, const double* q, const double* qd, const double* tau,
@@ -235,10 +231,8 @@ gipdyn_status gipdyn_forward_dynamics(gipdyn_workspace* ws, const double* q, con
   if (!q || !qd || !tau) return fail(GIPDYN_ERROR_NULL_ARGUMENT, "q, qd or tau is NULL");
   if (!all_finite(qd, n) || !all_finite(tau, n)) return fail(GIPDYN_ERROR_NOT_FINITE, "qd or tau holds NaN or Inf");
   double* M = ws->inertia.data();
-  if (const gipdyn_status s = inertia_into(ws, q, n, M, false); s != GIPDYN_OK) return s;
-  // The bias f(q, qd, 0): Coriolis, gravity and friction.
-  for (int i = 0; i < n; ++i) ws->x[static_cast<size_t>(n + i)] = qd[i];
-  if (const gipdyn_status s = predict_into(ws, ws->tau.data()); s != GIPDYN_OK) return s;
+  // With the bias f(q, qd, 0) (Coriolis, gravity and friction) in ws->tau.
+  if (const gipdyn_status s = inertia_into(ws, q, qd, n, M, false); s != GIPDYN_OK) return s;
   double* b = ws->rhs.data();
   for (int i = 0; i < n; ++i) b[i] = tau[i] - ws->tau[static_cast<size_t>(i)];
   // Gaussian elimination with partial pivoting, in place (n is a handful of joints).

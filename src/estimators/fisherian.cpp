@@ -16,7 +16,7 @@ int regressor_columns(const RobotPrior& prior) { return (prior.friction ? 12 : 1
 class FisherianQueryWorkspace final : public QueryWorkspace {
  public:
   FisherianQueryWorkspace(const RobotPrior& prior, const Eigen::VectorXd& weights)
-      : prior_(prior), weights_(weights), regressor_(*prior.robot),
+      : QueryWorkspace(prior.robot->num_joints()), prior_(prior), weights_(weights), regressor_(*prior.robot),
         Phi_(prior.robot->num_joints(), regressor_columns(prior)) {}
 
   void predict(const double* x, double* tau) override {

@@ -8,8 +8,11 @@ namespace {
 
 class GpQueryWorkspace final : public QueryWorkspace {
  public:
-  explicit GpQueryWorkspace(const InverseDynamicsModel& model) : prediction_(model) {}
+  explicit GpQueryWorkspace(const InverseDynamicsModel& model) : QueryWorkspace(model.num_joints()), prediction_(model) {}
   void predict(const double* x, double* tau) override { prediction_.predict(x, tau); }
+  void rigid_body_terms(const double* q, const double* qd, double* gravity, double* M, double* bias) override {
+    prediction_.rigid_body_terms(q, qd, gravity, M, bias);
+  }
   bool allocation_free() const override { return true; }
 
  private:

@@ -107,7 +107,7 @@ class LagrangianQueryWorkspace final : public QueryWorkspace {
  public:
   LagrangianQueryWorkspace(const LagrangianKernel& kernel, const Eigen::MatrixXd& X, const Eigen::VectorXd& alpha,
                            double scale)
-      : kernel_(kernel), states_(X.transpose()), alpha_(alpha), scale_(scale), scratch_(kernel),
+      : QueryWorkspace(kernel.joints().size()), kernel_(kernel), states_(X.transpose()), alpha_(alpha), scale_(scale), scratch_(kernel),
         block_(kernel.joints().size(), kernel.joints().size()), tau_(kernel.joints().size()) {}
 
   void predict(const double* x, double* tau) override {
@@ -134,7 +134,7 @@ class LagrangianQueryWorkspace final : public QueryWorkspace {
 class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
  public:
   LagrangianWeightSpaceQueryWorkspace(std::shared_ptr<const LagrangianWeightSpaceMean> mean, double scale)
-      : mean_(std::move(mean)), scale_(scale), workspace_(*mean_) {}
+      : QueryWorkspace(mean->num_joints()), mean_(std::move(mean)), scale_(scale), workspace_(*mean_) {}
 
   void predict(const double* x, double* tau) override {
     mean_->mean(x, workspace_, tau);

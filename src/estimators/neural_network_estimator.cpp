@@ -6,8 +6,8 @@ namespace {
 
 class NetworkQueryWorkspace final : public QueryWorkspace {
  public:
-  explicit NetworkQueryWorkspace(const NeuralNetwork& net)
-      : net_(net), a_(net.widest_layer()), b_(net.widest_layer()) {}
+  NetworkQueryWorkspace(const NeuralNetwork& net, int num_joints)
+      : QueryWorkspace(num_joints), net_(net), a_(net.widest_layer()), b_(net.widest_layer()) {}
   void predict(const double* x, double* tau) override { net_.predict_one(x, tau, a_, b_); }
   bool allocation_free() const override { return true; }
 
@@ -19,7 +19,7 @@ class NetworkQueryWorkspace final : public QueryWorkspace {
 }  // namespace
 
 std::unique_ptr<QueryWorkspace> NeuralNetworkEstimator::make_query_workspace() const {
-  return std::make_unique<NetworkQueryWorkspace>(net_);
+  return std::make_unique<NetworkQueryWorkspace>(net_, joints().size());
 }
 
 ModelContainer NeuralNetworkEstimator::to_container() const {

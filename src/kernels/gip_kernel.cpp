@@ -171,8 +171,8 @@ void GipKernel::acceleration_factor_lower(const Eigen::MatrixXd& Z, Eigen::Matri
 
 // The two factors of a joint's MPK_2 read the same columns: one pass for both.
 template <class Query, class Column>
-void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m,
-                                            Column col) const {
+void GipKernel::apply_position(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m,
+                               Column col) const {
   const Eigen::VectorXd& w = weights_;
   for (size_t f = 0; f + 1 < position_factors_.size(); f += 2) {
     const Factor& f1 = position_factors_[f];
@@ -185,6 +185,13 @@ void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::Matrix
     detail::multiply_by_factor_pair(col.data(), Z.col(c0).data() + i0, with_v ? Z.col(c1).data() + i0 : nullptr, m,
                                     p, q);
   }
+}
+
+template <class Query, class Column>
+void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m,
+                                            Column col) const {
+  apply_position(zq, Z, i0, m, col);
+  const Eigen::VectorXd& w = weights_;
   if (has_friction()) {
     const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
     col += (w(friction_offset_) * zq(cv)) * Z.col(cv).segment(i0, m).array() +
@@ -274,6 +281,50 @@ void GipKernel::dot_rows(const std::vector<const GipKernel*>& kernels,
       out(j) += block.col(j).head(m).dot(alphas[static_cast<size_t>(j)]->segment(i0, m));
     }
   }
+}
+
+void GipKernel::affine_coefficients(const std::vector<const GipKernel*>& kernels,
+                                    const std::vector<const Eigen::VectorXd*>& alphas, const double* z,
+                                    const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::MatrixXd> coeff,
+                                    KernelScratch& scratch) {
+  const Eigen::Index J = static_cast<Eigen::Index>(kernels.size()), N = Z.rows();
+  const GipKernel& first = *kernels.front();
+  const Eigen::Index na = static_cast<Eigen::Index>(first.acceleration_.columns.size());
+  const int a0 = first.acc_first_column_;
+  Eigen::MatrixXd& U = scratch.b;  // alpha_i P_i(z), per joint
+  if (U.rows() != kPredictChunk || U.cols() != J) U.resize(kPredictChunk, J);
+  coeff.setZero();
+  for (Eigen::Index i0 = 0; i0 < N; i0 += kPredictChunk) {
+    const Eigen::Index m = std::min(kPredictChunk, N - i0);
+    for (Eigen::Index j = 0; j < J; ++j) {
+      const GipKernel& k = *kernels[static_cast<size_t>(j)];
+      auto u = U.col(j).head(m).array();
+      u = alphas[static_cast<size_t>(j)]->segment(i0, m).array();
+      k.apply_position([z](int c) { return z[c]; }, Z, i0, m, u);
+      coeff(0, j) += u.sum();
+    }
+    coeff.block(1, 0, na, J).noalias() += Z.block(i0, a0, m, na).transpose() * U.topRows(m);
+  }
+  for (Eigen::Index j = 0; j < J; ++j) {
+    const GipKernel& k = *kernels[static_cast<size_t>(j)];
+    const Eigen::VectorXd& w = k.weights_;
+    coeff(0, j) *= w(k.acceleration_.offset);
+    coeff.col(j).segment(1, na).array() *= w.segment(k.acceleration_.offset + 1, na).array();
+    if (k.has_friction()) {
+      const Eigen::VectorXd& alpha = *alphas[static_cast<size_t>(j)];
+      coeff(na + 1, j) = w(k.friction_offset_) * Z.col(k.features_.friction_qd(k.friction_joint_)).dot(alpha);
+      coeff(na + 2, j) = w(k.friction_offset_ + 1) * Z.col(k.features_.friction_sign(k.friction_joint_)).dot(alpha);
+    }
+  }
+}
+
+double GipKernel::affine_value(const Eigen::Ref<const Eigen::VectorXd>& coeff, const double* z) const {
+  const Eigen::Index na = static_cast<Eigen::Index>(acceleration_.columns.size());
+  double f = coeff(0) + coeff.segment(1, na).dot(Eigen::Map<const Eigen::VectorXd>(z + acc_first_column_, na));
+  if (has_friction())
+    f += coeff(na + 1) * z[features_.friction_qd(friction_joint_)] +
+         coeff(na + 2) * z[features_.friction_sign(friction_joint_)];
+  return f;
 }
 
 void GipKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, int p,

@@ -243,12 +243,15 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
       z_(model.features().feature_dim()),
       krow_(model.num_training_samples()),
       v_(model.num_training_samples()),
-      f_(model.num_joints()) {
+      f_(model.num_joints()),
+      x_(model.features().input_dim()),
+      column_(model.num_joints()) {
   use_single_threaded_blas();
   for (int j = 0; j < static_cast<int>(model.gip_kernels().size()); ++j) {
     gip_kernels_.push_back(&model.gip_kernels()[static_cast<size_t>(j)]);
     alphas_.push_back(&model.joint_gp(j).alpha());
   }
+  if (!gip_kernels_.empty()) coeff_.resize(gip_kernels_.front()->affine_size(), model.num_joints());
   if (gip_kernels_.empty()) {
     mean_plans_.resize(static_cast<size_t>(model.num_joints()));
     for (int j = 0; j < model.num_joints(); ++j)
@@ -259,6 +262,8 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
   Eigen::VectorXd tau(model.num_joints());
   predict(x.data(), tau.data());
+  Eigen::VectorXd M(model.num_joints() * model.num_joints());
+  rigid_body_terms(x.data(), x.data(), tau.data(), M.data(), tau.data());
 }
 
 void PredictionWorkspace::predict(const double* x, double* tau) {
@@ -276,6 +281,42 @@ void PredictionWorkspace::predict(const double* x, double* tau) {
   }
   for (int j = 0; j < m.num_joints(); ++j)
     tau[j] = m.output_offset()(j) + m.output_scale()(j) * (f_(j) + m.joint_mean(j).evaluate_one(x));
+}
+
+void PredictionWorkspace::predict_from_coefficients(const double* x, double* tau) {
+  const InverseDynamicsModel& m = *model_;
+  m.features().compute_row(x, z_.data());
+  for (int j = 0; j < m.num_joints(); ++j)
+    tau[j] = m.output_offset()(j) +
+             m.output_scale()(j) * (gip_kernels_[static_cast<size_t>(j)]->affine_value(coeff_.col(j), z_.data()) +
+                                    m.joint_mean(j).evaluate_one(x));
+}
+
+void PredictionWorkspace::rigid_body_terms(const double* q, const double* qd, double* gravity, double* M,
+                                           double* bias) {
+  const FlushSubnormalsToZero fast_floats;
+  const InverseDynamicsModel& m = *model_;
+  const int n = m.num_joints();
+  x_.setZero();
+  x_.head(n) = Eigen::Map<const Eigen::VectorXd>(q, n);
+  const bool fused = !gip_kernels_.empty();
+  if (fused) {
+    m.features().compute_row(x_.data(), z_.data());
+    GipKernel::affine_coefficients(gip_kernels_, alphas_, z_.data(), m.training_features(), coeff_, scratch_);
+  }
+  auto query = [&](double* tau) { fused ? predict_from_coefficients(x_.data(), tau) : predict(x_.data(), tau); };
+  query(gravity);
+  // Torque is affine in qdd: a unit acceleration of joint j gives column j of M over gravity.
+  for (int j = 0; j < n; ++j) {
+    x_(2 * n + j) = 1.0;
+    query(column_.data());
+    x_(2 * n + j) = 0.0;
+    for (int i = 0; i < n; ++i) M[i * n + j] = column_(i) - gravity[i];
+  }
+  if (bias) {
+    x_.segment(n, n) = Eigen::Map<const Eigen::VectorXd>(qd, n);
+    query(bias);
+  }
 }
 
 void PredictionWorkspace::predict(const double* x, double* tau, double* stddev) {

@@ -192,20 +192,11 @@ void ContactStream::step(const double* q, const double* qd, const double* qdd, c
     query_->predict(x_.data(), ext_.data());
     ext_ -= tau_;
   } else {
-    // M(q) as inertia() gives it (the symmetric part of the learned rows), and n(q, qd) = f(q, qd, 0).
-    x_.setZero();
-    x_.head(n) = q_;
-    query_->predict(x_.data(), gravity_.data());
-    for (Eigen::Index j = 0; j < n; ++j) {
-      x_(2 * n + j) = 1.0;
-      query_->predict(x_.data(), predicted_.data());
-      M_.col(j) = predicted_ - gravity_;
-      x_(2 * n + j) = 0.0;
-    }
+    // M(q) as inertia() gives it (the symmetric part of the learned rows), and n(q, qd) = f(q, qd, 0). M_ is
+    // column-major and rigid_body_terms writes rows: it holds M's transpose, which symmetrising makes M.
+    query_->rigid_body_terms(q, qd, gravity_.data(), M_.data(), predicted_.data());
     for (Eigen::Index i = 0; i < n; ++i)
       for (Eigen::Index j = 0; j < i; ++j) M_(i, j) = M_(j, i) = 0.5 * (M_(i, j) + M_(j, i));
-    x_.segment(n, n) = qd_;
-    query_->predict(x_.data(), predicted_.data());
     drive_ = tau_ - predicted_;
     ext_ = observer_->step(M_, qd_, drive_);
   }

@@ -7,6 +7,7 @@
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
 #include <string>
+#include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
 #include "gipdyn/joint_types.hpp"
@@ -22,11 +23,22 @@ class InverseDynamicsModel;
 // outlive it), used by one thread. Made by Estimator::make_query_workspace.
 class QueryWorkspace {
  public:
+  // num_joints sizes the buffers of the default rigid_body_terms(): no allocation after construction.
+  explicit QueryWorkspace(int num_joints);
   virtual ~QueryWorkspace() = default;
   // x: 3n inputs (q, qd, qdd); tau: n outputs.
   virtual void predict(const double* x, double* tau) = 0;
   // Whether predict() runs without a heap allocation once the workspace exists.
   virtual bool allocation_free() const = 0;
+  // The rigid-body terms of a model whose torque is affine in qdd (physics.hpp, require_physics), at one state:
+  // gravity g(q) = f(q, 0, 0) (n values); M, the inertia matrix as the joints' models learn its rows,
+  // M(i, j) = f_i(q, 0, e_j) - g_i(q) (n x n, row-major, not symmetrised); and, where bias is not null,
+  // f(q, qd, 0) (n values: Coriolis, gravity and friction). The default runs n + 2 predict() calls; a GIP
+  // model's workspace answers all of them from one pass over its training rows.
+  virtual void rigid_body_terms(const double* q, const double* qd, double* gravity, double* M, double* bias);
+
+ private:
+  std::vector<double> x_, tau_;  // the default rigid_body_terms()'s query and answer
 };
 
 class Estimator {

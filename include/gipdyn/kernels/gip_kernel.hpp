@@ -62,6 +62,19 @@ class GipKernel final : public Kernel {
                        KernelScratch& scratch);
   bool has_friction() const { return friction_joint_ >= 0; }
 
+  // Where queries share their positions: k(z, z_i) is the position factors' product P_i(z) times the
+  // acceleration factor, which is affine in the query's acceleration features a (qdd and the qd products),
+  // plus the friction term, linear in the query's friction features. So kernel j's mean at every query with
+  // z's positions is affine_value(coeff.col(j), query) with coeff (affine_size() x J) from one pass over Z:
+  // coeff = (s0 sum_i u_i, w_d sum_i u_i a_id for each d, the friction weights times sum_i alpha_i of the
+  // friction features), u_i = alpha_i P_i(z). No allocation once the scratch has its size.
+  static void affine_coefficients(const std::vector<const GipKernel*>& kernels,
+                                  const std::vector<const Eigen::VectorXd*>& alphas, const double* z,
+                                  const Eigen::MatrixXd& Z, Eigen::Ref<Eigen::MatrixXd> coeff, KernelScratch& scratch);
+  int affine_size() const { return static_cast<int>(acceleration_.columns.size()) + 3; }
+  // The mean at query z from this kernel's coefficients (affine_coefficients' column).
+  double affine_value(const Eigen::Ref<const Eigen::VectorXd>& coeff, const double* z) const;
+
  private:
   // k(z, z), which needs no scratch.
   double value_at_itself(const double* z) const;
@@ -80,6 +93,9 @@ class GipKernel final : public Kernel {
   template <class Query, class Column>
   void apply_position_and_friction(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m,
                                    Column col) const;
+  // col *= the position factors alone.
+  template <class Query, class Column>
+  void apply_position(const Query& zq, const Eigen::MatrixXd& Z, Eigen::Index i0, Eigen::Index m, Column col) const;
 
   FeatureMap features_;
   std::vector<Factor> position_factors_;  // two per joint, in joint order

@@ -132,10 +132,18 @@ class PredictionWorkspace {
   // Also the latent standard deviation (requires model.has_variance()); one
   // triangular solve per joint, bound by memory bandwidth.
   void predict(const double* x, double* tau, double* stddev);
+  // The rigid-body terms at one state, as QueryWorkspace::rigid_body_terms (estimators/estimator.hpp) defines
+  // them: g(q) = f(q, 0, 0), M(i, j) = f_i(q, 0, e_j) - g_i(q) (row-major, not symmetrised) and, where bias is
+  // not null, f(q, qd, 0). A GIP model's n + 2 queries share q, so one pass over the training rows
+  // (GipKernel::affine_coefficients) serves them all; other kernels answer them one by one.
+  void rigid_body_terms(const double* q, const double* qd, double* gravity, double* M, double* bias);
 
  private:
+  // tau at x from the GIP kernels' affine coefficients at x's positions (coeff_).
+  void predict_from_coefficients(const double* x, double* tau);
   const InverseDynamicsModel* model_;
-  Eigen::VectorXd z_, krow_, v_, f_;
+  Eigen::VectorXd z_, krow_, v_, f_, x_, column_;
+  Eigen::MatrixXd coeff_;
   KernelScratch scratch_;
   // Set when the model has GIP kernels: the fused all-joints mean path.
   std::vector<const GipKernel*> gip_kernels_;
