@@ -17,6 +17,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
+#include "gipdyn/estimators/options_record.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -609,4 +610,69 @@ TEST(OnlineUpdateRule, ReLearnsWhereTheCheckFailsRefusesOnRequestAndRefusesATaug
             std::string::npos);
   EXPECT_EQ(parse_update_refit(to_string(UpdateRefit::Never)), UpdateRefit::Never);
   EXPECT_NE(error_of([] { parse_update_refit("sometimes"); }).find("UpdateOptions::refit must be"), std::string::npos);
+}
+
+// The model file's options block gives back the options a fit had (every field a front end sets), and a
+// record that lacks a field, or holds one of the wrong type, is read or refused by name.
+TEST(OptionsRecord, GivesBackTheOptionsAFitHad) {
+  EstimatorOptions o;
+  o.name = "rbf";
+  o.search.optimizer.kind = OptimizerKind::Adam;
+  o.search.optimizer.max_iterations = 17;
+  o.search.optimizer.lbfgs_memory = 9;
+  o.search.optimizer.adam_learning_rate = 0.02;
+  o.search.gradient_tolerance_per_row = 3e-4;
+  o.search.restarts = 2;
+  o.search.seed = 11;
+  o.search.start_screening_evaluations = 7;
+  o.search.hyperparameter_rows = 250;
+  o.search.min_noise_fraction = 1e-6;
+  o.gp.scaling = OutputScaling::Center;
+  o.gp.mean = MeanKind::Linear;
+  o.gp.prior = parse_hyperparameter_prior("lognormal", 1.25);
+  o.gp.warm_start_rows = 40;
+  o.sparse.inducing_points = 30;
+  o.sparse.hyperparameter_objective = parse_hyperparameter_objective("exact");
+  o.serial_chain = false;
+  o.robot_prior.friction = true;
+  o.nn.hidden = {8, 4};
+  o.nn.epochs = 3;
+  o.nn.batch_size = 16;
+  o.nn.learning_rate = 0.005;
+  o.nn.seed = 4;
+  o.chain.starts = 5;
+  o.chain.rows = 50;
+  o.chain.length_scale = 0.9;
+  o.chain.seed = 6;
+  const EstimatorOptions back = options_from_record(nlohmann::json::parse(options_record(o).dump()));
+  EXPECT_EQ(options_record(back), options_record(o));
+  EXPECT_EQ(back.search.optimizer.kind, OptimizerKind::Adam);
+  EXPECT_EQ(back.gp.mean, MeanKind::Linear);
+  EXPECT_TRUE(back.gp.prior.enabled);
+  EXPECT_EQ(back.gp.prior.width, 1.25);
+  EXPECT_EQ(back.nn.hidden, (std::vector<int>{8, 4}));
+  // An older record lacks fields: the defaults fill them.
+  EXPECT_EQ(options_record(options_from_record(nlohmann::json{{"estimator", "rbf"}})),
+            options_record([] { EstimatorOptions d; d.name = "rbf"; return d; }()));
+  EXPECT_NE(error_of([] { options_from_record(nlohmann::json{{"search", {{"restarts", "two"}}}}); })
+                .find("search.restarts is not of its type"),
+            std::string::npos);
+  EXPECT_THROW(options_from_record(nlohmann::json{{"gp", {{"mean", "cubic"}}}}), Error);
+  // A fit records them, and a model file keeps them.
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 30, 5);
+  const Eigen::MatrixXd Y = test::random_matrix(30, 2, -1.0, 1.0, 6);
+  EstimatorOptions fit_options;
+  fit_options.name = "rbf";
+  fit_options.search.optimizer.max_iterations = 4;
+  fit_options.search.seed = 9;
+  const FitResult r = fit_estimator(fit_options, X, Y, joints);
+  ASSERT_TRUE(r.estimator && r.estimator->options_record());
+  EXPECT_EQ(*r.estimator->options_record(), options_record(fit_options));
+  const std::filesystem::path path = std::filesystem::temp_directory_path() / "gipdyn_options_record.gipdyn";
+  save_estimator(*r.estimator, path.string());
+  const std::unique_ptr<Estimator> loaded = load_estimator(path.string());
+  std::filesystem::remove(path);
+  ASSERT_TRUE(loaded->options_record());
+  EXPECT_EQ(options_from_record(*loaded->options_record()).search.seed, 9u);
 }

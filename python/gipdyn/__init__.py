@@ -210,6 +210,49 @@ def _threads(n_jobs):
 _RENAMED_SEARCH_PARAMETERS = {"seed": ("random_state", "scikit-learn's name"), "threads": ("n_jobs", "scikit-learn's name")}
 
 
+# Where each parameter lives in a model file's options block (docs/model-format.md): the inverse of
+# estimator_options(), so that load() gives back the parameters that made the model.
+_RECORDED_PARAMETERS = {
+    "optimizer": ("search", "optimizer"), "max_iter": ("search", "max_iterations"),
+    "learning_rate": ("search", "adam_learning_rate"), "restarts": ("search", "restarts"),
+    "random_state": ("search", "seed"), "min_noise": ("search", "min_noise_fraction"),
+    "gradient_tolerance": ("search", "gradient_tolerance_per_row"),
+    "start_screening": ("search", "start_screening_evaluations"),
+    "hyperparameter_rows": ("search", "hyperparameter_rows"), "scaling": ("gp", "scaling"), "mean": ("gp", "mean"),
+    "prior": ("gp", "prior"), "prior_width": ("gp", "prior_width"), "warm_start_rows": ("gp", "warm_start_rows"),
+    "inducing": ("sparse", "inducing_points"), "hyperparameter_objective": ("sparse", "hyperparameter_objective"),
+    "serial_chain": (None, "serial_chain"), "robot_friction": (None, "robot_friction"),
+}
+
+
+def _recorded_parameters(cls, model):
+    """The parameters of cls that the model file's options and teacher blocks record: the options a
+    front end trained it with. A file written before options were recorded gives none of them."""
+    names = set(cls._get_param_names()) if hasattr(cls, "_get_param_names") else set(
+        inspect.signature(cls.__init__).parameters)
+    params = {}
+    record = json.loads(model.options_record) if model.options_record else None
+    if record is None:
+        return params
+    for name, (group, key) in _RECORDED_PARAMETERS.items():
+        where = record.get(group, {}) if group else record
+        if name in names and key in where:
+            params[name] = where[key]
+    # The teacher: its block where it taught (or was asked to); none where no teacher was asked for, or where
+    # the automatic teacher never applies to these options, which trains the same model.
+    if "teacher" in names:
+        taught = json.loads(model.teaching_record) if model.teaching_record else None
+        if taught is None:
+            params["teacher"] = "none"
+        else:
+            params["teacher"] = "auto" if taught.get("mode") == "automatic" else taught["estimator"]
+            for name, key in (("teacher_states", "states"), ("teacher_hyperparameter_rows", "hyperparameter_rows"),
+                              ("student_hyperparameter_rows", "student_hyperparameter_rows")):
+                if key in taught:
+                    params[name] = taught[key]
+    return params
+
+
 class _RefusesRenamedParameters:
     """Refuses a renamed parameter in one line naming its new spelling, where Python alone would only say that
     the keyword is unexpected (scikit-learn forbids **kwargs in __init__, so __new__ looks first). Each class
@@ -718,9 +761,13 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
 
     @classmethod
     def load(cls, path):
-        """Load a model written by `save` or by `gipdyn train`."""
+        """Load a model written by `save` or by `gipdyn train`, with the parameters that trained it, as far as
+        the file records them (docs/model-format.md, "options"): every one that shapes the model but robot
+        (None), subsample and preset (None: the file's options are the preset's, overridden, and its rows
+        those it was trained on). A teacher="auto" that never applies to these options comes back as "none",
+        which trains the same model."""
         model = _core.Model.load(str(path))
-        est = cls(joints=model.joints, model=model.kernel)
+        est = cls(joints=model.joints, model=model.kernel, **_recorded_parameters(cls, model))
         est.model_ = model
         est._set_fitted_attributes()
         return est
@@ -877,9 +924,11 @@ class LagrangianGP(InverseDynamicsGP):
 
     @classmethod
     def load(cls, path):
-        """Load a lip model written by `save` or by `gipdyn train --model lip`."""
+        """Load a lip model written by `save` or by `gipdyn train --model lip`, with the parameters that trained
+        it, as InverseDynamicsGP.load does."""
         model = _core.LagrangianModel.load(str(path))
-        est = cls(joints=model.joints, friction=_estimator_row(model.estimator)["friction"])
+        est = cls(joints=model.joints, friction=_estimator_row(model.estimator)["friction"],
+                  **_recorded_parameters(cls, model))
         est.model_ = model
         est._set_fitted_attributes()
         return est

@@ -16,6 +16,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
+#include "gipdyn/estimators/options_record.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
@@ -290,6 +291,7 @@ std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const 
     return LagrangianEstimator::fit(X, Y, jt, options.lagrangian_options(), cb);
   });
   auto m = std::make_shared<LagrangianModel>();
+  if (r.estimator) r.estimator->set_options_record(options_record(options));
   m->estimator = std::move(r.estimator);
   m->report = r.report.joints;
   return m;
@@ -620,6 +622,14 @@ void bind_gp_model(py::module_& m) {
             return record ? record->dump() : std::string();
           },
           "The model file's teacher block as JSON (docs/model-format.md); '' where no teacher was asked for")
+      .def_property_readonly(
+          "options_record",
+          [](const Model& s) {
+            const nlohmann::json* record = s.estimator->options_record();
+            return record ? record->dump() : std::string();
+          },
+          "The options it was trained with, the model file's options block as JSON (docs/model-format.md); '' for "
+          "a file written before they were recorded")
       .def("save", [](const Model& s, const std::string& path) { save_estimator(*s.estimator, path); })
       .def("to_bytes", [](const Model& s) { return py::bytes(pack_container(estimator_container(*s.estimator))); })
       .def_static("load",
@@ -639,6 +649,12 @@ void bind_lagrangian_model(py::module_& m) {
   lagrangian_class
       .def_property_readonly("joints", [](const LagrangianModel& s) { return s.estimator->joints().str(); })
       .def_property_readonly("estimator", [](const LagrangianModel& s) { return s.estimator->name(); })
+      .def_property_readonly("options_record",
+                             [](const LagrangianModel& s) {
+                               const nlohmann::json* record = s.estimator->options_record();
+                               return record ? record->dump() : std::string();
+                             },
+                             "As Model.options_record")
       .def_property_readonly("num_training_samples",
                              [](const LagrangianModel& s) { return s.estimator->training_inputs().rows(); })
       .def_property_readonly("noise_variances", [](const LagrangianModel& s) { return s.estimator->noise_variances(); })

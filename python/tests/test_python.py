@@ -151,6 +151,9 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     loaded = gipdyn.InverseDynamicsGP.load(tmp_path / "cli.gipdyn")
     assert loaded.joints == "RRPR" and loaded.model == "gip"
     assert np.array_equal(loaded.predict(X_test), cli_pred)
+    # It comes back with the parameters the command line trained it with, which are Python's for these options.
+    expected = {k: v for k, v in py.get_params().items() if k not in ("model", "n_jobs")}
+    assert {k: loaded.get_params()[k] for k in expected} == expected
     # Python model -> CLI.
     py.save(tmp_path / "py.gipdyn")
     subprocess.run([CLI, "predict", "--model", str(tmp_path / "py.gipdyn"), "--data", str(tmp_path / "test.csv"),

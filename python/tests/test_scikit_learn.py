@@ -10,6 +10,7 @@ import pytest
 import gipdyn
 
 sklearn = pytest.importorskip("sklearn")
+from sklearn.base import clone  # noqa: E402
 from sklearn.utils.estimator_checks import check_estimator  # noqa: E402
 
 # The checks that feed X of 2, 4, 5 or 10 columns: an estimator's input width is three per joint (q, qd, qdd),
@@ -163,3 +164,29 @@ def test_the_choice_by_evidence_is_refused_by_name_until_python_can_hold_every_m
     d = gipdyn.simulate("scara", samples=40, seed=1)
     with pytest.raises(ValueError, match=r"model='auto' \(the choice by evidence of `gipdyn train --model auto`\)"):
         gipdyn.InverseDynamicsGP(joints="RRPR", model="auto").fit(d["X"], d["tau"])
+
+
+def test_load_restores_the_parameters_that_made_the_model(tmp_path):
+    # The model file's options block gives back every parameter that shapes the model: a clone of the loaded
+    # estimator, fitted on the same rows, is the same model.
+    s = gipdyn.simulate("scara", samples=150, seed=1)
+    params = dict(joints="RRPR", model="rbf", teacher="none", optimizer="lbfgs", max_iter=12, restarts=1,
+                  random_state=5, scaling="center", min_noise=1e-6, mean="constant", prior="lognormal",
+                  prior_width=1.5, gradient_tolerance=1e-4, start_screening=5, hyperparameter_rows=100)
+    est = gipdyn.InverseDynamicsGP(**params).fit(s["X"], s["tau"])
+    est.save(tmp_path / "m.gipdyn")
+    loaded = gipdyn.InverseDynamicsGP.load(tmp_path / "m.gipdyn")
+    got = loaded.get_params()
+    assert {k: got[k] for k in params} == params
+    again = clone(loaded).fit(s["X"], s["tau"])
+    assert np.array_equal(again.predict(s["X"]), est.predict(s["X"]))
+    # The same for the Lagrangian estimator.
+    lip_params = dict(joints="RRPR", friction=True, max_iter=6, random_state=2, hyperparameter_rows=60,
+                      serial_chain=False, min_noise=1e-6)
+    lip = gipdyn.LagrangianGP(**lip_params).fit(s["X"][:80], s["tau"][:80])
+    lip.save(tmp_path / "lip.gipdyn")
+    loaded = gipdyn.LagrangianGP.load(tmp_path / "lip.gipdyn")
+    got = loaded.get_params()
+    assert {k: got[k] for k in lip_params} == lip_params
+    again = clone(loaded).fit(s["X"][:80], s["tau"][:80])
+    assert np.array_equal(again.predict(s["X"]), lip.predict(s["X"]))

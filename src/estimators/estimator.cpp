@@ -54,6 +54,10 @@ void Estimator::set_teaching_record(const nlohmann::json& record) {
   teaching_record_ = record.is_null() ? nullptr : std::make_shared<const nlohmann::json>(record);
 }
 
+void Estimator::set_options_record(const nlohmann::json& record) {
+  options_record_ = record.is_null() ? nullptr : std::make_shared<const nlohmann::json>(record);
+}
+
 void Estimator::set_selection_record(const nlohmann::json& record) {
   selection_record_ = record.is_null() ? nullptr : std::make_shared<const nlohmann::json>(record);
 }

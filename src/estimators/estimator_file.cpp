@@ -41,6 +41,7 @@ std::unique_ptr<Estimator> estimator_from_container(const ModelContainer& c, con
   std::unique_ptr<Estimator> e = read_estimator(c, what);
   if (c.header.contains("teacher")) e->set_teaching_record(c.header.at("teacher"));
   if (c.header.contains("selection")) e->set_selection_record(c.header.at("selection"));
+  if (c.header.contains("options")) e->set_options_record(c.header.at("options"));
   return e;
 }
 
@@ -48,6 +49,7 @@ ModelContainer estimator_container(const Estimator& estimator) {
   ModelContainer c = estimator.to_container();
   if (const nlohmann::json* record = estimator.teaching_record()) c.header["teacher"] = *record;
   if (const nlohmann::json* record = estimator.selection_record()) c.header["selection"] = *record;
+  if (const nlohmann::json* record = estimator.options_record()) c.header["options"] = *record;
   return c;
 }
 

@@ -8,6 +8,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/detail/json_numbers.hpp"
+#include "gipdyn/estimators/options_record.hpp"
 #include "gipdyn/training_data.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
@@ -353,7 +354,10 @@ FitResult fit_estimator(const EstimatorOptions& options, const Eigen::MatrixXd& 
     if (options.teacher) result.teaching = TeachingOutcome::LogTooLong;
   }
   result.report.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-  if (result.estimator) result.estimator->set_teaching_record(teaching_record(options, result));
+  if (result.estimator) {
+    result.estimator->set_teaching_record(teaching_record(options, result));
+    result.estimator->set_options_record(options_record(options));
+  }
   if (user_progress) {
     ProgressEvent e;
     e.estimator = options.name;

@@ -82,6 +82,7 @@ UpdateResult update_estimator(const Estimator& estimator, const Eigen::MatrixXd&
   // What made the model stays with it: its choice among candidates.
   if (const nlohmann::json* record = estimator.selection_record()) out->set_selection_record(*record);
   if (const nlohmann::json* record = estimator.teaching_record()) out->set_teaching_record(*record);
+  if (const nlohmann::json* record = estimator.options_record()) out->set_options_record(*record);
   result.estimator = std::move(out);
   return result;
 }

@@ -70,10 +70,15 @@ class Estimator {
   // model file's "selection" block; null where it was named.
   const nlohmann::json* selection_record() const { return selection_record_.get(); }
   void set_selection_record(const nlohmann::json& record);
+  // The options it was trained with (options_record.hpp): the model file's
+  // "options" block; null for a model from a file written before it was recorded.
+  const nlohmann::json* options_record() const { return options_record_.get(); }
+  void set_options_record(const nlohmann::json& record);
 
  private:
   std::shared_ptr<const nlohmann::json> teaching_record_;
   std::shared_ptr<const nlohmann::json> selection_record_;
+  std::shared_ptr<const nlohmann::json> options_record_;
 };
 
 }  // namespace gipdyn
