@@ -244,6 +244,22 @@ TEST_P(LagrangianKernelTest, WeightSpaceMeanEqualsTheKernelSum) {
     for (int i = 0; i < n; ++i)
       EXPECT_NEAR(weight(r, i), kernel_sum(r * n + i), 1e-11 * magnitude(r * n + i)) << "state " << r << " joint " << i;
   }
+  // A query at the workspace's previous q reuses its functions of q: the same answers as a fresh workspace,
+  // for other velocities and accelerations at that q, and again after a query at another q.
+  Eigen::MatrixXd same_q = Q;
+  for (int r = 1; r < same_q.rows(); ++r) same_q.row(r).head(n) = Q.row(0).head(n);
+  same_q.row(3) = Q.row(3);  // another q between two at the first
+  const Eigen::MatrixXd fresh = mean.mean(same_q);  // every row against a state-less batch, row by row
+  LagrangianWeightSpaceMean::Workspace reused(mean);
+  for (int r = 0; r < same_q.rows(); ++r) {
+    const Eigen::VectorXd x = same_q.row(r).transpose();
+    LagrangianWeightSpaceMean::Workspace own(mean);
+    Eigen::VectorXd alone(n);
+    mean.mean(x.data(), own, alone.data());
+    mean.mean(x.data(), reused, single.data());
+    EXPECT_EQ(single, alone) << "row " << r;
+    EXPECT_EQ(single, fresh.row(r).transpose()) << "row " << r;
+  }
 }
 
 INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest,

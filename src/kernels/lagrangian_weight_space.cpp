@@ -116,7 +116,8 @@ LagrangianWeightSpaceMean::Workspace::Workspace(const LagrangianWeightSpaceMean&
     : kinetic_features(mean.kinetic_count_, mean.n_ + 1),
       potential_features(mean.potential_count_, mean.n_ + 1),
       coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1),
-      term_features(mean.term_stride_.empty() ? 0 : mean.kinetic_count_ / mean.term_stride_[0], mean.n_ + 1) {}
+      term_features(mean.term_stride_.empty() ? 0 : mean.kinetic_count_ / mean.term_stride_[0], mean.n_ + 1),
+      q(mean.n_) {}
 
 void LagrangianWeightSpaceMean::features(const double* q, bool kinetic, Eigen::MatrixXd& out) const {
   const int n = n_;
@@ -256,17 +257,23 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
   const int n = n_;
   const Eigen::Map<const Eigen::VectorXd> qd(x + n, n), qdd(x + 2 * n, n);
   Eigen::Map<Eigen::VectorXd> tau(tau_out, n);
-  features(x, true, w.kinetic_features);
-  // Each h_ab and its gradient in q at this state.
-  if (term_stride_.empty()) {
-    w.coefficients.noalias() = kinetic_weights_.transpose() * w.kinetic_features;
-  } else {
-    for (int a = 0, column = 0; a < n; column += n - a, ++a) {
-      const Eigen::Index stride = term_stride_[static_cast<size_t>(a)], rows = kinetic_count_ / stride;
-      for (Eigen::Index r = 0; r < rows; ++r) w.term_features.row(r) = w.kinetic_features.row(r * stride);
-      w.coefficients.middleRows(column, n - a).noalias() =
-          term_weights_[static_cast<size_t>(a)].transpose() * w.term_features.topRows(rows);
+  const Eigen::Map<const Eigen::VectorXd> q(x, n);
+  if (!w.cached_q || w.q != q) {  // (a NaN never equals: computed again)
+    features(x, true, w.kinetic_features);
+    // Each h_ab and its gradient in q at this state.
+    if (term_stride_.empty()) {
+      w.coefficients.noalias() = kinetic_weights_.transpose() * w.kinetic_features;
+    } else {
+      for (int a = 0, column = 0; a < n; column += n - a, ++a) {
+        const Eigen::Index stride = term_stride_[static_cast<size_t>(a)], rows = kinetic_count_ / stride;
+        for (Eigen::Index r = 0; r < rows; ++r) w.term_features.row(r) = w.kinetic_features.row(r * stride);
+        w.coefficients.middleRows(column, n - a).noalias() =
+            term_weights_[static_cast<size_t>(a)].transpose() * w.term_features.topRows(rows);
+      }
     }
+    features(x, false, w.potential_features);
+    w.q = q;
+    w.cached_q = true;
   }
   tau.setZero();
   for (size_t p = 0; p < pairs_.size(); ++p) {
@@ -280,7 +287,6 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
     const double velocities = qd(a) * qd(b);
     for (int i = 0; i < n; ++i) tau(i) -= velocities * row(i + 1);
   }
-  features(x, false, w.potential_features);
   for (int i = 0; i < n; ++i) tau(i) += w.potential_features.col(i + 1).dot(potential_weights_);
   for (int m = 0; m < n && friction_weights_.size() > 0; ++m) {
     const Eigen::Vector4d f = kernel_.friction_features_at(m, qd(m));

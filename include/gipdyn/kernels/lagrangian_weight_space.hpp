@@ -49,10 +49,15 @@ class LagrangianWeightSpaceMean {
     friend class LagrangianWeightSpaceMean;
     Eigen::MatrixXd kinetic_features, potential_features, coefficients;
     Eigen::MatrixXd term_features;  // on a serial chain: one term's rows of kinetic_features
+    // The q whose coefficients and potential features these are (cached_q false: none yet). The rigid-body
+    // terms of a state are n + 2 queries at one q, and everything that costs is a function of q alone.
+    Eigen::VectorXd q;
+    bool cached_q = false;
   };
 
   int num_joints() const { return n_; }
-  // sum_r K(x, x_r) alpha_r at the state x (3n entries) into tau (n entries).
+  // sum_r K(x, x_r) alpha_r at the state x (3n entries) into tau (n entries). A query at the workspace's
+  // previous q reuses its functions of q: O(n^3) instead of O(F n^3).
   void mean(const double* x, Workspace& workspace, double* tau) const;
   // The same for every row of X (rows x 3n), rows x n.
   Eigen::MatrixXd mean(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
