@@ -1,7 +1,8 @@
 #include "gipdyn/estimators/estimator.hpp"
 
-#include <algorithm>
 #include <nlohmann/json.hpp>
+
+#include "gipdyn/detail/rigid_body_queries.hpp"
 
 namespace gipdyn {
 namespace {
@@ -29,21 +30,8 @@ QueryWorkspace::QueryWorkspace(int num_joints)
     : x_(3 * static_cast<size_t>(num_joints)), tau_(static_cast<size_t>(num_joints)) {}
 
 void QueryWorkspace::rigid_body_terms(const double* q, const double* qd, double* gravity, double* M, double* bias) {
-  const size_t n = tau_.size();
-  std::fill(x_.begin(), x_.end(), 0.0);
-  std::copy(q, q + n, x_.begin());
-  predict(x_.data(), gravity);
-  // Torque is affine in qdd: one unit acceleration of joint j gives column j of M over gravity.
-  for (size_t j = 0; j < n; ++j) {
-    x_[2 * n + j] = 1.0;
-    predict(x_.data(), tau_.data());
-    x_[2 * n + j] = 0.0;
-    for (size_t i = 0; i < n; ++i) M[i * n + j] = tau_[i] - gravity[i];
-  }
-  if (bias) {
-    std::copy(qd, qd + n, x_.begin() + static_cast<std::ptrdiff_t>(n));
-    predict(x_.data(), bias);
-  }
+  detail::rigid_body_terms_by_queries(static_cast<int>(tau_.size()), q, qd, x_.data(), tau_.data(), gravity, M, bias,
+                                      [this](const double* x, double* tau) { predict(x, tau); });
 }
 
 std::unique_ptr<QueryWorkspace> Estimator::make_query_workspace() const {

@@ -4,6 +4,7 @@
 #include <cmath>
 
 #include "gipdyn/detail/blas_threads.hpp"
+#include "gipdyn/detail/rigid_body_queries.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/floating_point.hpp"
 #include "gipdyn/training_data.hpp"
@@ -262,8 +263,6 @@ PredictionWorkspace::PredictionWorkspace(const InverseDynamicsModel& model)
   Eigen::VectorXd x = Eigen::VectorXd::Zero(model.features().input_dim());
   Eigen::VectorXd tau(model.num_joints());
   predict(x.data(), tau.data());
-  Eigen::VectorXd M(model.num_joints() * model.num_joints());
-  rigid_body_terms(x.data(), x.data(), tau.data(), M.data(), tau.data());
 }
 
 void PredictionWorkspace::predict(const double* x, double* tau) {
@@ -297,26 +296,17 @@ void PredictionWorkspace::rigid_body_terms(const double* q, const double* qd, do
   const FlushSubnormalsToZero fast_floats;
   const InverseDynamicsModel& m = *model_;
   const int n = m.num_joints();
-  x_.setZero();
-  x_.head(n) = Eigen::Map<const Eigen::VectorXd>(q, n);
   const bool fused = !gip_kernels_.empty();
-  if (fused) {
+  if (fused) {  // the coefficients at (q, 0, 0): only the positions' features matter to them
+    x_.setZero();
+    x_.head(n) = Eigen::Map<const Eigen::VectorXd>(q, n);
     m.features().compute_row(x_.data(), z_.data());
     GipKernel::affine_coefficients(gip_kernels_, alphas_, z_.data(), m.training_features(), coeff_, scratch_);
   }
-  auto query = [&](double* tau) { fused ? predict_from_coefficients(x_.data(), tau) : predict(x_.data(), tau); };
-  query(gravity);
-  // Torque is affine in qdd: a unit acceleration of joint j gives column j of M over gravity.
-  for (int j = 0; j < n; ++j) {
-    x_(2 * n + j) = 1.0;
-    query(column_.data());
-    x_(2 * n + j) = 0.0;
-    for (int i = 0; i < n; ++i) M[i * n + j] = column_(i) - gravity[i];
-  }
-  if (bias) {
-    x_.segment(n, n) = Eigen::Map<const Eigen::VectorXd>(qd, n);
-    query(bias);
-  }
+  detail::rigid_body_terms_by_queries(n, q, qd, x_.data(), column_.data(), gravity, M, bias,
+                                      [&](const double* x, double* tau) {
+                                        fused ? predict_from_coefficients(x, tau) : predict(x, tau);
+                                      });
 }
 
 void PredictionWorkspace::predict(const double* x, double* tau, double* stddev) {

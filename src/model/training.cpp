@@ -467,7 +467,8 @@ TrainResult refit_model(const InverseDynamicsModel& model, const TrainOptions& o
                         const ProgressCallback& progress, RefitStart start) {
   if (model.is_sparse())
     throw Error("refit_model needs an exact GP model; a sparse model keeps its inducing rows, not its training rows");
-  const InverseDynamicsModel exact = model.has_variance() ? model : model.with_variance();
+  std::optional<InverseDynamicsModel> factored;  // only where the model lacks its factors: no copy of them
+  const InverseDynamicsModel& exact = model.has_variance() ? model : factored.emplace(model.with_variance());
   TrainOptions o = options;
   o.kernel = model.kernel_name();
   o.robot_prior = model.robot_prior();

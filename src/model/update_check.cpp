@@ -2,6 +2,7 @@
 
 #include <cmath>
 #include <cstdio>
+#include <optional>
 
 #include "gipdyn/error.hpp"
 
@@ -60,7 +61,9 @@ UpdateCheck check_update(const InverseDynamicsModel& model, const Eigen::Ref<con
   if (X_new.cols() != 3 * n || Y_new.cols() != n || X_new.rows() != Y_new.rows() || X_new.rows() == 0)
     throw Error("the update check needs new rows of " + std::to_string(3 * n) + " inputs and " + std::to_string(n) +
                 " torques, as many of each");
-  const InverseDynamicsModel with_factor = model.has_variance() ? model : model.with_variance();
+  // The model itself where it has its factors (update_estimator factors it once for the check and the update).
+  std::optional<InverseDynamicsModel> factored;
+  const InverseDynamicsModel& with_factor = model.has_variance() ? model : factored.emplace(model.with_variance());
   Eigen::MatrixXd mean, latent_std;
   with_factor.predict(X_new, mean, &latent_std);
   UpdateCheck check;
