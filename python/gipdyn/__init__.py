@@ -205,7 +205,6 @@ def _threads(n_jobs):
     return int(n_jobs)
 
 
-# Parameters that were renamed to scikit-learn's spelling: the old name is refused with the new one.
 # Parameters renamed for scikit-learn's spelling, refused with the new name (no silent aliases).
 _RENAMED_SEARCH_PARAMETERS = {"seed": ("random_state", "scikit-learn's name"), "threads": ("n_jobs", "scikit-learn's name")}
 

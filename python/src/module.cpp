@@ -189,12 +189,8 @@ auto fit_without_gil(bool verbose, Fit&& fit) {
   return r;
 }
 
-std::shared_ptr<Model> refit(const Model& model, const EstimatorOptions& options, bool verbose) {
-  // The kernel, robot, scaling and mean are the model's: refit_model replaces the options' own.
-  TrainResult r = fit_without_gil(
-      verbose, [&](const ProgressCallback& cb) { return refit_model(*model.model, options.train_options(), cb); });
-  return std::make_shared<Model>(std::move(r.model));
-}
+// A model file's record (teacher, options) as JSON text; '' where the model has none.
+std::string record_text(const nlohmann::json* record) { return record ? record->dump() : std::string(); }
 
 // The library's update rule (online_update.hpp): {model, check (its report, or None for a sparse model), refitted}.
 py::dict update(const Model& model, ConstRef X, ConstRef Y, Eigen::Index window, bool replace, const std::string& refit,
@@ -617,17 +613,11 @@ void bind_gp_model(py::module_& m) {
           py::arg("x"))
       .def_property_readonly(
           "teaching_record",
-          [](const Model& s) {
-            const nlohmann::json* record = s.estimator->teaching_record();
-            return record ? record->dump() : std::string();
-          },
+          [](const Model& s) { return record_text(s.estimator->teaching_record()); },
           "The model file's teacher block as JSON (docs/model-format.md); '' where no teacher was asked for")
       .def_property_readonly(
           "options_record",
-          [](const Model& s) {
-            const nlohmann::json* record = s.estimator->options_record();
-            return record ? record->dump() : std::string();
-          },
+          [](const Model& s) { return record_text(s.estimator->options_record()); },
           "The options it was trained with, the model file's options block as JSON (docs/model-format.md); '' for "
           "a file written before they were recorded")
       .def("save", [](const Model& s, const std::string& path) { save_estimator(*s.estimator, path); })
@@ -650,10 +640,7 @@ void bind_lagrangian_model(py::module_& m) {
       .def_property_readonly("joints", [](const LagrangianModel& s) { return s.estimator->joints().str(); })
       .def_property_readonly("estimator", [](const LagrangianModel& s) { return s.estimator->name(); })
       .def_property_readonly("options_record",
-                             [](const LagrangianModel& s) {
-                               const nlohmann::json* record = s.estimator->options_record();
-                               return record ? record->dump() : std::string();
-                             },
+                             [](const LagrangianModel& s) { return record_text(s.estimator->options_record()); },
                              "As Model.options_record")
       .def_property_readonly("num_training_samples",
                              [](const LagrangianModel& s) { return s.estimator->training_inputs().rows(); })
@@ -758,9 +745,6 @@ void bind_fitting(py::module_& m) {
   m.def("update", &update, py::arg("model"), py::arg("X"), py::arg("Y"), py::arg("window"), py::arg("replace"),
         py::arg("refit"), py::arg("options"),
         "The library's update rule (gipdyn/estimators/online_update.hpp): {model, check, refitted, refit_report}");
-  m.def("refit", &refit, py::arg("model"), py::arg("options"), py::arg("verbose") = false,
-        "The model with its hyperparameters re-optimised on its own rows, from the current ones "
-        "(kernel, robot, scaling and mean from the model; optimiser settings from options)");
   m.def(
       "training_input_warnings",
       [](ConstRef X, const std::string& joints, const std::string& source) {
