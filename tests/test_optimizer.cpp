@@ -4,6 +4,8 @@
 #include <cmath>
 #include <vector>
 
+#include "gipdyn/error.hpp"
+#include "gipdyn/model/hyperparameter_search.hpp"
 #include "gipdyn/optim/optimizer.hpp"
 
 using namespace gipdyn;
@@ -196,4 +198,42 @@ TEST(BestOfStarts, KeepsTheLowestUsableRunAndEveryObjective) {
   ASSERT_EQ(starts.objectives.size(), 4u);
   EXPECT_TRUE(std::isnan(starts.objectives[0]));
   EXPECT_EQ(starts.objectives[3], 3.0);
+}
+
+// Screening's continued starts: start 0 trails at the budget (a long, shallow
+// valley whose floor is lowest), start 1 leads there (a steep, shallower
+// basin). Only the leader goes on by default, and the kept objective is the
+// leader's; with continued_starts = 1 start 0 goes on too and its lower floor is kept.
+TEST(SearchHyperparameters, AContinuedStartGoesOnBesideTheLeader) {
+  const std::vector<Eigen::VectorXd> starts{Eigen::VectorXd::Zero(1), Eigen::VectorXd::Constant(1, 0.5)};
+  const StartObjective objective_for = [](int start) -> Objective {
+    if (start == 0)
+      return [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {  // floor -2 at x = 10
+        const double d = x(0) - 10.0;
+        f = 0.01 * d * d - 2.0;
+        g = Eigen::VectorXd::Constant(1, 0.02 * d);
+        return true;
+      };
+    return [](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {  // floor -1.5 at x = 0
+      f = x(0) * x(0) - 1.5;
+      g = Eigen::VectorXd::Constant(1, 2.0 * x(0));
+      return true;
+    };
+  };
+  SearchOptions options;
+  options.screening_evaluations = 1;  // at the budget: start 0 at -1, start 1 at -1.25
+  options.threads = 2;
+  const SearchResult leader_only = search_hyperparameters(starts, objective_for, options);
+  EXPECT_EQ(leader_only.screening_evaluations, 1);
+  EXPECT_NEAR(leader_only.best.kept.f, -1.5, 1e-8);
+  EXPECT_NEAR(leader_only.best.objectives[0], -1.0, 1e-12) << "start 0 stops at the budget";
+
+  options.continued_starts = 1;
+  const SearchResult continued = search_hyperparameters(starts, objective_for, options);
+  EXPECT_EQ(continued.screening_evaluations, 0) << "no start was stopped";
+  EXPECT_NEAR(continued.best.kept.f, -2.0, 1e-8);
+  EXPECT_NEAR(continued.best.objectives[1], -1.5, 1e-8);
+
+  options.continued_starts = -1;
+  EXPECT_THROW(search_hyperparameters(starts, objective_for, options), Error);
 }

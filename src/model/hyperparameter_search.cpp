@@ -49,6 +49,7 @@ void SearchOptions::validate() const {
   optimizer.validate();
   if (screening_evaluations < 0)
     throw Error("SearchOptions::screening_evaluations must be >= 0 (0: every start runs to convergence)");
+  if (continued_starts < 0) throw Error("SearchOptions::continued_starts must be >= 0 (0: only the leader goes on)");
   if (threads < 1) throw Error("SearchOptions::threads must be >= 1");
   if (!(bytes_per_start >= 0.0)) throw Error("SearchOptions::bytes_per_start must be >= 0");
 }
@@ -97,12 +98,13 @@ class ComputeSlots {
 // SearchOptions::screening_evaluations: every start runs up to the budget,
 // waits there for the others (or for their end, where they converged sooner),
 // and then only the one with the lowest objective so far goes on (the first of
-// equals).
+// equals), with the first `continued` starts (SearchOptions::continued_starts).
 class StartScreening {
  public:
-  StartScreening(int starts, int budget)
+  StartScreening(int starts, int budget, int continued)
       : best_(static_cast<size_t>(starts), std::numeric_limits<double>::infinity()),
-        arrived_(static_cast<size_t>(starts), false), stopped_(static_cast<size_t>(starts), false), budget_(budget) {}
+        arrived_(static_cast<size_t>(starts), false), stopped_(static_cast<size_t>(starts), false), budget_(budget),
+        continued_(continued) {}
 
   // Start r's EvaluationGate.
   bool proceed(int r, int evaluations, double best) {
@@ -110,8 +112,9 @@ class StartScreening {
     std::unique_lock<std::mutex> lock(mu_);
     if (!arrived_[static_cast<size_t>(r)]) arrive(r, best);
     cv_.wait(lock, [&] { return arrivals_ == static_cast<int>(best_.size()); });
-    if (r != leader_) stopped_[static_cast<size_t>(r)] = true;
-    return r == leader_;
+    const bool goes_on = r == leader_ || r < continued_;
+    if (!goes_on) stopped_[static_cast<size_t>(r)] = true;
+    return goes_on;
   }
   // Whether the gate stopped a start (else every start ended before the budget).
   bool stopped_any() {
@@ -138,7 +141,7 @@ class StartScreening {
   std::condition_variable cv_;
   std::vector<double> best_;
   std::vector<bool> arrived_, stopped_;
-  int budget_, arrivals_ = 0, leader_ = -1;
+  int budget_, continued_, arrivals_ = 0, leader_ = -1;
 };
 
 }  // namespace
@@ -155,7 +158,7 @@ SearchResult search_hyperparameters(const std::vector<Eigen::VectorXd>& starts, 
                         worker_threads(num_starts, num_starts, options.bytes_per_start) == num_starts;
   const int compute_threads =
       options.concurrent_objectives ? worker_threads(options.threads, num_starts, options.bytes_per_start) : 1;
-  StartScreening screening(num_starts, options.screening_evaluations);
+  StartScreening screening(num_starts, options.screening_evaluations, options.continued_starts);
   ComputeSlots slots(compute_threads);
   std::vector<OptimizerResult> results(static_cast<size_t>(num_starts));
   run_tasks(num_starts, screened ? num_starts : compute_threads, [&](int r) {

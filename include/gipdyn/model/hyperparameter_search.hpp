@@ -39,7 +39,8 @@ struct SearchSettings {
   // Screening of the starts (SearchOptions::screening_evaluations): lip's
   // starts (three starting noises, plus restarts) and a GP joint's restarts
   // first run for at most this many NLL evaluations each; only the one with
-  // the lowest NLL then continues to convergence. docs/training.md measures
+  // the lowest NLL then continues to convergence (a GP joint's unperturbed
+  // start goes on too, so that its restarts never end above it). docs/training.md measures
   // how close the leader at this budget ends to the best of the starts run to
   // the end. 0: every start runs to convergence.
   int start_screening_evaluations = 60;
@@ -74,6 +75,12 @@ struct SearchOptions {
   // (concurrent_objectives). 0, one start, or a budget at or above the
   // optimiser's evaluation cap: every start runs to convergence.
   int screening_evaluations = 0;
+  // The first this many starts go on past the screening budget beside the
+  // leader, whatever their objective there. A GP keeps its unperturbed start
+  // (1), so that restarts can only lower the kept objective: a start that
+  // trails at the budget may still end lowest where the objective has several
+  // optima. 0: only the leader goes on.
+  int continued_starts = 0;
   // Evaluations computed at once; the other starts in flight wait for a slot.
   // 1 where the search is itself one task of a parallel loop (a GP's joints).
   int threads = 1;
