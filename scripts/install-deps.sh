@@ -16,6 +16,8 @@ PACKAGES=(
   pybind11-dev python3-dev python3-numpy python3-pytest python3-sklearn
   python3-scipy python3-matplotlib python3-pandas
   python3-pip python3-setuptools python3-wheel
+  # the C and C++ API reference (docs/api)
+  doxygen
   # tests/abi/other_cpu_test.sh runs the build on emulated CPUs
   qemu-user
 )
