@@ -1,5 +1,5 @@
 #!/usr/bin/env bash
-# How each preprocessing step changes the real-log results (docs/real-robots.md):
+# How each preprocessing step changes the real-log results (docs/results/real-robots.md):
 # the UR10 reference split (train rows 1-6340, test 6341-12349) as logged, then
 # low-passed at 5 Hz zero phase over the whole log, zero phase per segment
 # (train and test filtered apart), causal per segment, and zero phase with the

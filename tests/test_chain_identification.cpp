@@ -41,7 +41,7 @@ Eigen::VectorXd test_nmse(const Estimator& e, const SimulationResult& test) {
 
 }  // namespace
 
-// The case GIP and LIP miss (docs/training.md): one 20 s UR10 motion, tested on
+// The case GIP and LIP miss (docs/results/training.md): one 20 s UR10 motion, tested on
 // another. Joint 6's torque is below the noise and is left out.
 TEST(ChainIdentification, OneShortUr10MotionPinsTheDynamicsDown) {
   const RobotModel ur10 = ur10_robot();

@@ -50,7 +50,7 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--lbfgs-memory", lbfgs_memory,
-                 "GP: correction pairs L-BFGS keeps (docs/training.md compares memories)")
+                 "GP: correction pairs L-BFGS keeps (docs/results/training.md compares memories)")
       ->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--gradient-tolerance", gradient_tolerance,

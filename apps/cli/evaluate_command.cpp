@@ -86,7 +86,7 @@ std::string joints_below_noise(const Dataset& data) {
 // their own mean over the test rows would. On simulated logs the usual cause
 // is coverage: the test motion reaches states the training motion never
 // visited, whatever the estimator; on real logs also torques that differ at
-// the same state (docs/real-robots.md).
+// the same state (docs/results/real-robots.md).
 std::string joints_worse_than_their_mean(const Accuracy& acc, const Dataset& data, const std::string& path) {
   std::string out;
   for (Eigen::Index j = 0; j < acc.nmse.size(); ++j) {

@@ -13,7 +13,7 @@ namespace {
 
 const char* const kFasterOptions =
     "For a log this long, --hyperparameter-rows 2000 learns the hyperparameters on a subsample and conditions the "
-    "model on every row, and --inducing 500 makes every evaluation O(N M^2) (docs/training.md)";
+    "model on every row, and --inducing 500 makes every evaluation O(N M^2) (docs/training.md, \"Long logs\")";
 
 }  // namespace
 
@@ -45,7 +45,7 @@ std::string LongFitNotice::observe(const ProgressEvent& e, Clock::time_point now
 }
 
 std::string LongFitNotice::note(double per_evaluation, long rows) {
-  // 80-300 evaluations a joint: the range of docs/training.md's fits.
+  // 80-300 evaluations a joint: the range of docs/results/training.md's fits.
   const double low = 80.0 * per_evaluation * waves_, high = 300.0 * per_evaluation * waves_;
   if (!(low >= 600.0)) return "";
   said_ = true;

@@ -172,17 +172,17 @@ void print_plan(const TrainArgs& a, const TrainPlan& plan, const DistributedRun*
     std::printf("  %s\n", note.c_str());
   // Where the log is not a simulated one, it may be a robot's: there the taught model is usually
   // thrown away after the teacher's minutes, and gip alone runs away from the training motions
-  // (docs/real-robots.md). Say so before the minutes are spent.
+  // (docs/results/real-robots.md). Say so before the minutes are spent.
   if (a.preset.empty() && estimator_spec(o.name).default_estimator &&
       sidecar_generator(a.data) != std::optional<std::string>(kSimulationGenerator)) {
     const char* const recommendation =
-        "  note: on a real robot's log, --preset real is the recommendation (docs/real-robots.md): there";
+        "  note: on a real robot's log, --preset real is the recommendation (docs/guide/real-robot-log.md): there";
     const bool taught = o.teacher && o.teacher->teaches(data.rows(), joints.size());
     if (taught && o.teacher->mode == TeachingMode::Automatic)
       std::printf("%s the model %s teaches is usually thrown away, after %s's fit\n",
                   recommendation, o.teacher->name.c_str(), o.teacher->name.c_str());
     else if (!taught)
-      std::printf("%s %s alone extrapolates its polynomial away from the training motions (docs/real-robots.md "
+      std::printf("%s %s alone extrapolates its polynomial away from the training motions (docs/results/real-robots.md "
                   "compares it with --preset real on the shared UR10 log)\n",
                   recommendation, o.name.c_str());
   }
@@ -352,13 +352,13 @@ Command add_train(CLI::App& app) {
       ->capture_default_str();
   app.add_option("--preset", a->preset,
                  "Start from a named set of options; options given explicitly override it: " + preset_list() +
-                     "; real is for logs of real robots (docs/real-robots.md)");
+                     "; real is for logs of real robots (docs/guide/real-robot-log.md)");
   app.add_option(
       "--teacher", a->teacher,
       "Learn from a teacher instead of the log: fit this estimator (e.g. lip) on the log, then train --model on "
       "its torques at --teacher-states states drawn uniformly from the log's box. On one short motion, --teacher "
-      "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"GIP taught by "
-      "LIP\"). auto: lip " + std::string(kAutomaticTeachingConditions) + " on a log of at most " +
+      "lip gives a GIP model that extrapolates like LIP and answers like GIP (docs/training.md, \"Learning "
+      "from a teacher\"). auto: lip " + std::string(kAutomaticTeachingConditions) + " on a log of at most " +
           std::to_string(TeacherOptions{}.automatic_max_log_values) +
           " values (rows x joints), kept only if the taught model fits the log as LIP does (on a real robot's log "
           "it does not: then gip learns from the log itself, after LIP's minutes); none: no teacher")

@@ -38,7 +38,7 @@ Command add_update(CLI::App& app) {
   app.add_flag("--replace", a->replace,
                "Condition on the new rows alone, dropping the model's own: the hyperparameters the model learned "
                "on a long, varied log carried to a short log of the same robot, which predicts new motions better "
-               "than training on the short log (docs/training.md)")
+               "than training on the short log (docs/results/training.md)")
       ->excludes(app.get_option("--window"));
   app.add_flag("--refit", a->refit,
                "Then re-optimise the hyperparameters on all the kept rows, starting from the current ones (the "

@@ -1,5 +1,5 @@
 #pragma once
-// E1 (docs/experiments.md): accuracy of every estimator under model bias, over
+// E1 (docs/results/paper-experiments.md): accuracy of every estimator under model bias, over
 // Monte Carlo runs of a perturbed robot; nMSE per run, estimator and joint.
 #include <cstdint>
 #include <nlohmann/json.hpp>

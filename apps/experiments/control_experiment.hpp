@@ -1,5 +1,5 @@
 #pragma once
-// Closed-loop tracking (docs/experiments.md): the true simulated robot follows
+// Closed-loop tracking (docs/results/paper-experiments.md): the true simulated robot follows
 // a held-out trajectory at the control rate under PD feedback plus each
 // model's feed-forward torque, beside PD alone and the robot's own dynamics,
 // and under computed-torque control with each model (rows named NAME-ct).

@@ -1,5 +1,5 @@
 #pragma once
-// E2 (docs/experiments.md): GMSE against the number of training samples, no model bias.
+// E2 (docs/results/paper-experiments.md): GMSE against the number of training samples, no model bias.
 #include <cstdint>
 #include <nlohmann/json.hpp>
 #include <string>

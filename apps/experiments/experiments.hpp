@@ -1,5 +1,5 @@
 #pragma once
-// The paper's experiments (docs/experiments.md), each writing CSV, a Markdown
+// The paper's experiments (docs/results/paper-experiments.md), each writing CSV, a Markdown
 // summary and PNG plots into one output folder. Every experiment records each
 // finished unit of work (a run of an estimator, a training size, a split) as
 // soon as it is done; restarted with the same settings and folder, it skips

@@ -1,5 +1,5 @@
 #pragma once
-// E3 (docs/experiments.md, docs/real-robots.md): every estimator on a real robot
+// E3 (docs/results/paper-experiments.md, docs/results/real-robots.md): every estimator on a real robot
 // log, split into train and test rows.
 #include <cstdint>
 #include <nlohmann/json.hpp>

@@ -1,4 +1,4 @@
-// A real robot's log with the preset "real" (docs/real-robots.md): the rows
+// A real robot's log with the preset "real" (docs/results/real-robots.md): the rows
 // before SPLIT_ROW train (a constant-step subsample of at most the preset's
 // 1000 rows, or TRAIN_ROWS), the rows from SPLIT_ROW on test (other motions).
 // Before training, a model-free check says whether the test rows follow the

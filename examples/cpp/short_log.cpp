@@ -2,7 +2,7 @@
 //
 // On one 20 s motion, GIP's own marginal-likelihood optimum picks monomials
 // the robot does not have and extrapolates badly to a new motion; LIP, whose
-// torques come from two shared energies, does not (docs/training.md, "What one
+// torques come from two shared energies, does not (docs/results/training.md, "What one
 // 20 s motion lacks"). This example trains GIP on one short simulated SCARA
 // log, then GIP taught by LIP (EstimatorOptions::teacher): LIP is fitted on
 // the log, and GIP learns from LIP's torques at states drawn uniformly from

@@ -3,7 +3,7 @@
 
 On one 20 s motion, GIP's own marginal-likelihood optimum picks monomials the
 robot does not have and extrapolates badly to a new motion; LIP, whose torques
-come from two shared energies, does not (docs/training.md, "What one 20 s
+come from two shared energies, does not (docs/results/training.md, "What one 20 s
 motion lacks"). A LIP query takes microseconds on a SCARA (weight space,
 docs/method.md section 11) but a quarter of a millisecond on a 6R arm. This
 example trains GIP on one short simulated SCARA log, then GIP taught by LIP
@@ -13,7 +13,7 @@ microseconds a query, that extrapolates like LIP. The teacher is kept as
 teacher_ and compared too. `gipdyn train --teacher lip` does the same. The
 recipe is for a short, clean log: on a real robot's log the drawn states are
 mostly extrapolation for LIP and its labels are noisy, and the taught model is
-far worse than GIP (docs/real-robots.md); use preset="real" there.
+far worse than GIP (docs/results/real-robots.md); use preset="real" there.
 
     python3 examples/python/short_log.py [SAMPLES] [HYPERPARAMETER_ROWS] [VIRTUAL] [MAX_ITER]
 

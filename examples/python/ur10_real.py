@@ -2,7 +2,7 @@
 """The real preset on the real UR10 pick-and-place log (../shared/data/ur10-pick-and-place):
 train on data rows 1-6340 (a constant-step subsample), test on rows 6341-12349
 (other motions), print per-joint nMSE and plot predicted vs measured torque.
-preset="real" is the recommendation for real logs (docs/real-robots.md); --model gip
+preset="real" is the recommendation for real logs (docs/results/real-robots.md); --model gip
 shows plain GIP on the same rows.
 
     python3 examples/python/ur10_real.py [--data CSV] [--train-rows N] [--model K] [--max-iter N] [--out PNG]

@@ -6,7 +6,7 @@
 // training log and a test log, a torque that differs at the same states far more
 // than within the training log means the test log is another function of the
 // state (a payload, a drifting offset, another controller), which no estimator
-// of (q, qd, qdd) can learn from the training rows (docs/real-robots.md).
+// of (q, qd, qdd) can learn from the training rows (docs/results/real-robots.md).
 #include <Eigen/Dense>
 #include <string>
 
@@ -28,7 +28,7 @@ struct NeighbourConsistencyOptions {
   // 125 Hz log is 125).
   long min_separation_rows = 100;
   // Compare accelerations too. Off by default: logged accelerations are often
-  // mostly noise (docs/real-robots.md), which would leave no neighbours.
+  // mostly noise (docs/results/real-robots.md), which would leave no neighbours.
   bool use_accelerations = false;
   // At most this many query rows, a constant-step subsample (cost: queries x
   // reference rows x inputs).

@@ -1,6 +1,6 @@
 #pragma once
 // Kernel values such as exp(-0.5 d^2) underflow when a lengthscale is tiny,
-// as on real logs (docs/training.md), and x86 arithmetic that produces or reads
+// as on real logs (docs/results/training.md), and x86 arithmetic that produces or reads
 // subnormal numbers is many times slower than normal arithmetic. Values below
 // 2.2e-308 change no NLL and no torque, so gipdyn's training threads and its
 // prediction calls flush them to zero for their duration and then restore the

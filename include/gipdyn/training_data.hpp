@@ -57,7 +57,7 @@ std::vector<std::string> training_input_warnings(const Eigen::MatrixXd& X, const
 
 // The box the training inputs span: per column of X (q, qd, qdd) its smallest
 // and largest value. Polynomial kernels grow without bound outside it;
-// saturate() clamps queries into it (docs/real-robots.md measures when that pays).
+// saturate() clamps queries into it (docs/results/real-robots.md measures when that pays).
 struct InputBox {
   Eigen::VectorXd lower, upper;
   // Throws gipdyn::Error for an empty X.
@@ -75,11 +75,9 @@ struct InputBox {
 // margin x (upper - lower); else one line saying how many rows of `source` lie
 // outside and which column reaches farthest, in training ranges beyond the box.
 // Predictions there are extrapolation: polynomial kernels (GIP) carry what
-// they learned into it, right as far as they learned rigid-body dynamics (a
-// SCARA model at 5x its training velocities: joints 1, 2 and 4 within 1.2x of
-// their test error, joint 3 600x worse) and wrong for what else the log holds
-// (real logs, docs/real-robots.md); local kernels (RBF, the envelope) return
-// to the prior mean.
+// they learned into it, right as far as they learned rigid-body dynamics and
+// wrong for what else the log holds (real logs, docs/results/real-robots.md);
+// local kernels (RBF, the envelope) return to the prior mean.
 std::string extrapolation_warning(const InputBox& box, const Eigen::MatrixXd& X, const JointTypes& joints,
                                   const std::string& source, double margin = 0.5);
 

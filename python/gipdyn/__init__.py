@@ -632,7 +632,7 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         first call, on an unfitted estimator, is fit(X, Y)). window > 0 keeps
         only the newest window rows (exact models only); window=len(X)
         conditions the hyperparameters on X alone, e.g. those learned on a
-        long, varied log carried to a short one (docs/training.md).
+        long, varied log carried to a short one (docs/results/training.md).
 
         Before conditioning, the new rows are checked against the model: how
         likely they are under it, against its own rows left out one at a
@@ -1081,7 +1081,7 @@ def neighbour_consistency(X, tau, X_test=None, tau_test=None, radius=0.1, min_se
     "too-few-pairs"), message, queries, pairs, neighbour_nmse and correlation
     per joint. Within one log half the neighbour nMSE is about the noise share;
     a test log far above the training log's value follows another function of
-    the state (docs/real-robots.md, `gipdyn inspect`). joints (e.g. "RRPR"):
+    the state (docs/results/real-robots.md, `gipdyn inspect`). joints (e.g. "RRPR"):
     revolute positions are compared on the circle, q and q + 2 pi being one
     state, as the kernels see them; None: positions as logged."""
     o = NeighbourConsistencyOptions()

@@ -29,7 +29,7 @@ std::vector<EstimatorSpec> make_table() {
     throw Error(std::string("estimator table: no kernel '") + name + "'");
   };
   gp_row("gip").preset = "default";
-  // The real preset: where its learning curves on real logs flatten (docs/real-robots.md), and an exact
+  // The real preset: where its learning curves on real logs flatten (docs/results/real-robots.md), and an exact
   // GP's O(N^3) fit stays in minutes a joint.
   gp_row("gip-envelope+friction").preset = "real";
   gp_row("gip-envelope+friction").preset_max_training_rows = 1000;

@@ -150,7 +150,7 @@ class LagrangianWeightSpaceQueryWorkspace final : public QueryWorkspace {
 
 // LIP's starts. The coupled likelihood has optima that explain whole joints
 // as noise (thousands of nats above the best, with test errors orders of
-// magnitude worse; docs/training.md), and which start reaches the better one
+// magnitude worse; docs/results/training.md), and which start reaches the better one
 // depends on the starting noise. So the data-driven start x0 is tried with the
 // starting noise at 1, 0.1 and 0.01 times SearchSettings::initial_noise_fraction
 // (never below the floor); the restarts perturb the first of them, seeded.

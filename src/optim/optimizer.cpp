@@ -185,7 +185,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
 
 // Where L-BFGS can no longer improve on its best point, is the objective's
 // rounding what hides the rest of the descent? An ill-conditioned NLL is
-// deterministic but rough at the scale of its rounding (docs/training.md
+// deterministic but rough at the scale of its rounding (docs/results/training.md
 // measures it), while its gradient
 // stays smooth. Along the steepest descent d from the best point: the
 // roughness is how far the objective strays from its first-order prediction

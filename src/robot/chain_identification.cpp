@@ -168,7 +168,7 @@ Eigen::VectorXd random_start(int joints, const ChainIdentificationOptions& o, in
   std::uniform_real_distribution<double> length(-o.length_scale, o.length_scale), angle(-M_PI, M_PI);
   Eigen::VectorXd k(kDhPerJoint * joints + kGravityParameters);
   // Uniform angles: starting from right angles (0, +-90, 180 degrees), where
-  // most arms' twists are, found the optimum less often (docs/training.md).
+  // most arms' twists are, found the optimum less often (docs/results/training.md).
   for (int i = 0; i < joints; ++i) {
     k(kDhPerJoint * i) = length(rng);
     k(kDhPerJoint * i + 1) = angle(rng);

@@ -69,7 +69,7 @@ enum class TeachingOutcome {
 };
 
 // Where TeachingMode::Automatic teaches: the gip kernel's exact GP on one
-// process, with no mean, nominal robot or warm start (docs/training.md, "GIP
+// process, with no mean, nominal robot or warm start (docs/results/training.md, "GIP
 // taught by LIP"). Elsewhere the estimator already carries what the teacher
 // would add (a robot prior, a mean), or learns from a log long enough for the
 // sparse or distributed fit, and the automatic teacher is not measured there.

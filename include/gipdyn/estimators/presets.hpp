@@ -2,7 +2,7 @@
 // Named starting points for the estimator options, for users who would rather
 // not tune. Explicit options given on top of a preset override it.
 //   "default"  the library's defaults: gip, maximum likelihood, no restarts.
-//   "real"     for logs of real robots (docs/real-robots.md): the kernel
+//   "real"     for logs of real robots (docs/results/real-robots.md): the kernel
 //              gip-envelope+friction (GIP bounded by an RBF envelope, which
 //              keeps GIP's accuracy inside the training motions and returns to
 //              the prior mean far outside them, plus each joint's smooth

@@ -6,7 +6,7 @@
 // learns from those labels, with the teacher's residual on the log as its
 // noise floor. On one short motion the student then extrapolates like the
 // teacher, at its own cost a query: LIP's structure, GIP's microseconds
-// (docs/training.md, "GIP taught by LIP"). The student is as good as the
+// (docs/results/training.md, "GIP taught by LIP"). The student is as good as the
 // teacher is over the box, not better.
 #include <Eigen/Dense>
 #include <cstdint>
@@ -34,7 +34,7 @@ enum class TeachingMode {
   // estimator learns from the log itself. On a short simulated motion the
   // taught model passes and extrapolates like its teacher; on a real robot's
   // log it misses the log and the estimator's own fit is kept
-  // (docs/training.md, "GIP taught by LIP"). fit_estimator teaches in this mode
+  // (docs/results/training.md, "GIP taught by LIP"). fit_estimator teaches in this mode
   // only where automatic_teaching_applies (fit_estimator.hpp).
   Automatic,
 };
@@ -53,7 +53,7 @@ struct TeacherOptions {
   // The student learns its hyperparameters on a constant-step subsample of
   // this many drawn states, then is conditioned on all of them. The states are
   // independent draws over the whole box, so a few hundred of them tell the
-  // NLL what thousands do (docs/training.md compares them) at a fraction of
+  // NLL what thousands do (docs/results/training.md compares them) at a fraction of
   // an evaluation's O(N^3).
   // 0: on every state. SearchSettings::hyperparameter_rows, when above 0, wins.
   int student_hyperparameter_rows = 500;
@@ -84,7 +84,7 @@ struct TeacherOptions {
 // that joint, and its torques at the drawn states are extrapolation of noise:
 // that joint is labelled with its logged mean instead. The threshold lies
 // between the shares at which taught joints tested worse than their mean and
-// those at which teaching still helped (docs/training.md, "GIP taught by LIP").
+// those at which teaching still helped (docs/results/training.md, "GIP taught by LIP").
 inline constexpr double kTeacherNoiseShareForMeanLabels = 0.93;
 
 struct TeachingSet {
@@ -103,7 +103,7 @@ struct TeachingSet {
   // are a constant. Labels without noise and a student that may not call less
   // than the teacher's residual noise: the student smooths the teacher's
   // torques as the teacher smoothed the log, and does not interpolate them
-  // (docs/training.md, "The student's noise floor").
+  // (docs/results/training.md, "The student's noise floor").
   Eigen::VectorXd student_noise_std_floor;
 };
 
@@ -114,7 +114,7 @@ struct TeachingSet {
 // that box (simulated motions), it fits the log as its teacher does; where
 // they lie on a thin set of it (a real robot's log), the teacher's torques
 // over the box are extrapolation and the student can miss the log by more
-// than the torque's variance (docs/training.md measures both). The ratio
+// than the torque's variance (docs/results/training.md measures both). The ratio
 // spares a joint whose torque is mostly noise: there the teacher's own
 // residual is near the torque's variance, and a student that adds a fraction
 // of that noise has lost nothing the log could teach.
@@ -125,7 +125,7 @@ inline constexpr double kTaughtResidualRatioWarning = 2.0;
 // its teacher: at least kTeacherFarAheadRatio times its nMSE, and above
 // kTeacherFarAheadFloor, below which both are as good as any user needs.
 // There the teacher is likely the more accurate model on new motions too, at
-// its slower query (docs/training.md shows a 7R arm's joint 1).
+// its slower query (docs/results/training.md shows a 7R arm's joint 1).
 inline constexpr double kTeacherFarAheadRatio = 10.0;
 inline constexpr double kTeacherFarAheadFloor = 1e-3;
 

@@ -29,7 +29,7 @@ struct SearchSettings {
   // A run has converged when the projected |dNLL/dlog theta|_inf at its best
   // point is at most this times the number of rows (the NLL and its gradient
   // grow with the rows); it sets OptimizerOptions::gradient_tolerance.
-  // docs/training.md measures how far short of the optimum looser tolerances stop.
+  // docs/results/training.md measures how far short of the optimum looser tolerances stop.
   double gradient_tolerance_per_row = 1e-5;
   // Restarts from perturbed starts (log-parameters + N(0, restart_spread^2)),
   // seeded; the run with the lowest NLL is kept (like scikit-learn's n_restarts_optimizer).
@@ -40,7 +40,7 @@ struct SearchSettings {
   // starts (three starting noises, plus restarts) and a GP joint's restarts
   // first run for at most this many NLL evaluations each; only the one with
   // the lowest NLL then continues to convergence (a GP joint's unperturbed
-  // start goes on too, so that its restarts never end above it). docs/training.md measures
+  // start goes on too, so that its restarts never end above it). docs/results/training.md measures
   // how close the leader at this budget ends to the best of the starts run to
   // the end. 0: every start runs to convergence.
   int start_screening_evaluations = 60;
@@ -48,7 +48,7 @@ struct SearchSettings {
   // constant-step subsample of this many rows, and the model is then
   // conditioned on every row: one O(N^3) factorisation (or one O(N M^2) pass
   // of a sparse GP) instead of one per evaluation. How a GP learns from 10^6
-  // rows in minutes (docs/training.md). 0 (the default): search on all rows.
+  // rows in minutes (docs/results/training.md). 0 (the default): search on all rows.
   int hyperparameter_rows = 0;
   // Noise variance, relative to the variance of the scaled output: its start and its floor.
   double initial_noise_fraction = 1e-2;
@@ -56,7 +56,7 @@ struct SearchSettings {
   JitterPolicy jitter;
   // Computed at once: a GP's joints, or LIP's starts; 0: all, as memory
   // permits. More than the cores share them, so that no core waits while the
-  // longest finishes (docs/training.md); the results do not depend on it.
+  // longest finishes (docs/results/training.md); the results do not depend on it.
   int threads = 0;
 
   // Throws gipdyn::Error naming the bad field (e.g. "SearchSettings::restarts must be >= 0").

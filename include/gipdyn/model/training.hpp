@@ -51,7 +51,7 @@ struct GpOptions {
   // (N m, N), where the targets are known to be no more precise than that: a
   // teacher's torques, known to its residual on the log (estimators/teacher.hpp).
   // Below it, an expressive kernel fitted on a subsample can interpolate the
-  // targets (docs/training.md). Empty: SearchSettings::min_noise_fraction
+  // targets (docs/results/training.md). Empty: SearchSettings::min_noise_fraction
   // alone; else one value >= 0 per joint.
   Eigen::VectorXd noise_std_floor;
   // Per joint, the starting point [kernel log-params, log noise variance] instead
@@ -63,7 +63,7 @@ struct GpOptions {
   // each evaluation (rows/N)^3 of the cost), then continue on all rows from the
   // best subsample optimum. 0 (the default): search on all rows from the
   // start. Opt-in: the subsample's optimum need not lead to the full data's
-  // best one (docs/training.md measures both).
+  // best one (docs/results/training.md measures both).
   int warm_start_rows = 0;
   bool keep_factor = true;  // keep Cholesky factors so the model can give variances
 
@@ -125,7 +125,7 @@ TrainResult train_model(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y, cons
 
 // How many joints train_model trains at once on `rows` training rows: the
 // threads SearchSettings::threads asks for (one per joint for 0), fewer where
-// memory is short (docs/training.md), one with a backend (its evaluations are
+// memory is short (docs/results/training.md), one with a backend (its evaluations are
 // collective). Front ends use it to estimate a fit's time.
 int joints_trained_at_once(const TrainOptions& options, Eigen::Index rows, int joints);
 

@@ -23,8 +23,9 @@ struct OptimizerOptions {
   double f_relative_tolerance = 1e-9;  // stop when an iteration changes f by <= tol * |f|
   double gradient_tolerance = 1e-5;    // stop when the best point's projected max |grad| is <= it
   // L-BFGS: correction pairs kept (NLopt's vector storage). About the number of
-  // hyperparameters of a GIP kernel (38 for a SCARA): against NLopt's usual 10 it
-  // needs 2-3.3x fewer evaluations to the same NLL (docs/training.md).
+  // hyperparameters of a GIP kernel (38 for a SCARA), whose NLL is badly scaled
+  // between them: NLopt's usual 10 hold too little curvature for it, and the
+  // search creeps (docs/results/training.md compares memories).
   int lbfgs_memory = 40;
   double adam_learning_rate = 0.01;
   double adam_beta1 = 0.9;

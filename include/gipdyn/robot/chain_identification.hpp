@@ -9,7 +9,7 @@
 // estimator registry; docs/method.md section 16). Where the arm is a rigid
 // serial chain, one 20 s motion pins its dynamics down this way where the GIP
 // and LIP kernels, whose function spaces hold far more than serial chains, do
-// not (docs/training.md, "A serial chain identified from one 20 s motion").
+// not (docs/results/training.md, "A serial chain identified from one 20 s motion").
 #include <Eigen/Dense>
 #include <cstdint>
 #include <string>

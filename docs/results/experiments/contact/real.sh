@@ -1,5 +1,5 @@
 #!/bin/bash
-# False alarms of `gipdyn detect` on the shared real logs, which have no contacts (docs/experiments/contact).
+# False alarms of `gipdyn detect` on the shared real logs, which have no contacts (docs/results/experiments/contact).
 #   bash real.sh [gipdyn binary] [shared data folder] [output folder]
 # Each log is split by time: the model (train --preset real) learns the first part, detect is calibrated on
 # the first half of the rest and counts alarms on its second half, where every alarm is a false one.

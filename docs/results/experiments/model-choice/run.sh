@@ -1,5 +1,5 @@
 #!/bin/bash
-# train --model auto against the documented command for each kind of log (docs/experiments/model-choice).
+# train --model auto against the documented command for each kind of log (docs/results/experiments/model-choice).
 #   bash run.sh [gipdyn binary] [shared data folder] [output folder]
 set -euo pipefail
 G=$(realpath "${1:-build/gipdyn}")
