@@ -1,6 +1,7 @@
 """The how-to guides' commands run as written: every bash block of a guide runs in order in one shell, in a folder
 beside build/, at smaller sizes (the sizes below), and leaves the files the guide says it does. A block preceded by
 `<!-- not run by the test: REASON -->` is left out, with its reason on the page."""
+import os
 import pathlib
 import re
 import subprocess
@@ -15,13 +16,18 @@ SIZES = "50,100"  # --sizes of a learning curve
 EXPERIMENT_SMALLER = {"--samples": 300}  # an experiment trains every model of each run
 
 
-def runnable_blocks(page):
+def runnable_blocks(page, language="bash"):
     text = page.read_text()
     found = []
-    for m in re.finditer(r"(<!-- not run by the test: [^>]*-->\n)?```bash\n(.*?)```", text, re.S):
+    for m in re.finditer(r"(<!-- not run by the test: [^>]*-->\n)?```" + language + r"\n(.*?)```", text, re.S):
         if not m.group(1):
             found.append(m.group(2))
     return found
+
+
+def smaller_python(block):
+    """simulate(..., samples=N) at most SMALLER's --samples."""
+    return re.sub(r"samples=(\d+)", lambda m: f"samples={min(int(m.group(1)), SMALLER['--samples'])}", block)
 
 
 def smaller(block):
@@ -61,3 +67,22 @@ def test_the_guides_runnable_blocks_are_the_ones_marked(tmp_path):
         "build/gipdyn simulate --samples 1000 --dt 0.01 --seconds 2 --sizes 50,100"
     assert smaller("build/gipdyn experiment accuracy --runs 20 \\\n  --samples 2000\nx --samples 500") == \
         "build/gipdyn experiment accuracy --runs 1 \\\n  --samples 300\nx --samples 500"
+
+
+def test_python_guide_runs_as_written(tmp_path, gipdyn_bin):
+    build = pathlib.Path(gipdyn_bin).resolve().parent
+    if not (build / "python" / "gipdyn").exists():
+        pytest.skip("the Python guide needs the Python module built beside gipdyn")
+    (tmp_path / "build").symlink_to(build)
+    page = ROOT / "docs" / "guide" / "python.md"
+    # The shell blocks make the files the Python blocks read; the quickstart example runs from the repository.
+    shell = "set -euo pipefail\n" + "\n".join(smaller(b) for b in runnable_blocks(page) if "examples/" not in b)
+    r = subprocess.run(["bash", "-c", shell], cwd=tmp_path, capture_output=True, text=True, timeout=600)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    python = runnable_blocks(page, "python")
+    assert len(python) >= 4, "the guide's Python blocks were not found"
+    env = dict(os.environ, PYTHONPATH=str(build / "python"))
+    r = subprocess.run(["/usr/bin/python3", "-c", "\n".join(smaller_python(b) for b in python)], cwd=tmp_path,
+                       env=env, capture_output=True, text=True, timeout=900)
+    assert r.returncode == 0, r.stdout[-3000:] + r.stderr[-3000:]
+    assert (tmp_path / "scara.gipdyn").exists()
