@@ -18,6 +18,9 @@
 #include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
 #include "gipdyn/estimators/options_record.hpp"
+#include "gipdyn/estimators/per_joint_estimator.hpp"
+#include "gipdyn/gipdyn.h"
+#include "gipdyn/estimators/uncertainty.hpp"
 #include "gipdyn/io/mat_dataset.hpp"
 #include "gipdyn/estimators/fisherian.hpp"
 #include "gipdyn/estimators/physics.hpp"
@@ -458,22 +461,30 @@ TeacherOptions quick_teaching() {
   return teaching;
 }
 
+// A choice among candidates on a SCARA log, with quick teaching.
+struct SelectionCase {
+  EstimatorOptions base = options("gip");
+  SelectionOptions so;
+  TeacherOptions teaching = quick_teaching();
+  explicit SelectionCase(std::vector<std::string> candidates) { so.candidates = std::move(candidates); }
+  SelectionResult run(const SimulationResult& log) const {
+    return fit_selected_estimator(base, so, log.X, log.tau, scara_robot().joint_types(), teaching);
+  }
+};
+
 }  // namespace
 
 TEST(ModelSelection, ScoresEachCandidateOnTheHeldOutBlockAsAHandMadeFitDoes) {
   const SimulationResult log = scara_split(0.01, 200).train;
-  EstimatorOptions base = options("gip");
-  SelectionOptions so;
-  so.candidates = {"rbf", "gip"};
-  const TeacherOptions teaching = quick_teaching();
-  const SelectionResult r = fit_selected_estimator(base, so, log.X, log.tau, scara_robot().joint_types(), teaching);
+  const SelectionCase choice({"rbf", "gip"});
+  const SelectionResult r = choice.run(log);
   const Selection& s = r.selection;
   ASSERT_EQ(s.candidates.size(), 2u);
   EXPECT_EQ(s.fit_rows, 150);
   EXPECT_EQ(s.held_out_rows, 50);
   for (const CandidateScore& c : s.candidates) {
     ASSERT_TRUE(c.ok) << c.name << ": " << c.failure;
-    const FitResult by_hand = fit_estimator(candidate_options(c.name, base, teaching), first_rows(log.X, 150),
+    const FitResult by_hand = fit_estimator(candidate_options(c.name, choice.base, choice.teaching), first_rows(log.X, 150),
                                             first_rows(log.tau, 150), scara_robot().joint_types());
     ASSERT_TRUE(by_hand.report.ok());
     EXPECT_TRUE(c.nmse.isApprox(held_out_nmse(*by_hand.estimator, log.X, log.tau, 150), 1e-9)) << c.name;
@@ -538,6 +549,142 @@ TEST(ModelSelection, GipsTeacherIsScoredAsTheLipCandidateAndMatchesItsOwnFit) {
   ASSERT_TRUE(own.report.ok());
   EXPECT_TRUE(lip.nmse.isApprox(held_out_nmse(*own.estimator, log.X, log.tau, 120), 1e-9))
       << lip.nmse.transpose() << " vs " << held_out_nmse(*own.estimator, log.X, log.tau, 120).transpose();
+}
+
+// A log whose joints call for different models: the SCARA's rigid-body torques on joints 1-3, and on
+// joint 4 a torque no low-degree polynomial of the joint angles holds, sin(6 q1), which an RBF GP learns.
+SimulationResult log_with_a_non_rigid_joint(int samples) {
+  SimulationResult log = scara_split(0.01, samples).train;
+  log.tau.col(3) = (6.0 * log.X.col(0).array()).sin().matrix() + 0.01 * log.tau.col(3).normalized();
+  return log;
+}
+
+TEST(ModelSelection, JointsThatCallForDifferentModelsGetEachItsOwn) {
+  const SimulationResult log = log_with_a_non_rigid_joint(160);
+  const SelectionCase choice({"gip", "rbf"});
+  const SelectionResult r = choice.run(log);
+  const Selection& s = r.selection;
+  ASSERT_TRUE(s.candidates.size() == 2 && s.candidates[0].ok && s.candidates[1].ok);
+  // A joint keeps the choice by mean nMSE unless the other candidate predicted it better by more than the tie
+  // tolerance.
+  const CandidateScore& overall = s.chosen == "gip" ? s.candidates[0] : s.candidates[1];
+  const CandidateScore& other = s.chosen == "gip" ? s.candidates[1] : s.candidates[0];
+  for (Eigen::Index j = 0; j < 4; ++j) {
+    const bool other_clearly_better = overall.nmse(j) > other.nmse(j) * (1.0 + choice.so.tie_tolerance);
+    EXPECT_EQ(s.chosen_per_joint[static_cast<size_t>(j)], other_clearly_better ? other.name : overall.name)
+        << "joint " << j + 1;
+  }
+  ASSERT_EQ(s.chosen_per_joint[0], "gip");
+  ASSERT_EQ(s.chosen_per_joint[3], "rbf") << s.brief_report();
+  ASSERT_TRUE(s.per_joint());
+  EXPECT_NE(s.brief_report().find("chose per joint"), std::string::npos) << s.brief_report();
+  EXPECT_EQ(s.record()["chosen_per_joint"][3], "rbf");
+  // The model: each chosen candidate refitted on every row, each joint answered by its own.
+  ASSERT_TRUE(r.fit.report.ok()) << r.fit.report.message;
+  ASSERT_EQ(r.fit.estimator->name(), PerJointEstimator::kName);
+  const auto& per_joint = dynamic_cast<const PerJointEstimator&>(*r.fit.estimator);
+  EXPECT_EQ(per_joint.joint_model_names(), s.chosen_per_joint);
+  // Each model is its candidate refitted on every row, as a fit by hand gives it.
+  const auto rbf = std::find_if(per_joint.models().begin(), per_joint.models().end(),
+                                [](const auto& m) { return m->name() == "rbf"; });
+  ASSERT_NE(rbf, per_joint.models().end());
+  const FitResult by_hand =
+      fit_estimator(candidate_options("rbf", choice.base, choice.teaching), log.X, log.tau, scara_robot().joint_types());
+  ASSERT_TRUE(by_hand.report.ok());
+  EXPECT_TRUE((*rbf)->predict(log.X).isApprox(by_hand.estimator->predict(log.X), 1e-9));
+  EXPECT_EQ(r.fit.report.joints.size(), 4u);
+  // Physics only where every joint's model has it, and the refusal names the joint that has not.
+  EXPECT_NE(error_of([&] { gravity(*r.fit.estimator, log.X.leftCols(4)); }).find("4 (rbf)"),
+            std::string::npos);
+  // On the joint the RBF took, the composite predicts later rows of the motion far better than the GIP model in it.
+  const SimulationResult later = log_with_a_non_rigid_joint(200);
+  const Eigen::MatrixXd X_new = later.X.bottomRows(40), Y_new = later.tau.bottomRows(40);
+  const auto gip = std::find_if(per_joint.models().begin(), per_joint.models().end(),
+                                [](const auto& m) { return m->name() == "gip"; });
+  ASSERT_NE(gip, per_joint.models().end());
+  EXPECT_LT(compute_accuracy(Y_new, r.fit.estimator->predict(X_new)).nmse(3),
+            0.5 * compute_accuracy(Y_new, (*gip)->predict(X_new)).nmse(3));
+}
+
+TEST(PerJointEstimator, AnswersEachJointFromItsModelInBatchQueriesPhysicsAndFiles) {
+  const Split s = scara_split(0.01, 120);
+  const JointTypes joints = scara_robot().joint_types();
+  FitResult a = fit_estimator(options("gip"), s.train.X, s.train.tau, joints);
+  FitResult b = fit_estimator(options("gip-friction"), s.train.X, s.train.tau, joints);
+  ASSERT_TRUE(a.report.ok() && b.report.ok());
+  const std::shared_ptr<const Estimator> ea = std::move(a.estimator), eb = std::move(b.estimator);
+  PerJointEstimator composite({ea, eb}, {0, 1, 1, 0});
+  composite.set_selection_record({{"chosen_per_joint", {"gip", "gip-friction", "gip-friction", "gip"}}});
+  const Eigen::MatrixXd X = s.test.X.topRows(20);
+  const Eigen::MatrixXd pa = ea->predict(X), pb = eb->predict(X), p = composite.predict(X);
+  for (int i = 0; i < 4; ++i) EXPECT_EQ(p.col(i), (i == 1 || i == 2 ? pb : pa).col(i)) << "joint " << i + 1;
+  EXPECT_EQ(composite.joint_model_names(), (std::vector<std::string>{"gip", "gip-friction", "gip-friction", "gip"}));
+
+  // One query at a time: the same torques, and each joint's row of gravity, M and the bias from its model.
+  const auto ws = composite.make_query_workspace();
+  const auto wa = ea->make_query_workspace(), wb = eb->make_query_workspace();
+  EXPECT_EQ(ws->allocation_free(), wa->allocation_free() && wb->allocation_free());
+  Eigen::VectorXd tau(4), g(4), bias(4), ga(4), gb(4), biasa(4), biasb(4);
+  Eigen::Matrix<double, 4, 4, Eigen::RowMajor> M, Ma, Mb;
+  for (Eigen::Index r = 0; r < X.rows(); ++r) {
+    const Eigen::RowVectorXd x = X.row(r);
+    ws->predict(x.data(), tau.data());
+    EXPECT_TRUE(tau.isApprox(p.row(r).transpose(), 1e-10)) << "row " << r;
+    ws->rigid_body_terms(x.data(), x.data() + 4, g.data(), M.data(), bias.data());
+    wa->rigid_body_terms(x.data(), x.data() + 4, ga.data(), Ma.data(), biasa.data());
+    wb->rigid_body_terms(x.data(), x.data() + 4, gb.data(), Mb.data(), biasb.data());
+    for (int i = 0; i < 4; ++i) {
+      const bool from_b = i == 1 || i == 2;
+      EXPECT_EQ(g(i), from_b ? gb(i) : ga(i));
+      EXPECT_EQ(bias(i), from_b ? biasb(i) : biasa(i));
+      EXPECT_EQ(M.row(i), from_b ? Mb.row(i) : Ma.row(i));
+    }
+  }
+  // The batch physics of physics.hpp, from the same rows.
+  ASSERT_TRUE(composite.gives_rigid_body_terms());
+  const Eigen::MatrixXd Q = X.leftCols(4);
+  const Eigen::MatrixXd grav = gravity(composite, Q), grav_a = gravity(*ea, Q), grav_b = gravity(*eb, Q);
+  for (int i = 0; i < 4; ++i) EXPECT_TRUE(grav.col(i).isApprox((i == 1 || i == 2 ? grav_b : grav_a).col(i), 1e-12));
+  // No predictive variance: the models' noises do not make one calibrated model.
+  EXPECT_FALSE(composite.gives_uncertainty());
+  EXPECT_NE(error_of([&] { TorqueUncertainty u(composite); }).find("'chosen-per-joint' model gives no predictive standard deviation"),
+            std::string::npos);
+
+  // A model file holds every model and the assignment, and gives back the same predictions and records.
+  const std::string path = temp_path("per_joint.gipdyn");
+  save_estimator(composite, path);
+  const auto loaded = load_estimator(path);
+  ASSERT_EQ(loaded->name(), PerJointEstimator::kName);
+  EXPECT_EQ(loaded->predict(X), p);
+  ASSERT_NE(loaded->selection_record(), nullptr);
+  EXPECT_EQ(*loaded->selection_record(), *composite.selection_record());
+  EXPECT_EQ(dynamic_cast<const PerJointEstimator&>(*loaded).joint_model(), (std::vector<int>{0, 1, 1, 0}));
+  // The C API serves it as any model: the same torques and gravity, one query at a time.
+  gipdyn_model* c_model = nullptr;
+  ASSERT_EQ(gipdyn_model_load(path.c_str(), &c_model), GIPDYN_OK) << gipdyn_last_error();
+  EXPECT_EQ(gipdyn_model_has_physics(c_model), 1);
+  gipdyn_workspace* c_ws = nullptr;
+  ASSERT_EQ(gipdyn_workspace_create(c_model, &c_ws), GIPDYN_OK);
+  const Eigen::RowVectorXd x0 = X.row(0);
+  Eigen::VectorXd c_tau(4), c_g(4);
+  ASSERT_EQ(gipdyn_predict(c_ws, x0.data(), x0.data() + 4, x0.data() + 8, 4, c_tau.data()), GIPDYN_OK);
+  EXPECT_TRUE(c_tau.isApprox(p.row(0).transpose(), 1e-10));
+  ASSERT_EQ(gipdyn_gravity(c_ws, x0.data(), 4, c_g.data()), GIPDYN_OK);
+  EXPECT_TRUE(c_g.isApprox(grav.row(0).transpose(), 1e-10));
+  gipdyn_workspace_free(c_ws);
+  gipdyn_model_free(c_model);
+  std::filesystem::remove(path);
+
+  // What cannot make one: every message names the problem.
+  EXPECT_NE(error_of([&] { PerJointEstimator({ea}, {0, 0, 1, 0}); }).find("index 1 outside"), std::string::npos);
+  EXPECT_NE(error_of([&] { PerJointEstimator({ea, eb}, {0, 0, 0, 0}); }).find("model 1 answers no joint"),
+            std::string::npos);
+  EXPECT_NE(error_of([&] { PerJointEstimator({ea}, {0, 0}); }).find("2 joint models for 4 joints"), std::string::npos);
+  FitResult other = fit_estimator(options("gip"), s.train.X, s.train.tau, JointTypes::parse("RRRR"));
+  ASSERT_TRUE(other.report.ok());
+  const std::shared_ptr<const Estimator> eo = std::move(other.estimator);
+  EXPECT_NE(error_of([&] { PerJointEstimator({ea, eo}, {0, 1, 0, 0}); }).find("different joints (RRPR and RRRR)"),
+            std::string::npos);
 }
 
 TEST(ModelSelection, ALogTooShortOrBadOptionsAreRefusedBeforeAnyWork) {

@@ -31,7 +31,7 @@ Command add_predict(CLI::App& app) {
     const int n = estimator->joints().size();
     Eigen::MatrixXd mean, sd;
     std::vector<std::string> header = torque_column_names(n, "_hat");
-    if (a->no_std || !estimator_gives_uncertainty(estimator->name())) {
+    if (a->no_std || !estimator->gives_uncertainty()) {
       write_csv(a->out, header, estimator->predict(data.X));
     } else {
       mean = estimator->predict(data.X);

@@ -300,6 +300,8 @@ int run_train(TrainArgs& a, const CLI::App& app) {
       selection = std::move(chosen.selection);
       r = std::move(chosen.fit);
       plan.o = std::move(chosen.options);  // the chosen candidate's, which the outcome describes
+      // Per joint: several models, each with its own teaching record in the model file.
+      if (selection->per_joint()) plan.o.teacher.reset();
     } else {
       r = fit_estimator(o, data.X, data.tau, joints, progress);
     }
@@ -344,7 +346,8 @@ Command add_train(CLI::App& app) {
                      ": choose among " + joined(selection_candidates()) +
                      " by evidence, each fitted on the log's earlier rows and scored on its last " +
                      std::to_string(static_cast<int>(100.0 * SelectionOptions{}.held_out_fraction)) +
-                     " %, the best refitted on every row")
+                     " %, the best refitted on every row (per joint, where another candidate predicts a joint "
+                     "clearly better)")
       ->capture_default_str();
   app.footer(estimator_table_text());
   app.add_option("--subsample", a->subsample,

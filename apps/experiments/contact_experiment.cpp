@@ -135,7 +135,7 @@ ExperimentOutcome run_contact_experiment(const ContactExperimentConfig& c, const
   for (size_t m = 0; m < models.size(); ++m) {
     const auto& [name, model] = models[m];
     for (ContactMethod method : {ContactMethod::Residual, ContactMethod::Momentum}) {
-      if (method == ContactMethod::Momentum && !estimator_gives_physics(model->name())) continue;
+      if (method == ContactMethod::Momentum && !model->gives_rigid_body_terms()) continue;
       ContactDetector detector(*model, detector_options(c, method));
       detector.calibrate(calibration.X, calibration.tau);
       const ContactDetection d = detector.detect(contact.X, contact.tau);

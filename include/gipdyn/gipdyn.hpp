@@ -12,6 +12,7 @@
 #include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
 #include "gipdyn/estimators/options_record.hpp"
+#include "gipdyn/estimators/per_joint_estimator.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"

@@ -17,6 +17,7 @@
 #include "gipdyn/estimators/estimator_file.hpp"
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/options_record.hpp"
+#include "gipdyn/estimators/per_joint_estimator.hpp"
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
@@ -152,6 +153,9 @@ struct Model {
 std::shared_ptr<Model> gp_model_from_container(const ModelContainer& c, const std::string& what) {
   std::unique_ptr<Estimator> e = estimator_from_container(c, what);
   auto* gp = dynamic_cast<GpEstimator*>(e.get());
+  if (e->name() == PerJointEstimator::kName)
+    throw Error(what + " holds a model chosen per joint (train --model auto), which this module cannot load yet; "
+                "query it with gipdyn predict or the C API, or train one estimator for every joint (model=)");
   if (!gp) throw Error(what + " holds a '" + e->name() + "' model, not a GP kernel's; load it with the class that trained it (LagrangianGP for lip)");
   e.release();
   return std::make_shared<Model>(std::shared_ptr<const GpEstimator>(gp));

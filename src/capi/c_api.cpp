@@ -139,7 +139,7 @@ gipdyn_status gipdyn_model_load(const char* path, gipdyn_model** model) {
     auto m = std::make_unique<gipdyn_model>();
     m->estimator = gipdyn::load_estimator(path);
     m->joints = m->estimator->joints().size();
-    m->physics = gipdyn::estimator_gives_physics(m->estimator->name());
+    m->physics = m->estimator->gives_rigid_body_terms();
     m->allocation_free = m->estimator->make_query_workspace()->allocation_free();
     *model = m.release();
     return ok();
@@ -307,7 +307,7 @@ gipdyn_status gipdyn_contact_detector_create(const gipdyn_model* model, const gi
       sigma = Eigen::Map<const Eigen::VectorXd>(noise_std, n);
       if (!(sigma.array() > 0.0).all()) return fail(GIPDYN_ERROR_INVALID_OPTION, "noise_std must be positive");
     } else {
-      if (!gipdyn::estimator_gives_uncertainty(model->estimator->name()))
+      if (!model->estimator->gives_uncertainty())
         return fail(GIPDYN_ERROR_UNSUPPORTED,
                     "this model learned no noise level: pass noise_std, measured on contact-free rows");
       sigma = gipdyn::learned_noise_std(*model->estimator);

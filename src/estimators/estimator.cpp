@@ -3,6 +3,7 @@
 #include <nlohmann/json.hpp>
 
 #include "gipdyn/detail/rigid_body_queries.hpp"
+#include "gipdyn/estimators/estimator_registry.hpp"
 
 namespace gipdyn {
 namespace {
@@ -37,6 +38,10 @@ void QueryWorkspace::rigid_body_terms(const double* q, const double* qd, double*
 std::unique_ptr<QueryWorkspace> Estimator::make_query_workspace() const {
   return std::make_unique<BatchQueryWorkspace>(*this);
 }
+
+bool Estimator::gives_rigid_body_terms() const { return estimator_spec(name()).rigid_body_terms; }
+
+bool Estimator::gives_uncertainty() const { return estimator_spec(name()).predictive_variance; }
 
 void Estimator::set_teaching_record(const nlohmann::json& record) {
   teaching_record_ = record.is_null() ? nullptr : std::make_shared<const nlohmann::json>(record);

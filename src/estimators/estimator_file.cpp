@@ -6,6 +6,7 @@
 #include "gipdyn/estimators/gp_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/neural_network_estimator.hpp"
+#include "gipdyn/estimators/per_joint_estimator.hpp"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/io/detail/model_container.hpp"
 
@@ -18,6 +19,7 @@ std::unique_ptr<Estimator> read_estimator(const ModelContainer& c, const std::st
   try {
     kind = c.header.value("estimator", "gp");  // format 1 files hold GP models only
     if (kind == "gp") return std::make_unique<GpEstimator>(model_from_container(c, what));
+    if (kind == PerJointEstimator::kName) return PerJointEstimator::from_container(c, what);
     if (const EstimatorSpec* spec = find_estimator_spec(kind)) {
       switch (spec->family) {
         case EstimatorFamily::Lagrangian:

@@ -11,6 +11,7 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/io/detail/json_numbers.hpp"
+#include "gipdyn/estimators/per_joint_estimator.hpp"
 #include "gipdyn/metrics.hpp"
 #include "gipdyn/training_data.hpp"
 
@@ -45,7 +46,55 @@ void note(const ProgressCallback& progress, const std::string& estimator, const 
   progress(e);
 }
 
+// Per joint: `overall` (the choice by mean nMSE) where it is within `tolerance` of the joint's lowest nMSE, or
+// where the joint's held-out torque is constant (no candidate can be told from another there); else the first
+// scored candidate, in the order of preference, within `tolerance` of that lowest nMSE. So a joint leaves the
+// overall choice only for a candidate that predicted it clearly better, and a model of one estimator stays one.
+std::vector<std::string> choose_per_joint(const std::vector<CandidateScore>& candidates,
+                                          const Eigen::VectorXd& held_variance, double tolerance,
+                                          const std::string& overall) {
+  std::vector<std::string> chosen(static_cast<size_t>(held_variance.size()), overall);
+  for (Eigen::Index j = 0; j < held_variance.size(); ++j) {
+    if (!(held_variance(j) > 0.0)) continue;
+    double best = std::numeric_limits<double>::infinity(), overall_nmse = best;
+    for (const CandidateScore& c : candidates)
+      if (c.ok && std::isfinite(c.nmse(j))) {
+        best = std::min(best, c.nmse(j));
+        if (c.name == overall) overall_nmse = c.nmse(j);
+      }
+    if (overall_nmse <= best * (1.0 + tolerance)) continue;
+    for (const CandidateScore& c : candidates)
+      if (c.ok && c.nmse(j) <= best * (1.0 + tolerance)) {
+        chosen[static_cast<size_t>(j)] = c.name;
+        break;
+      }
+  }
+  return chosen;
+}
+
+// One report for a PerJointEstimator: each joint's from its model's fit, the time of all of them.
+FitReport per_joint_report(const std::vector<FitResult>& fits, const std::vector<int>& joint_model) {
+  FitReport report;
+  bool capped = false, all_completed = true;
+  for (const FitResult& f : fits) {
+    report.seconds += f.report.seconds;
+    capped = capped || f.report.status == FitStatus::NotConverged;
+    all_completed = all_completed && f.report.status == FitStatus::Completed;
+  }
+  for (size_t i = 0; i < joint_model.size(); ++i)
+    for (const JointReport& r : fits[static_cast<size_t>(joint_model[i])].report.joints)
+      if (r.joint == static_cast<int>(i)) report.joints.push_back(r);
+  report.status = capped ? FitStatus::NotConverged : all_completed ? FitStatus::Completed : FitStatus::Converged;
+  return report;
+}
+
 }  // namespace
+
+bool Selection::per_joint() const {
+  for (const std::string& name : chosen_per_joint)
+    if (name != chosen_per_joint.front()) return true;
+  return false;
+}
 
 void SelectionOptions::validate() const {
   if (!(held_out_fraction > 0.0 && held_out_fraction < 1.0))
@@ -95,9 +144,16 @@ std::string Selection::brief_report() const {
     }
     out += "\n";
   }
-  if (chosen.empty())
+  if (chosen.empty()) {
     out += "no candidate could be fitted\n";
-  else if (chosen == best)
+  } else if (per_joint()) {
+    out += "chose per joint: " + chosen + " (the lowest mean nMSE, or within " +
+           std::to_string(static_cast<int>(std::lround(100.0 * tie_tolerance))) +
+           " % of it) except where another candidate predicted a joint better by more than that:";
+    for (size_t j = 0; j < chosen_per_joint.size(); ++j)
+      out += (j == 0 ? " " : ", ") + std::to_string(j + 1) + " " + chosen_per_joint[j];
+    out += "\n";
+  } else if (chosen == best)
     out += "chose " + chosen + ": the lowest mean nMSE on the held-out rows\n";
   else
     out += "chose " + chosen + ": within " + std::to_string(static_cast<int>(std::lround(100.0 * tie_tolerance))) +
@@ -112,6 +168,7 @@ nlohmann::json Selection::record() const {
   j["held_out_rows"] = held_out_rows;
   j["chosen"] = chosen;
   j["best"] = best;
+  j["chosen_per_joint"] = chosen_per_joint;
   j["tie_tolerance"] = tie_tolerance;
   j["candidates"] = nlohmann::json::array();
   for (const CandidateScore& c : candidates) {
@@ -222,7 +279,39 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
                                 " rows (" + (s.candidates.empty() ? "none given" : s.candidates.front().failure) + ")";
     return result;
   }
+  s.chosen_per_joint = choose_per_joint(s.candidates, held_variance, options.tie_tolerance, s.chosen);
   result.options = candidate_options(s.chosen, base, teacher_settings);
+  if (s.per_joint()) {
+    // Every chosen candidate on the whole log, in the order of preference; each joint answered by its own.
+    std::vector<std::string> distinct;
+    for (const CandidateScore& c : s.candidates)
+      if (std::find(s.chosen_per_joint.begin(), s.chosen_per_joint.end(), c.name) != s.chosen_per_joint.end())
+        distinct.push_back(c.name);
+    std::vector<FitResult> fits;
+    std::vector<std::shared_ptr<const Estimator>> models;
+    for (const std::string& name : distinct) {
+      const std::vector<Eigen::Index> refit = candidate_rows(name, rows);
+      result.refit_rows = std::max(result.refit_rows, static_cast<Eigen::Index>(refit.size()));
+      note(progress, name, "chosen for some joints; fitting on " + std::to_string(refit.size()) + " of the log's " +
+                               std::to_string(rows) + " rows");
+      fits.push_back(fit_estimator(candidate_options(name, base, teacher_settings), X(refit, Eigen::all),
+                                   Y(refit, Eigen::all), joints, progress));
+      if (!fits.back().report.ok()) {
+        result.fit = std::move(fits.back());
+        result.fit.report.message = name + ", chosen for some joints, failed on the whole log: " +
+                                    result.fit.report.message;
+        return result;
+      }
+      models.push_back(std::move(fits.back().estimator));
+    }
+    std::vector<int> joint_model;
+    for (const std::string& name : s.chosen_per_joint)
+      joint_model.push_back(static_cast<int>(std::find(distinct.begin(), distinct.end(), name) - distinct.begin()));
+    result.fit.report = per_joint_report(fits, joint_model);
+    result.fit.estimator = std::make_unique<PerJointEstimator>(std::move(models), std::move(joint_model));
+    result.fit.estimator->set_selection_record(s.record());
+    return result;
+  }
   const std::vector<Eigen::Index> refit = candidate_rows(s.chosen, rows);
   result.refit_rows = static_cast<Eigen::Index>(refit.size());
   note(progress, s.chosen, "chosen; fitting on " + std::to_string(result.refit_rows) + " of the log's " +

@@ -28,7 +28,7 @@ struct TorqueUncertainty::Source {
 namespace {
 
 const LagrangianEstimator& lagrangian_or_throw(const Estimator& estimator) {
-  if (!estimator_gives_uncertainty(estimator.name()))
+  if (!estimator.gives_uncertainty())
     throw Error("a '" + estimator.name() + "' model gives no predictive standard deviation; these do: " +
                 joined(uncertainty_estimator_names()));
   const auto* lip = dynamic_cast<const LagrangianEstimator*>(&estimator);

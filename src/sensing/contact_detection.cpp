@@ -208,7 +208,7 @@ ContactDetector::ContactDetector(const Estimator& estimator, ContactOptions opti
     : estimator_(&estimator), options_(options) {
   options_.validate();
   if (options_.method == ContactMethod::Momentum) require_physics(estimator);
-  if (options_.predictive_variance && estimator_gives_uncertainty(estimator.name()))
+  if (options_.predictive_variance && estimator.gives_uncertainty())
     uncertainty_ = std::make_unique<TorqueUncertainty>(estimator);
 }
 
@@ -259,7 +259,7 @@ void ContactDetector::calibrate(const Eigen::Ref<const Eigen::MatrixXd>& X, cons
 Eigen::VectorXd ContactDetector::noise_std() const {
   if (calibrated()) return calibrated_noise_;
   if (uncertainty_) return uncertainty_->noise_std();
-  if (estimator_gives_uncertainty(estimator_->name())) return learned_noise_std(*estimator_);
+  if (estimator_->gives_uncertainty()) return learned_noise_std(*estimator_);
   throw Error("a '" + estimator_->name() +
               "' model gives no predictive standard deviation: calibrate the detector on contact-free rows "
               "(ContactDetector::calibrate), or use one of: " + joined(uncertainty_estimator_names()));

@@ -59,6 +59,13 @@ class Estimator {
   // The single-query path. GP and network estimators give one that never
   // allocates; the default goes through predict() on a one-row matrix.
   virtual std::unique_ptr<QueryWorkspace> make_query_workspace() const;
+  // Whether its torque is affine in the accelerations, so that gravity,
+  // inertia and Coriolis terms come out of it (physics.hpp); the default: its
+  // name's row of the estimator table (EstimatorSpec::rigid_body_terms).
+  virtual bool gives_rigid_body_terms() const;
+  // Whether it gives a predictive standard deviation (uncertainty.hpp); the
+  // default: its name's row (EstimatorSpec::predictive_variance).
+  virtual bool gives_uncertainty() const;
 
   // How the fit that made this estimator used a teacher: the model file's
   // "teacher" block (docs/model-format.md), written by fit_estimator and kept

@@ -4,6 +4,8 @@
 // of many), so the candidates of the estimator table (selection_candidate) are
 // each fitted on the earlier part of the log and scored on its later part,
 // a block of time the fits did not see; the best is refitted on the whole log.
+// The choice is made per joint: where candidates lead on different joints,
+// each joint keeps the one that predicted it best (per_joint_estimator.hpp).
 #include <Eigen/Dense>
 #include <memory>
 #include <nlohmann/json_fwd.hpp>
@@ -45,6 +47,12 @@ struct Selection {
   // The first candidate within SelectionOptions::tie_tolerance of the lowest mean nMSE; empty where none has a score.
   std::string chosen;
   std::string best;  // the lowest mean nMSE
+  // Per joint: `chosen` where it is within SelectionOptions::tie_tolerance of that joint's lowest held-out nMSE
+  // (or the joint's held-out torque is constant), else the first candidate in the order of preference within the
+  // tolerance of that lowest nMSE; empty where none has a score.
+  std::vector<std::string> chosen_per_joint;
+  // Whether the joints chose different candidates: the model is then a PerJointEstimator of them.
+  bool per_joint() const;
   Eigen::Index fit_rows = 0, held_out_rows = 0;
   double tie_tolerance = 0.0;  // SelectionOptions::tie_tolerance
   // A table of the candidates' held-out nMSE per joint and mean, and a line saying what was chosen and why.
@@ -67,12 +75,14 @@ std::vector<Eigen::Index> candidate_rows(const std::string& name, Eigen::Index r
 
 struct SelectionResult {
   Selection selection;
-  FitResult fit;               // the chosen candidate refitted on the whole log; its estimator holds selection.record()
-  EstimatorOptions options;    // the chosen candidate's options
-  Eigen::Index refit_rows = 0; // the rows of the whole log it was refitted on
+  // The chosen candidate refitted on the whole log, or with Selection::per_joint() a PerJointEstimator of every
+  // chosen candidate refitted (its report: each joint's from its model's fit); its estimator holds selection.record().
+  FitResult fit;
+  EstimatorOptions options;    // the chosen candidate's options (with per_joint(): Selection::chosen's)
+  Eigen::Index refit_rows = 0; // the rows of the whole log it (the most of them) was refitted on
 };
 
-// Scores every candidate (Selection) and refits the best on (X, Y) (its rows
+// Scores every candidate (Selection) and refits the chosen ones on (X, Y) (their rows
 // as candidate_rows says). Bad options or data, or a log too short to hold
 // out a block, throw gipdyn::Error before any work; where no candidate fits,
 // the result's fit.report says why. progress sees every candidate's fit.
