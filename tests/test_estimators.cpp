@@ -565,12 +565,12 @@ TEST(ModelSelection, JointsThatCallForDifferentModelsGetEachItsOwn) {
   const SelectionResult r = choice.run(log);
   const Selection& s = r.selection;
   ASSERT_TRUE(s.candidates.size() == 2 && s.candidates[0].ok && s.candidates[1].ok);
-  // A joint keeps the choice by mean nMSE unless the other candidate predicted it better by more than the tie
-  // tolerance.
+  // A joint keeps the choice by mean nMSE unless the other candidate's held-out nMSE on it is below the mean
+  // choice's by more than the per-joint factor.
   const CandidateScore& overall = s.chosen == "gip" ? s.candidates[0] : s.candidates[1];
   const CandidateScore& other = s.chosen == "gip" ? s.candidates[1] : s.candidates[0];
   for (Eigen::Index j = 0; j < 4; ++j) {
-    const bool other_clearly_better = overall.nmse(j) > other.nmse(j) * (1.0 + choice.so.tie_tolerance);
+    const bool other_clearly_better = overall.nmse(j) > other.nmse(j) * choice.so.per_joint_factor;
     EXPECT_EQ(s.chosen_per_joint[static_cast<size_t>(j)], other_clearly_better ? other.name : overall.name)
         << "joint " << j + 1;
   }
@@ -697,6 +697,11 @@ TEST(ModelSelection, ALogTooShortOrBadOptionsAreRefusedBeforeAnyWork) {
   bad.held_out_fraction = 1.0;
   EXPECT_NE(error_of([&] { fit_selected_estimator(options("gip"), bad, log.X, log.tau, joints); })
                 .find("SelectionOptions::held_out_fraction must be in (0, 1)"),
+            std::string::npos);
+  bad = SelectionOptions{};
+  bad.per_joint_factor = 0.5;
+  EXPECT_NE(error_of([&] { fit_selected_estimator(options("gip"), bad, log.X, log.tau, joints); })
+                .find("SelectionOptions::per_joint_factor must be >= 1"),
             std::string::npos);
   SelectionOptions unknown;
   unknown.candidates = {"gip", "magic"};

@@ -346,8 +346,8 @@ Command add_train(CLI::App& app) {
                      ": choose among " + joined(selection_candidates()) +
                      " by evidence, each fitted on the log's earlier rows and scored on its last " +
                      std::to_string(static_cast<int>(100.0 * SelectionOptions{}.held_out_fraction)) +
-                     " %, the best refitted on every row (per joint, where another candidate predicts a joint "
-                     "clearly better)")
+                     " %, the best refitted on every row (per joint, where another candidate predicted a joint "
+                     "more than twice as well)")
       ->capture_default_str();
   app.footer(estimator_table_text());
   app.add_option("--subsample", a->subsample,

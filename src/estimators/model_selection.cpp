@@ -46,12 +46,12 @@ void note(const ProgressCallback& progress, const std::string& estimator, const 
   progress(e);
 }
 
-// Per joint: `overall` (the choice by mean nMSE) where it is within `tolerance` of the joint's lowest nMSE, or
-// where the joint's held-out torque is constant (no candidate can be told from another there); else the first
-// scored candidate, in the order of preference, within `tolerance` of that lowest nMSE. So a joint leaves the
-// overall choice only for a candidate that predicted it clearly better, and a model of one estimator stays one.
+// Per joint: `overall` (the choice by mean nMSE), unless the joint's lowest nMSE is below overall's on it divided
+// by `factor` (never where the joint's held-out torque is constant: no candidate can be told from another there);
+// then the first scored candidate, in the order of preference, within `tolerance` of that lowest nMSE. So a joint
+// leaves the overall choice only for a candidate that predicted it far better, and most models stay one estimator.
 std::vector<std::string> choose_per_joint(const std::vector<CandidateScore>& candidates,
-                                          const Eigen::VectorXd& held_variance, double tolerance,
+                                          const Eigen::VectorXd& held_variance, double factor, double tolerance,
                                           const std::string& overall) {
   std::vector<std::string> chosen(static_cast<size_t>(held_variance.size()), overall);
   for (Eigen::Index j = 0; j < held_variance.size(); ++j) {
@@ -62,7 +62,7 @@ std::vector<std::string> choose_per_joint(const std::vector<CandidateScore>& can
         best = std::min(best, c.nmse(j));
         if (c.name == overall) overall_nmse = c.nmse(j);
       }
-    if (overall_nmse <= best * (1.0 + tolerance)) continue;
+    if (!(best * factor < overall_nmse)) continue;
     for (const CandidateScore& c : candidates)
       if (c.ok && c.nmse(j) <= best * (1.0 + tolerance)) {
         chosen[static_cast<size_t>(j)] = c.name;
@@ -101,6 +101,8 @@ void SelectionOptions::validate() const {
     throw Error("SelectionOptions::held_out_fraction must be in (0, 1), got " + std::to_string(held_out_fraction));
   if (!(tie_tolerance >= 0.0 && std::isfinite(tie_tolerance)))
     throw Error("SelectionOptions::tie_tolerance must be >= 0, got " + std::to_string(tie_tolerance));
+  if (!(per_joint_factor >= 1.0 && std::isfinite(per_joint_factor)))
+    throw Error("SelectionOptions::per_joint_factor must be >= 1, got " + std::to_string(per_joint_factor));
   for (const std::string& name : candidates) require_known_estimator(name);
 }
 
@@ -147,9 +149,12 @@ std::string Selection::brief_report() const {
   if (chosen.empty()) {
     out += "no candidate could be fitted\n";
   } else if (per_joint()) {
+    char factor[32];
+    std::snprintf(factor, sizeof factor, "%g", per_joint_factor);
     out += "chose per joint: " + chosen + " (the lowest mean nMSE, or within " +
            std::to_string(static_cast<int>(std::lround(100.0 * tie_tolerance))) +
-           " % of it) except where another candidate predicted a joint better by more than that:";
+           " % of it) except where another candidate's held-out nMSE on a joint was below its by a factor of " +
+           factor + ":";
     for (size_t j = 0; j < chosen_per_joint.size(); ++j)
       out += (j == 0 ? " " : ", ") + std::to_string(j + 1) + " " + chosen_per_joint[j];
     out += "\n";
@@ -170,6 +175,7 @@ nlohmann::json Selection::record() const {
   j["best"] = best;
   j["chosen_per_joint"] = chosen_per_joint;
   j["tie_tolerance"] = tie_tolerance;
+  j["per_joint_factor"] = per_joint_factor;
   j["candidates"] = nlohmann::json::array();
   for (const CandidateScore& c : candidates) {
     nlohmann::json row{{"name", c.name}, {"status", c.ok ? "scored" : "failed"}, {"fit_rows", c.fit_rows},
@@ -207,6 +213,7 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
   const Eigen::MatrixXd X_held = X.bottomRows(held_out), Y_held = Y.bottomRows(held_out);
   const Eigen::VectorXd held_variance = column_variance(Y_held);
   s.tie_tolerance = options.tie_tolerance;
+  s.per_joint_factor = options.per_joint_factor;
   // Scores a fitted candidate on the held-out rows.
   const auto score = [&](CandidateScore& c, const Estimator& fitted) {
     c.nmse = compute_accuracy(Y_held, fitted.predict(X_held)).nmse;
@@ -279,7 +286,8 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
                                 " rows (" + (s.candidates.empty() ? "none given" : s.candidates.front().failure) + ")";
     return result;
   }
-  s.chosen_per_joint = choose_per_joint(s.candidates, held_variance, options.tie_tolerance, s.chosen);
+  s.chosen_per_joint =
+      choose_per_joint(s.candidates, held_variance, options.per_joint_factor, options.tie_tolerance, s.chosen);
   result.options = candidate_options(s.chosen, base, teacher_settings);
   if (s.per_joint()) {
     // Every chosen candidate on the whole log, in the order of preference; each joint answered by its own.

@@ -28,6 +28,10 @@ struct SelectionOptions {
   // Candidates whose mean held-out nMSE is within this fraction of the best score alike: differences that
   // small are within what one block of a noisy log can tell apart. Of those, the first in candidates wins.
   double tie_tolerance = 0.05;
+  // A joint leaves the choice by mean nMSE only for a candidate whose held-out nMSE on it is below the mean
+  // choice's divided by this. One held-out block of a real log is a noisy judge of one joint, and small leads on
+  // it need not carry over to new motion (docs/results/experiments/model-choice). At least 1.
+  double per_joint_factor = 2.0;
   // Throws gipdyn::Error naming the field.
   void validate() const;
 };
@@ -47,14 +51,16 @@ struct Selection {
   // The first candidate within SelectionOptions::tie_tolerance of the lowest mean nMSE; empty where none has a score.
   std::string chosen;
   std::string best;  // the lowest mean nMSE
-  // Per joint: `chosen` where it is within SelectionOptions::tie_tolerance of that joint's lowest held-out nMSE
-  // (or the joint's held-out torque is constant), else the first candidate in the order of preference within the
-  // tolerance of that lowest nMSE; empty where none has a score.
+  // Per joint: `chosen`, unless the joint's lowest held-out nMSE is below chosen's on it divided by
+  // SelectionOptions::per_joint_factor (never for a joint whose held-out torque is constant); then the first
+  // candidate in the order of preference within SelectionOptions::tie_tolerance of that lowest nMSE. Empty where
+  // none has a score.
   std::vector<std::string> chosen_per_joint;
   // Whether the joints chose different candidates: the model is then a PerJointEstimator of them.
   bool per_joint() const;
   Eigen::Index fit_rows = 0, held_out_rows = 0;
-  double tie_tolerance = 0.0;  // SelectionOptions::tie_tolerance
+  double tie_tolerance = 0.0;     // SelectionOptions::tie_tolerance
+  double per_joint_factor = 1.0;  // SelectionOptions::per_joint_factor
   // A table of the candidates' held-out nMSE per joint and mean, and a line saying what was chosen and why.
   std::string brief_report() const;
   // The model file's "selection" block (docs/model-format.md).
