@@ -23,6 +23,7 @@ SMALLER = {"--samples": 1000, "--runs": 1, "--train-samples": 300, "--test-sampl
            "--contacts": 5}
 SIZES = "50,100"  # --sizes of a learning curve
 EXPERIMENT_SMALLER = {"--samples": 300}  # an experiment trains every model of each run
+PYTHON_SAMPLES, PYTHON_CONTACTS = 600, 3  # simulate(samples=..., contacts=...) in a Python block
 NOT_RUN = r"<!-- not run by the test: [^>]*-->\n"
 
 
@@ -37,8 +38,9 @@ def runnable_blocks(page, language="bash"):
 
 
 def smaller_python(block):
-    """simulate(..., samples=N) at most SMALLER's --samples."""
-    return re.sub(r"samples=(\d+)", lambda m: f"samples={min(int(m.group(1)), SMALLER['--samples'])}", block)
+    """simulate(..., samples=N, contacts=C) at most PYTHON_SAMPLES and PYTHON_CONTACTS."""
+    block = re.sub(r"samples=(\d+)", lambda m: f"samples={min(int(m.group(1)), PYTHON_SAMPLES)}", block)
+    return re.sub(r"contacts=(\d+)", lambda m: f"contacts={min(int(m.group(1)), PYTHON_CONTACTS)}", block)
 
 
 def smaller(block):
@@ -131,4 +133,5 @@ def test_the_guides_runnable_blocks_are_the_ones_marked(tmp_path):
         "build/gipdyn simulate --samples 1000 --dt 0.01 --seconds 2 --sizes 50,100"
     assert smaller("build/gipdyn experiment accuracy --runs 20 \\\n  --samples 2000\nx --samples 500") == \
         "build/gipdyn experiment accuracy --runs 1 \\\n  --samples 300\nx --samples 500"
-    assert smaller_python('simulate("scara", samples=5000, seed=3)') == 'simulate("scara", samples=1000, seed=3)'
+    assert smaller_python('simulate("scara", samples=5000, seed=3, contacts=5)') == \
+        'simulate("scara", samples=600, seed=3, contacts=3)'
