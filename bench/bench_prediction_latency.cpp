@@ -71,7 +71,7 @@ int main(int argc, char** argv) {
     Eigen::VectorXi contact(joints);
     const Eigen::MatrixXd measured = data.tau.transpose();  // column i: row i's torques, contiguous
     for (const gipdyn::ContactMethod method : {gipdyn::ContactMethod::Residual, gipdyn::ContactMethod::Momentum}) {
-      if (method == gipdyn::ContactMethod::Momentum && !gipdyn::estimator_gives_physics(model->name())) continue;
+      if (method == gipdyn::ContactMethod::Momentum && !model->gives_rigid_body_terms()) continue;
       gipdyn::ContactOptions options;
       options.method = method;
       options.sample_time = 0.001;

@@ -80,7 +80,7 @@ int main(int argc, char** argv) {
               latency_ns[calls / 2] / 1e3, latency_ns[static_cast<long>(0.99 * static_cast<double>(calls - 1))] / 1e3,
               latency_ns[calls - 1] / 1e3, checksum);
 
-  if (!gipdyn::estimator_gives_physics(model->name())) {
+  if (!model->gives_rigid_body_terms()) {
     std::printf("no gravity or inertia from a %s model (they need the rigid-body structure: docs/method.md section 9)\n",
                 model->name().c_str());
     return 0;

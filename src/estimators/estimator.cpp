@@ -41,6 +41,10 @@ std::unique_ptr<QueryWorkspace> Estimator::make_query_workspace() const {
 
 bool Estimator::gives_rigid_body_terms() const { return estimator_spec(name()).rigid_body_terms; }
 
+std::string Estimator::why_no_rigid_body_terms() const {
+  return "its torque is not affine in the accelerations";
+}
+
 bool Estimator::gives_uncertainty() const { return estimator_spec(name()).predictive_variance; }
 
 void Estimator::set_teaching_record(const nlohmann::json& record) {

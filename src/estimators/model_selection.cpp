@@ -289,43 +289,41 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
   s.chosen_per_joint =
       choose_per_joint(s.candidates, held_variance, options.per_joint_factor, options.tie_tolerance, s.chosen);
   result.options = candidate_options(s.chosen, base, teacher_settings);
-  if (s.per_joint()) {
-    // Every chosen candidate on the whole log, in the order of preference; each joint answered by its own.
-    std::vector<std::string> distinct;
-    for (const CandidateScore& c : s.candidates)
-      if (std::find(s.chosen_per_joint.begin(), s.chosen_per_joint.end(), c.name) != s.chosen_per_joint.end())
-        distinct.push_back(c.name);
-    std::vector<FitResult> fits;
-    std::vector<std::shared_ptr<const Estimator>> models;
-    for (const std::string& name : distinct) {
-      const std::vector<Eigen::Index> refit = candidate_rows(name, rows);
-      result.refit_rows = std::max(result.refit_rows, static_cast<Eigen::Index>(refit.size()));
-      note(progress, name, "chosen for some joints; fitting on " + std::to_string(refit.size()) + " of the log's " +
-                               std::to_string(rows) + " rows");
-      fits.push_back(fit_estimator(candidate_options(name, base, teacher_settings), X(refit, Eigen::all),
-                                   Y(refit, Eigen::all), joints, progress));
-      if (!fits.back().report.ok()) {
-        result.fit = std::move(fits.back());
+  // Every chosen candidate on the whole log, in the order of preference: one model, or, where joints chose
+  // differently, each joint answered by its own.
+  std::vector<std::string> distinct;
+  for (const CandidateScore& c : s.candidates)
+    if (std::find(s.chosen_per_joint.begin(), s.chosen_per_joint.end(), c.name) != s.chosen_per_joint.end())
+      distinct.push_back(c.name);
+  std::vector<FitResult> fits;
+  for (const std::string& name : distinct) {
+    const std::vector<Eigen::Index> refit = candidate_rows(name, rows);
+    result.refit_rows = std::max(result.refit_rows, static_cast<Eigen::Index>(refit.size()));
+    note(progress, name,
+         std::string(s.per_joint() ? "chosen for some joints" : "chosen") + "; fitting on " +
+             std::to_string(refit.size()) + " of the log's " + std::to_string(rows) + " rows");
+    fits.push_back(fit_estimator(candidate_options(name, base, teacher_settings), X(refit, Eigen::all),
+                                 Y(refit, Eigen::all), joints, progress));
+    if (!fits.back().report.ok()) {
+      result.fit = std::move(fits.back());
+      if (s.per_joint())
         result.fit.report.message = name + ", chosen for some joints, failed on the whole log: " +
                                     result.fit.report.message;
-        return result;
-      }
-      models.push_back(std::move(fits.back().estimator));
+      return result;
     }
+  }
+  if (fits.size() == 1) {
+    result.fit = std::move(fits.front());
+  } else {
     std::vector<int> joint_model;
     for (const std::string& name : s.chosen_per_joint)
       joint_model.push_back(static_cast<int>(std::find(distinct.begin(), distinct.end(), name) - distinct.begin()));
+    std::vector<std::shared_ptr<const Estimator>> models;
+    for (FitResult& f : fits) models.push_back(std::move(f.estimator));
     result.fit.report = per_joint_report(fits, joint_model);
     result.fit.estimator = std::make_unique<PerJointEstimator>(std::move(models), std::move(joint_model));
-    result.fit.estimator->set_selection_record(s.record());
-    return result;
   }
-  const std::vector<Eigen::Index> refit = candidate_rows(s.chosen, rows);
-  result.refit_rows = static_cast<Eigen::Index>(refit.size());
-  note(progress, s.chosen, "chosen; fitting on " + std::to_string(result.refit_rows) + " of the log's " +
-                               std::to_string(rows) + " rows");
-  result.fit = fit_estimator(result.options, X(refit, Eigen::all), Y(refit, Eigen::all), joints, progress);
-  if (result.fit.estimator) result.fit.estimator->set_selection_record(s.record());
+  result.fit.estimator->set_selection_record(s.record());
   return result;
 }
 

@@ -145,6 +145,18 @@ bool PerJointEstimator::gives_rigid_body_terms() const {
   return true;
 }
 
+std::string PerJointEstimator::why_no_rigid_body_terms() const {
+  std::string without;
+  int count = 0;
+  for (size_t j = 0; j < joint_model_.size(); ++j) {
+    const Estimator& model = *models_[static_cast<size_t>(joint_model_[j])];
+    if (!model.gives_rigid_body_terms())
+      without += (count++ == 0 ? "" : ", ") + std::to_string(j + 1) + " (" + model.name() + ")";
+  }
+  return "a model chosen per joint gives them only where every joint's model does, and that of joint" +
+         std::string(count > 1 ? "s " : " ") + without + (count > 1 ? " do" : " does") + " not";
+}
+
 std::vector<std::string> PerJointEstimator::joint_model_names() const {
   std::vector<std::string> names;
   for (int m : joint_model_) names.push_back(models_[static_cast<size_t>(m)]->name());

@@ -5,7 +5,6 @@
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/estimators/estimator_registry.hpp"
-#include "gipdyn/estimators/per_joint_estimator.hpp"
 
 namespace gipdyn {
 
@@ -28,29 +27,14 @@ Eigen::MatrixXd states(const Eigen::Ref<const Eigen::MatrixXd>& Q, const Eigen::
 
 }  // namespace
 
-bool estimator_gives_physics(const std::string& name) { return estimator_spec(name).rigid_body_terms; }
-
 std::vector<std::string> physics_estimator_names() {
   return estimator_names_where([](const EstimatorSpec& e) { return e.rigid_body_terms; });
 }
 
 void require_physics(const Estimator& estimator) {
   if (estimator.gives_rigid_body_terms()) return;
-  const std::string valid = joined(physics_estimator_names());
-  if (const auto* chosen = dynamic_cast<const PerJointEstimator*>(&estimator)) {
-    std::string without;
-    int count = 0;
-    const std::vector<std::string> names = chosen->joint_model_names();
-    for (size_t j = 0; j < names.size(); ++j)
-      if (!estimator_gives_physics(names[j]))
-        without += (count++ == 0 ? "" : ", ") + std::to_string(j + 1) + " (" + names[j] + ")";
-    throw Error("a model chosen per joint gives gravity, inertia or Coriolis terms only where every joint's model "
-                "does, and that of joint" + std::string(count > 1 ? "s " : " ") + without +
-                (count > 1 ? " do" : " does") + " not; train one of: " + valid);
-  }
-  throw Error("a '" + estimator.name() +
-              "' model cannot give gravity, inertia or Coriolis terms: its torque is not affine in the "
-              "accelerations; train one of: " + valid);
+  throw Error("a '" + estimator.name() + "' model cannot give gravity, inertia or Coriolis terms: " +
+              estimator.why_no_rigid_body_terms() + "; train one of: " + joined(physics_estimator_names()));
 }
 
 Eigen::MatrixXd gravity(const Estimator& estimator, const Eigen::Ref<const Eigen::MatrixXd>& Q) {

@@ -10,8 +10,6 @@
 
 namespace gipdyn {
 
-bool estimator_gives_uncertainty(const std::string& name) { return estimator_spec(name).predictive_variance; }
-
 std::vector<std::string> uncertainty_estimator_names() {
   return estimator_names_where([](const EstimatorSpec& e) { return e.predictive_variance; });
 }

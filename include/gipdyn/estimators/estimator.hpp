@@ -63,6 +63,9 @@ class Estimator {
   // inertia and Coriolis terms come out of it (physics.hpp); the default: its
   // name's row of the estimator table (EstimatorSpec::rigid_body_terms).
   virtual bool gives_rigid_body_terms() const;
+  // Where it gives none, why, as a clause of an error message; the default:
+  // its torque is not affine in the accelerations.
+  virtual std::string why_no_rigid_body_terms() const;
   // Whether it gives a predictive standard deviation (uncertainty.hpp); the
   // default: its name's row (EstimatorSpec::predictive_variance).
   virtual bool gives_uncertainty() const;

@@ -38,6 +38,8 @@ class PerJointEstimator final : public Estimator {
   std::unique_ptr<QueryWorkspace> make_query_workspace() const override;
   // Every model's; rows of M, gravity and the bias come from each joint's model.
   bool gives_rigid_body_terms() const override;
+  // Names the joints whose models give none.
+  std::string why_no_rigid_body_terms() const override;
   // None: a joint's predictive variance and the learned noise of several
   // models do not make one calibrated model (predict gives means only).
   bool gives_uncertainty() const override { return false; }

@@ -24,9 +24,8 @@
 
 namespace gipdyn {
 
-// Whether the estimator of this name has the structure above.
-bool estimator_gives_physics(const std::string& name);
-// The names of every such estimator (EstimatorSpec::rigid_body_terms), in the table's order.
+// Whether a model has the structure above: Estimator::gives_rigid_body_terms().
+// The names of every estimator that has it (EstimatorSpec::rigid_body_terms), in the table's order.
 std::vector<std::string> physics_estimator_names();
 // Throws gipdyn::Error naming the estimator and the ones that qualify, unless it does.
 void require_physics(const Estimator& estimator);

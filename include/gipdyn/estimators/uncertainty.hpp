@@ -15,9 +15,8 @@
 
 namespace gipdyn {
 
-// Whether the estimator of this name gives a predictive standard deviation.
-bool estimator_gives_uncertainty(const std::string& name);
-// The names of every such estimator, in the table's order.
+// Whether a model gives a predictive standard deviation: Estimator::gives_uncertainty().
+// The names of every estimator that gives one, in the table's order.
 std::vector<std::string> uncertainty_estimator_names();
 
 // Per joint, the standard deviation of the noise the estimator learned, in
