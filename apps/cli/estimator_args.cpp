@@ -179,11 +179,7 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--hyperparameter-objective"))
     o.sparse.hyperparameter_objective = parse_hyperparameter_objective(hyperparameter_objective);
   if (given("--gradient-tolerance")) o.search.gradient_tolerance_per_row = gradient_tolerance;
-  if (given("--seed")) {
-    o.search.seed = seed;
-    o.nn.seed = seed;
-    o.chain.seed = seed;
-  }
+  if (given("--seed")) o.set_seed(seed);
   if (given("--scaling")) o.gp.scaling = parse_output_scaling(scaling);
   if (given("--mean")) o.gp.mean = parse_mean_kind(mean);
   if (given("--min-noise")) o.search.min_noise_fraction = min_noise;

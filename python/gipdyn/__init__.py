@@ -23,7 +23,7 @@ from ._core import (ContactDetection, ContactOptions, ContactScore, EstimatorOpt
                     SimulatedContacts, SimulationOptions, SparseOptions, TeacherOptions, mpi_rank, mpi_size,
                     score_contacts)
 
-__all__ = ["InverseDynamicsGP", "LagrangianGP", "NotFittedError", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "EstimatorOptions", "SearchSettings", "GpOptions", "SparseOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
+__all__ = ["InverseDynamics", "InverseDynamicsGP", "LagrangianGP", "NotFittedError", "ConvergenceWarning", "NoiseWarning", "TeachingWarning", "DataWarning", "LongFitWarning", "Robot", "EstimatorOptions", "SearchSettings", "GpOptions", "SparseOptions", "TeacherOptions", "OptimizerOptions", "HyperparameterPrior",
            "SimulationOptions", "SimulatedContacts", "simulate", "read_log", "ContactDetector", "ContactOptions",
            "ContactDetection", "ContactScore", "score_contacts", "NeighbourConsistencyOptions", "neighbour_consistency", "nmse", "neg_nmse_scorer", "GipdynError", "mpi_rank", "mpi_size", "build_info"]
 
@@ -247,7 +247,7 @@ def _recorded_parameters(cls, model):
             params["teacher"] = "auto" if taught.get("mode") == "automatic" else taught["estimator"]
             for name, key in (("teacher_states", "states"), ("teacher_hyperparameter_rows", "hyperparameter_rows"),
                               ("student_hyperparameter_rows", "student_hyperparameter_rows")):
-                if key in taught:
+                if name in names and key in taught:
                     params[name] = taught[key]
     return params
 
@@ -266,7 +266,38 @@ class _RefusesRenamedParameters:
         return super().__new__(cls)
 
 
-class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
+class _JointTorqueRegressor(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
+    """What every estimator of joint torques shares: one output per joint, the command line's model=, and
+    pickling, its fitted model_ (a _MODEL_CLASS of the C++ core) travelling as its model file's bytes, so that
+    joblib and GridSearchCV(n_jobs > 1) can copy it before and after fit."""
+
+    _RENAMED_PARAMETERS = {**_RENAMED_SEARCH_PARAMETERS, "kernel": ("model", "as the command line's train --model")}
+
+    def _more_tags(self):
+        # Every joint is one output: Y is (N, n), and a 1-D y is the one joint of joints="R" or "P".
+        return {"multioutput": True}
+
+    def __getstate__(self):
+        parent = getattr(super(), "__getstate__", None)
+        state = dict(parent() if parent is not None else self.__dict__)
+        if "model_" in state:
+            state["model_"] = state["model_"].to_bytes()
+        if isinstance(state.get("robot"), Robot):
+            raise ValueError("a model whose robot parameter is a Robot object cannot be pickled; pass its path")
+        return state
+
+    def __setstate__(self, state):
+        state = dict(state)
+        if "model_" in state:
+            state["model_"] = self._MODEL_CLASS.from_bytes(state["model_"])
+        parent = getattr(super(), "__setstate__", None)
+        if parent is not None:
+            parent(state)
+        else:
+            self.__dict__.update(state)
+
+
+class InverseDynamicsGP(_JointTorqueRegressor):
     """Inverse dynamics learned with one Gaussian process per joint.
 
     Maps a robot's states X = [q, qd, qdd] (N, 3n) to its joint torques (N, n).
@@ -410,11 +441,6 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
     """
 
     _MODEL_CLASS = _core.Model  # what model_ is, and how a pickle restores it
-    _RENAMED_PARAMETERS = {**_RENAMED_SEARCH_PARAMETERS, "kernel": ("model", "as the command line's train --model")}
-
-    def _more_tags(self):
-        # Every joint is one output: Y is (N, n), and a 1-D y is the one joint of joints="R" or "P".
-        return {"multioutput": True}
 
     def __init__(self, joints=None, model=None, optimizer="lbfgs", max_iter=_DEFAULTS.search.optimizer.max_iterations,
                  restarts=_DEFAULTS.search.restarts, random_state=0, scaling="standardize", min_noise=1e-8, n_jobs=None,
@@ -492,8 +518,8 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         base = _core.preset_options(str(self.preset)) if self.preset is not None else EstimatorOptions()
         if self.model == _core.automatic_estimator_name():
             raise ValueError(f"model={self.model!r} (the choice by evidence of `gipdyn train --model auto`) may choose "
-                             "a model this class cannot hold (the identified chain): choose it with the command line, "
-                             "then load the model file, or name a model")
+                             "a model this class cannot hold (the identified chain, a model per joint): use "
+                             "InverseDynamics(model='auto'), or name a GP kernel")
         o.name = str(self.model) if self.model is not None else base.name
         o.gp.scaling = str(self.scaling)
         o.gp.mean = str(self.mean)
@@ -771,30 +797,215 @@ class InverseDynamicsGP(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         est._set_fitted_attributes()
         return est
 
-    def __getstate__(self):
-        parent = getattr(super(), "__getstate__", None)
-        state = dict(parent() if parent is not None else self.__dict__)
-        if "model_" in state:
-            state["model_"] = state["model_"].to_bytes()
-        if isinstance(state.get("robot"), Robot):
-            raise ValueError("a model whose robot parameter is a Robot object cannot be pickled; pass its path")
-        return state
-
-    def __setstate__(self, state):
-        state = dict(state)
-        if "model_" in state:
-            state["model_"] = self._MODEL_CLASS.from_bytes(state["model_"])
-        parent = getattr(super(), "__setstate__", None)
-        if parent is not None:
-            parent(state)
-        else:
-            self.__dict__.update(state)
-
 
 InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace(
     "@KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"])).replace(
     "@ROBOT_KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"] and r["needs_robot"]))
 
+
+
+class InverseDynamics(_JointTorqueRegressor):
+    """Inverse dynamics with any of the library's estimators, or the one its log's evidence chooses.
+
+    The front door of the module: model names any estimator of the library's
+    table (@ESTIMATORS@), or "auto", the choice by evidence: every candidate
+    is fitted on the earlier rows and scored on a held-out later block, and
+    the best (per joint, where another is far better on a joint) is refitted
+    on every row. The same parameters give the model `gipdyn train` gives
+    with the matching options. For predictive standard deviations, online
+    updates and the hyperparameters, use InverseDynamicsGP or LagrangianGP.
+
+    Parameters
+    ----------
+    joints : str, optional
+        One "R" (revolute) or "P" (prismatic) per joint, e.g. "RRPR". Required
+        unless robot is given.
+    model : str, optional
+        An estimator's name, or "auto" for the choice by evidence. None: the
+        preset's, else the library's default ("gip", taught by LIP where that
+        fits the log).
+    preset : str, optional
+        A named set of options for a kind of log (@PRESETS@), e.g. "real" for
+        a real robot's log. Not with model="auto".
+    robot : str or Robot, optional
+        A robot description, for the estimators that need one (@ROBOT_ESTIMATORS@).
+        Not with model="auto".
+    teacher : {"auto", "none"} or str, default "auto"
+        "auto": the library's rule (LIP teaches gip where that fits the log);
+        "none"; or an estimator's name. model="auto" chooses its teachers itself.
+    max_iter : int, optional
+        Safety cap on NLL evaluations per joint and start. None: the preset's
+        or the library's.
+    restarts : int, optional
+        Extra optimiser runs from perturbed starts. None: the preset's or the
+        library's.
+    random_state : int, RandomState or None, default 0
+        Seeds every random process of the fit (restarts, teacher states,
+        network initialisation). None is 0.
+    n_jobs : int, optional
+        Threads; None or -1: every core. The model does not depend on it.
+    subsample : int, optional
+        Train on this many rows at a constant step (0: every row). None: the
+        preset's limit, every row without a preset.
+    verbose : bool, default False
+        Print progress and the brief report (and the comparison of
+        model="auto") to stderr.
+
+    Attributes
+    ----------
+    model_ : TrainedModel
+        The fitted model: predict, predict_one, save, and the rigid-body terms
+        where model_.gives_rigid_body_terms.
+    chosen_ : str
+        The estimator fitted: the chosen one for model="auto", or
+        "chosen-per-joint" where joints chose different ones.
+    selection_ : dict or None
+        The comparison of model="auto" (the model file's "selection" block):
+        each candidate's held-out nMSE per joint and mean; None otherwise.
+    selection_report_ : str
+        The comparison as text; "" without model="auto".
+    report_ : str
+        How the fit went, one line per joint.
+    n_features_in_ : int
+        3 n: q, qd and qdd of each joint.
+
+    Examples
+    --------
+    >>> import gipdyn
+    >>> train = gipdyn.simulate("scara", samples=300, seed=1, dt=0.05)
+    >>> model = gipdyn.InverseDynamics(joints="RRPR", model="chain").fit(train["X"], train["tau"])
+    >>> model.predict(train["X"][:3]).shape
+    (3, 4)
+    """
+
+    _MODEL_CLASS = _core.TrainedModel  # what model_ is, and how a pickle restores it
+
+    def __init__(self, joints=None, model=None, preset=None, robot=None, teacher="auto", max_iter=None,
+                 restarts=None, random_state=0, n_jobs=None, subsample=None, verbose=False):
+        self.joints = joints
+        self.model = model
+        self.preset = preset
+        self.robot = robot
+        self.teacher = teacher
+        self.max_iter = max_iter
+        self.restarts = restarts
+        self.random_state = random_state
+        self.n_jobs = n_jobs
+        self.subsample = subsample
+        self.verbose = verbose
+
+    def _choosing(self):
+        return self.model == _core.automatic_estimator_name()
+
+    def estimator_options(self):
+        """The library's EstimatorOptions for these parameters (checked when fitting); for model="auto", the
+        options every candidate shares."""
+        if self._choosing():
+            for name in ("preset", "robot"):
+                if getattr(self, name) is not None:
+                    raise ValueError(f"{name}= chooses part of the model, and model='auto' chooses the whole model "
+                                     f"by evidence: name a model to use {name}=, or drop it")
+            if self.teacher not in ("auto", None):
+                raise ValueError("teacher= chooses part of the model, and model='auto' chooses its teachers itself: "
+                                 "name a model to use teacher=, or drop it")
+        o = _core.preset_options(str(self.preset)) if self.preset is not None else EstimatorOptions()
+        if self.model is not None and not self._choosing():
+            _estimator_row(str(self.model))  # an unknown name lists the table's
+            o.name = str(self.model)
+        o.gp.keep_factor = False  # as `gipdyn train`: the factors are rebuilt where a variance is asked for
+        if self.max_iter is not None:
+            o.search.optimizer.max_iterations = int(self.max_iter)
+        if self.restarts is not None:
+            o.search.restarts = int(self.restarts)
+        o.set_seed(_seed(self.random_state))
+        o.search.threads = _threads(self.n_jobs)
+        if self.robot is not None:
+            o.robot = self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))
+        return o
+
+    def _teacher_settings(self, options):
+        settings = TeacherOptions()
+        settings.seed = options.search.seed
+        return settings
+
+    _training_rows = InverseDynamicsGP._training_rows
+    n_joints = InverseDynamicsGP.n_joints
+    _joint_types = InverseDynamicsGP._joint_types
+    _inputs = InverseDynamicsGP._inputs
+    _training_arrays = InverseDynamicsGP._training_arrays
+    _check_fitted = InverseDynamicsGP._check_fitted
+    _as_fitted_y = InverseDynamicsGP._as_fitted_y
+
+    def fit(self, X, Y):
+        """Fit the model (model="auto": choose it, then refit it) on the rows of (X, Y), in time order."""
+        joints = self._joint_types(fitted=False)
+        X, Y = self._training_arrays(X, Y, joints)
+        rows = self._training_rows(X.shape[0])
+        if rows is not None:
+            X, Y = np.asfortranarray(X[rows]), np.asfortranarray(Y[rows])
+        options = self.estimator_options()
+        settings = self._teacher_settings(options)
+        if self._choosing():
+            fit = _core.fit_by_evidence(X, Y, joints, options, settings, bool(self.verbose))
+        else:
+            choice = "none" if self.teacher is None else str(self.teacher)
+            teacher = _core.choose_teacher(choice, options, settings, any_estimator=True)
+            fit = _core.fit_any(X, Y, joints, options, teacher, bool(self.verbose))
+        self.model_ = fit["model"]
+        self.selection_report_ = fit["selection_report"]
+        self.report_ = fit["report"]
+        self.teaching_ = fit["teaching"]
+        self._set_fitted_attributes()
+        return self
+
+    def _set_fitted_attributes(self):
+        self.n_features_in_ = 3 * len(self.model_.joints)
+        self.chosen_ = self.model_.name
+        record = self.model_.selection_record
+        self.selection_ = json.loads(record) if record else None
+
+    def predict(self, X, return_std=False):
+        """Torques (N, n) for states X (N, 3n)."""
+        self._check_fitted()
+        if return_std:
+            raise ValueError("InverseDynamics predicts means only: for a predictive standard deviation fit "
+                             "InverseDynamicsGP or LagrangianGP")
+        return self._as_fitted_y(self.model_.predict(np.asfortranarray(self._inputs(X))))
+
+    predict_one = InverseDynamicsGP.predict_one
+    gravity = InverseDynamicsGP.gravity
+    inertia = InverseDynamicsGP.inertia
+    coriolis = InverseDynamicsGP.coriolis
+    friction = InverseDynamicsGP.friction
+    _velocity_terms = InverseDynamicsGP._velocity_terms
+    nmse = InverseDynamicsGP.nmse
+    score = InverseDynamicsGP.score
+    save = InverseDynamicsGP.save
+
+    @classmethod
+    def load(cls, path):
+        """Load any model file `gipdyn train` or a save() wrote, with the parameters the file records (model:
+        "auto" where the choice by evidence made it)."""
+        model = _core.TrainedModel.load(str(path))
+        params = _recorded_parameters(cls, model)
+        if model.selection_record:  # the choice by evidence chose the teachers too
+            params.pop("teacher", None)
+            params["model"] = _core.automatic_estimator_name()
+        else:
+            params["model"] = model.name
+        est = cls(joints=model.joints, **params)
+        est.model_ = model
+        est.selection_report_ = ""
+        est.report_ = ""
+        est.teaching_ = ""
+        est._set_fitted_attributes()
+        return est
+
+
+InverseDynamics.__doc__ = InverseDynamics.__doc__.replace(
+    "@ESTIMATORS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table())).replace(
+    "@ROBOT_ESTIMATORS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["needs_robot"])).replace(
+    "@PRESETS@", ", ".join(f'"{name}"' for name in _core.preset_names()))
 
 class LagrangianGP(InverseDynamicsGP):
     """LIP: one GP over the torques of every joint, built from energies.

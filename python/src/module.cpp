@@ -153,10 +153,9 @@ struct Model {
 std::shared_ptr<Model> gp_model_from_container(const ModelContainer& c, const std::string& what) {
   std::unique_ptr<Estimator> e = estimator_from_container(c, what);
   auto* gp = dynamic_cast<GpEstimator*>(e.get());
-  if (e->name() == PerJointEstimator::kName)
-    throw Error(what + " holds a model chosen per joint (train --model auto), which this module cannot load yet; "
-                "query it with gipdyn predict or the C API, or train one estimator for every joint (model=)");
-  if (!gp) throw Error(what + " holds a '" + e->name() + "' model, not a GP kernel's; load it with the class that trained it (LagrangianGP for lip)");
+  if (!gp)
+    throw Error(what + " holds a '" + e->name() + "' model, not a GP kernel's: load it with InverseDynamics.load, "
+                "which reads every estimator's file");
   e.release();
   return std::make_shared<Model>(std::shared_ptr<const GpEstimator>(gp));
 }
@@ -300,7 +299,8 @@ std::shared_ptr<LagrangianModel> train_lagrangian(ConstRef X, ConstRef Y, const 
 // A LIP model read back from a file or bytes (`what` names the source); throws gipdyn::Error for another estimator's.
 std::shared_ptr<LagrangianModel> lagrangian_model_from(std::unique_ptr<Estimator> e, const std::string& what) {
   if (!dynamic_cast<LagrangianEstimator*>(e.get()))
-    throw Error(what + " holds a '" + e->name() + "' model, not lip; load it with InverseDynamicsGP.load");
+    throw Error(what + " holds a '" + e->name() + "' model, not lip: load it with InverseDynamics.load, which reads "
+                "every estimator's file");
   auto m = std::make_shared<LagrangianModel>();
   m->estimator = std::shared_ptr<const LagrangianEstimator>(static_cast<LagrangianEstimator*>(e.release()));
   return m;
@@ -544,6 +544,8 @@ void bind_estimator_options(py::module_& m) {
       .def_property(
           "robot_friction", [](const EstimatorOptions& o) { return o.robot_prior.friction; },
           [](EstimatorOptions& o, bool f) { o.robot_prior.friction = f; })
+      .def("set_seed", &EstimatorOptions::set_seed, py::arg("seed"),
+           "Seeds every random process of a fit (search, network, chain)")
       .def("validate", &check_estimator_options);
   m.def("preset_options", &preset_options, py::arg("name"),
         "The EstimatorOptions of a named preset (gipdyn/estimators/presets.hpp)");
@@ -634,6 +636,110 @@ void bind_gp_model(py::module_& m) {
       .def_static("from_bytes", [](const py::bytes& b) {
         return gp_model_from_container(unpack_container(std::string(b), "pickled model"), "pickled model");
       });
+}
+
+// Any estimator's trained model (read-only; the model of the choice by
+// evidence among them), plus the single-query workspace of predict_one, which
+// calls from several Python threads take turns on.
+struct TrainedModel {
+  std::shared_ptr<const Estimator> estimator;
+  std::unique_ptr<QueryWorkspace> workspace;
+  std::mutex workspace_mutex;
+  explicit TrainedModel(std::shared_ptr<const Estimator> e) : estimator(std::move(e)) {}
+};
+
+std::shared_ptr<TrainedModel> trained_model_from(const std::string& bytes, const std::string& what) {
+  return std::make_shared<TrainedModel>(estimator_from_container(unpack_container(bytes, what), what));
+}
+
+// What fit_estimator or fit_selected_estimator gave, for InverseDynamics.fit: {model, report (the brief
+// report), teaching, selection_report ('' without a choice by evidence)}.
+py::dict trained_to_dict(FitResult& r, const std::string& selection_report) {
+  py::dict d;
+  d["report"] = r.report.brief_report();
+  d["teaching"] = to_string(r.teaching);
+  d["selection_report"] = selection_report;
+  d["model"] = std::make_shared<TrainedModel>(std::shared_ptr<const Estimator>(std::move(r.estimator)));
+  return d;
+}
+
+py::dict fit_any(ConstRef X, ConstRef Y, const std::string& joints, const EstimatorOptions& options,
+                 const std::optional<TeacherOptions>& teacher, bool verbose) {
+  const JointTypes jt = JointTypes::parse(joints);
+  EstimatorOptions o = options;
+  o.teacher = teacher;
+  const Eigen::MatrixXd Xm = X, Ym = Y;
+  FitResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) { return fit_estimator(o, Xm, Ym, jt, cb); });
+  return trained_to_dict(r, "");
+}
+
+py::dict fit_by_evidence(ConstRef X, ConstRef Y, const std::string& joints, const EstimatorOptions& options,
+                         const TeacherOptions& teacher_settings, bool verbose) {
+  const JointTypes jt = JointTypes::parse(joints);
+  const Eigen::MatrixXd Xm = X, Ym = Y;
+  SelectionResult chosen;
+  FitResult r = fit_without_gil(verbose, [&](const ProgressCallback& cb) {
+    chosen = fit_selected_estimator(options, SelectionOptions{}, Xm, Ym, jt, teacher_settings, cb);
+    return std::move(chosen.fit);
+  });
+  if (verbose) std::fprintf(stderr, "%s", chosen.selection.brief_report().c_str());
+  return trained_to_dict(r, chosen.selection.brief_report());
+}
+
+void bind_trained_model(py::module_& m) {
+  py::class_<TrainedModel, std::shared_ptr<TrainedModel>> cls(m, "TrainedModel");
+  add_physics_methods(cls);
+  cls.def_property_readonly("name", [](const TrainedModel& s) { return s.estimator->name(); })
+      .def_property_readonly("joints", [](const TrainedModel& s) { return s.estimator->joints().str(); })
+      .def_property_readonly("gives_rigid_body_terms",
+                             [](const TrainedModel& s) { return s.estimator->gives_rigid_body_terms(); })
+      .def_property_readonly("summary", [](const TrainedModel& s) { return s.estimator->summary().dump(); },
+                             "The estimator's summary as JSON (what `gipdyn inspect` shows)")
+      .def_property_readonly(
+          "selection_record", [](const TrainedModel& s) { return record_text(s.estimator->selection_record()); },
+          "The model file's selection block as JSON (docs/model-format.md); '' where no choice by evidence made it")
+      .def_property_readonly(
+          "teaching_record", [](const TrainedModel& s) { return record_text(s.estimator->teaching_record()); },
+          "The model file's teacher block as JSON; '' where no teacher was asked for")
+      .def_property_readonly(
+          "options_record", [](const TrainedModel& s) { return record_text(s.estimator->options_record()); },
+          "The options it was trained with, the model file's options block as JSON; '' where the file has none")
+      .def(
+          "predict",
+          [](const TrainedModel& s, ConstRef X) {
+            py::gil_scoped_release release;
+            return s.estimator->predict(X);
+          },
+          py::arg("X"))
+      .def(
+          "predict_one",
+          [](TrainedModel& s, const Eigen::VectorXd& x) {
+            const int n = s.estimator->joints().size();
+            if (x.size() != 3 * n) throw Error("x must have " + std::to_string(3 * n) + " entries (q, qd, qdd)");
+            std::lock_guard<std::mutex> lock(s.workspace_mutex);
+            if (!s.workspace) s.workspace = s.estimator->make_query_workspace();
+            Eigen::VectorXd tau(n);
+            s.workspace->predict(x.data(), tau.data());
+            return tau;
+          },
+          py::arg("x"))
+      .def("save", [](const TrainedModel& s, const std::string& path) { save_estimator(*s.estimator, path); })
+      .def("to_bytes",
+           [](const TrainedModel& s) { return py::bytes(pack_container(estimator_container(*s.estimator))); })
+      .def_static("load",
+                  [](const std::string& path) {
+                    return trained_model_from(read_model_bytes(path), "model file '" + path + "'");
+                  })
+      .def_static("from_bytes",
+                  [](const py::bytes& b) { return trained_model_from(std::string(b), "pickled model"); });
+  m.def("fit_any", &fit_any, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
+        py::arg("verbose") = false,
+        "Fits any estimator of the table (options.name), taught by `teacher` unless None "
+        "(gipdyn/estimators/fit_estimator.hpp): {model, report, teaching, selection_report}");
+  m.def("fit_by_evidence", &fit_by_evidence, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
+        py::arg("teacher_settings"), py::arg("verbose") = false,
+        "The choice by evidence (gipdyn/estimators/model_selection.hpp) over the shared options: "
+        "{model, report, teaching, selection_report}");
 }
 
 // The fitted LIP model and its training.
@@ -770,10 +876,11 @@ void bind_fitting(py::module_& m) {
         "The name under which front ends choose the estimator by evidence (model_selection.hpp)");
   m.def(
       "choose_teacher",
-      [](const std::string& choice, const EstimatorOptions& options, const TeacherOptions& settings) {
-        return choose_teacher(choice, gp_estimator_options(options, std::nullopt), settings);
+      [](const std::string& choice, const EstimatorOptions& options, const TeacherOptions& settings,
+         bool any_estimator) {
+        return choose_teacher(choice, any_estimator ? options : gp_estimator_options(options, std::nullopt), settings);
       },
-      py::arg("choice"), py::arg("options"), py::arg("settings"),
+      py::arg("choice"), py::arg("options"), py::arg("settings"), py::arg("any_estimator") = false,
       "The library's rule (gipdyn/estimators/fit_estimator.hpp): the TeacherOptions a fit of these options gets "
       "for teacher=choice (\"auto\", \"none\" or an estimator's name), or None");
   m.def(
@@ -992,6 +1099,7 @@ PYBIND11_MODULE(_core, m) {
   bind_estimator_options(m);
   bind_gp_model(m);
   bind_lagrangian_model(m);
+  bind_trained_model(m);
   bind_fitting(m);
   bind_data(m);
   bind_contact_detection(m);

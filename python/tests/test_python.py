@@ -167,6 +167,69 @@ def test_matches_cli_and_model_files_cross_languages(scara, tmp_path):
     assert records[0] == records[1]
 
 
+@pytest.mark.skipif(CLI is None, reason="GIPDYN_BIN not set")
+def test_the_choice_by_evidence_is_the_same_from_every_front_end(tmp_path):
+    # train --model auto, InverseDynamics(model="auto") and the library's fit_selected_estimator: the same
+    # candidates, scores and choice, and the same model.
+    # A two-link arm: every candidate, the chain's geometry search among them, in seconds.
+    robot = os.path.join(DATA, "two_link.json")
+    train = gipdyn.simulate(robot, samples=100, seed=3, dt=0.15)
+    test = gipdyn.simulate(robot, samples=50, seed=4, dt=0.15)
+    write_csv(tmp_path / "train.csv", train)
+    write_csv(tmp_path / "test.csv", test)
+    subprocess.run([CLI, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RR", "--model", "auto",
+                    "--max-iter", "10", "--seed", "2", "--out", str(tmp_path / "cli.gipdyn"), "--quiet"], check=True)
+    subprocess.run([CLI, "predict", "--model", str(tmp_path / "cli.gipdyn"), "--data", str(tmp_path / "test.csv"),
+                    "--out", str(tmp_path / "cli_pred.csv"), "--no-std"], check=True)
+    cli_pred = np.loadtxt(tmp_path / "cli_pred.csv", delimiter=",", skiprows=1)
+    csv = np.loadtxt(tmp_path / "train.csv", delimiter=",", skiprows=1)
+    X_test = np.loadtxt(tmp_path / "test.csv", delimiter=",", skiprows=1)[:, :6]
+    py = gipdyn.InverseDynamics(joints="RR", model="auto", max_iter=10, random_state=2).fit(csv[:, :6], csv[:, 6:])
+    assert np.array_equal(py.predict(X_test), cli_pred)
+    assert "choice by evidence" in py.selection_report_ and py.chosen_ in py.selection_report_
+    # The selection block the library writes, whichever front end trained (but the seconds each fit took).
+    loaded = gipdyn.InverseDynamics.load(tmp_path / "cli.gipdyn")
+    assert loaded.model == "auto" and loaded.chosen_ == py.chosen_
+    assert np.array_equal(loaded.predict(X_test), cli_pred)
+    for record in (py.selection_, loaded.selection_):
+        for c in record["candidates"]:
+            c.pop("seconds")
+    assert py.selection_ == loaded.selection_ and len(py.selection_["candidates"]) >= 4
+    cpp = os.environ.get("GIPDYN_FRONT_END_FIT")
+    if cpp:
+        r = subprocess.run([cpp, str(tmp_path / "train.csv"), "RR", "10", "2", str(tmp_path / "test.csv"),
+                            str(tmp_path / "cpp_pred.csv"), "auto"], capture_output=True, text=True, check=True)
+        assert r.stdout.strip() == py.chosen_
+        assert np.array_equal(np.loadtxt(tmp_path / "cpp_pred.csv", delimiter=",", skiprows=1), cli_pred)
+    # A Python model, read by the command line.
+    py.save(tmp_path / "py.gipdyn")
+    subprocess.run([CLI, "predict", "--model", str(tmp_path / "py.gipdyn"), "--data", str(tmp_path / "test.csv"),
+                    "--out", str(tmp_path / "py_pred.csv"), "--no-std"], check=True)
+    assert np.array_equal(np.loadtxt(tmp_path / "py_pred.csv", delimiter=",", skiprows=1), cli_pred)
+
+
+def test_inverse_dynamics_fits_any_estimator_with_its_physics_and_files(scara, tmp_path):
+    train, test = scara
+    chain = gipdyn.InverseDynamics(joints="RRPR", model="chain").fit(train["X"], train["tau"])
+    assert chain.chosen_ == "chain" and chain.selection_ is None and chain.model_.gives_rigid_body_terms
+    assert np.all(chain.nmse(test["X"], test["tau_true"]) < 1e-2)
+    # Its rigid-body terms are the simulated robot's.
+    q = test["q"][:20]
+    true_gravity = gipdyn.Robot.load("scara").inverse_dynamics(q, 0 * q, 0 * q)
+    np.testing.assert_allclose(chain.gravity(q), true_gravity, atol=1e-2 * np.abs(true_gravity).max())
+    np.testing.assert_allclose(chain.predict_one(test["X"][0]), chain.predict(test["X"][:1])[0], rtol=1e-12, atol=1e-12)
+    chain.save(tmp_path / "chain.gipdyn")
+    loaded = gipdyn.InverseDynamics.load(tmp_path / "chain.gipdyn")
+    assert loaded.model == "chain" and np.array_equal(loaded.predict(test["X"]), chain.predict(test["X"]))
+    with pytest.raises(gipdyn.GipdynError, match=r"holds a 'chain' model, not a GP kernel's: load it with InverseDynamics.load"):
+        gipdyn.InverseDynamicsGP.load(tmp_path / "chain.gipdyn")
+    rbf = gipdyn.InverseDynamics(joints="RRPR", model="rbf", max_iter=10).fit(train["X"], train["tau"])
+    with pytest.raises(gipdyn.GipdynError, match=r"a 'rbf' model cannot give gravity.*not affine in the accelerations"):
+        rbf.gravity(q)
+    with pytest.raises(ValueError, match=r"predicts means only: for a predictive standard deviation fit InverseDynamicsGP"):
+        rbf.predict(test["X"], return_std=True)
+
+
 def test_pickle_round_trip(scara, fitted):
     _, test = scara
     clone = pickle.loads(pickle.dumps(fitted))

@@ -1,5 +1,6 @@
 """The Python estimators as scikit-learn users expect them: its own estimator checks, its parameter names,
 pickling, tables with named columns, and no guessed joint types."""
+import os
 import pickle
 import re
 import warnings
@@ -46,7 +47,8 @@ def run_checks(estimator):
     (gipdyn.InverseDynamicsGP(joints="R"), INPUT_WIDTH_FIXED_BY_THE_JOINTS | PARTIAL_FIT_WIDTH),
     (gipdyn.InverseDynamicsGP(joints="P", model="rbf", max_iter=30), INPUT_WIDTH_FIXED_BY_THE_JOINTS | PARTIAL_FIT_WIDTH),
     (gipdyn.LagrangianGP(joints="R", max_iter=30), INPUT_WIDTH_FIXED_BY_THE_JOINTS),
-], ids=["gip", "rbf", "lip"])
+    (gipdyn.InverseDynamics(joints="R", model="chain"), INPUT_WIDTH_FIXED_BY_THE_JOINTS),
+], ids=["gip", "rbf", "lip", "inverse-dynamics-chain"])
 def test_scikit_learns_estimator_checks_pass_but_for_the_input_width(estimator, expected_width_failures):
     outcome = run_checks(estimator)
     assert len(outcome) > 35  # the checks ran
@@ -61,6 +63,8 @@ def test_scikit_learns_parameter_names_and_old_names_refused():
     params = gipdyn.InverseDynamicsGP(joints="RR").get_params()
     assert "random_state" in params and "n_jobs" in params and "seed" not in params and "threads" not in params
     assert "random_state" in gipdyn.LagrangianGP(joints="RR").get_params()
+    assert {"random_state", "n_jobs"} <= set(gipdyn.InverseDynamics(joints="RR").get_params())
+    assert gipdyn.InverseDynamics(joints="RR", random_state=7).estimator_options().search.seed == 7
     with pytest.raises(TypeError, match=r"seed= is now called random_state="):
         gipdyn.InverseDynamicsGP(joints="RR", seed=3)
     with pytest.raises(TypeError, match=r"threads= is now called n_jobs="):
@@ -89,11 +93,16 @@ def test_the_same_random_state_gives_the_same_model_and_another_may_not():
     c = gipdyn.InverseDynamicsGP(random_state=5, **kwargs).fit(d["X"], d["tau"])
     np.testing.assert_array_equal(a.predict(d["X"]), b.predict(d["X"]))
     assert not np.array_equal(a.predict(d["X"]), c.predict(d["X"]))
+    # The same for every random process of a fit, a network's initialisation among them.
+    a, b, c = (gipdyn.InverseDynamics(joints="RRPR", model="nn", random_state=seed).fit(d["X"], d["tau"])
+               for seed in (4, 4, 5))
+    np.testing.assert_array_equal(a.predict(d["X"]), b.predict(d["X"]))
+    assert not np.array_equal(a.predict(d["X"]), c.predict(d["X"]))
 
 
 def test_joint_types_are_never_guessed():
     d = gipdyn.simulate("scara", samples=30, seed=1)
-    for est in (gipdyn.InverseDynamicsGP(), gipdyn.LagrangianGP()):
+    for est in (gipdyn.InverseDynamicsGP(), gipdyn.LagrangianGP(), gipdyn.InverseDynamics()):
         with pytest.raises(ValueError) as err:
             est.fit(d["X"], d["tau"])
         message = str(err.value)
@@ -134,7 +143,7 @@ def test_unfitted_and_fitted_estimators_pickle_and_clone():
     from sklearn.base import clone
     d = gipdyn.simulate("scara", samples=50, seed=6, dt=0.1)
     for est in (gipdyn.InverseDynamicsGP(joints="RRPR", model="rbf", max_iter=5, random_state=3),
-                gipdyn.LagrangianGP(joints="RRPR", max_iter=5)):
+                gipdyn.LagrangianGP(joints="RRPR", max_iter=5), gipdyn.InverseDynamics(joints="RRPR", model="chain")):
         unfitted = pickle.loads(pickle.dumps(est))
         assert unfitted.get_params() == est.get_params() and not hasattr(unfitted, "model_")
         fitted = unfitted.fit(d["X"], d["tau"])
@@ -146,7 +155,7 @@ def test_unfitted_and_fitted_estimators_pickle_and_clone():
 def test_docstrings_are_numpydoc_and_their_examples_run():
     import doctest
     import inspect
-    for cls in (gipdyn.InverseDynamicsGP, gipdyn.LagrangianGP, gipdyn.ContactDetector):
+    for cls in (gipdyn.InverseDynamics, gipdyn.InverseDynamicsGP, gipdyn.LagrangianGP, gipdyn.ContactDetector):
         doc = inspect.getdoc(cls)
         for section in ("Parameters\n----------", "Examples\n--------") if cls is not gipdyn.ContactDetector else (
                 "Parameters\n----------",):
@@ -160,10 +169,17 @@ def test_docstrings_are_numpydoc_and_their_examples_run():
     assert result.attempted >= 8 and result.failed == 0, result
 
 
-def test_the_choice_by_evidence_is_refused_by_name_until_python_can_hold_every_model_it_chooses():
+def test_the_choice_by_evidence_is_inverse_dynamics_and_the_gp_class_points_there():
     d = gipdyn.simulate("scara", samples=40, seed=1)
-    with pytest.raises(ValueError, match=r"model='auto' \(the choice by evidence of `gipdyn train --model auto`\)"):
+    with pytest.raises(ValueError, match=r"model='auto' \(the choice by evidence .*use InverseDynamics\(model='auto'\)"):
         gipdyn.InverseDynamicsGP(joints="RRPR", model="auto").fit(d["X"], d["tau"])
+    for params, message in [(dict(preset="real"), r"preset= chooses part of the model, and model='auto'"),
+                            (dict(teacher="lip"), r"model='auto' chooses its teachers itself"),
+                            (dict(robot=os.path.join(os.path.dirname(__file__), "..", "..", "tests", "data", "two_link.json")), r"robot= chooses part of the model")]:
+        with pytest.raises(ValueError, match=message):
+            gipdyn.InverseDynamics(joints="RRPR", model="auto", **params).fit(d["X"], d["tau"])
+    with pytest.raises(ValueError, match=r"unknown estimator 'gipp'; one of gip, "):
+        gipdyn.InverseDynamics(joints="RRPR", model="gipp").fit(d["X"], d["tau"])
 
 
 def test_load_restores_the_parameters_that_made_the_model(tmp_path):

@@ -35,6 +35,12 @@ void check_estimator_options(const EstimatorOptions& options) {
   }
 }
 
+void EstimatorOptions::set_seed(std::uint64_t seed) {
+  search.seed = seed;
+  nn.seed = seed;
+  chain.seed = seed;
+}
+
 TrainOptions EstimatorOptions::train_options() const {
   TrainOptions o;
   o.kernel = name;

@@ -40,6 +40,9 @@ struct EstimatorOptions {
   // Checks this struct's own fields (the name, the teacher's options). The options of the chosen
   // estimator are checked once, by that estimator's entry point.
   void validate() const;
+  // Seeds every random process of a fit: the search's starts and teacher
+  // states, the network's initialisation, the chain's geometry search.
+  void set_seed(std::uint64_t seed);
   // The per-joint GPs' options: this estimator's kernel and robot prior, and
   // search, gp, sparse, nll_backend.
   TrainOptions train_options() const;
