@@ -100,6 +100,76 @@ TEST(ClosedLoop, SensorNoiseIsSeededAndDegradesTracking) {
   EXPECT_GT((noisy.tau - clean.tau).cwiseAbs().maxCoeff(), 0.0);
 }
 
+// An external torque acts through the robot's dynamics and no controller sees
+// it: a constant push on a robot held still by PD plus gravity feed-forward
+// settles at q - q0 = Kp^-1 tau_ext (the SCARA's gravity does not depend on q),
+// and every logged row satisfies the robot's inverse dynamics, KDL's, with
+// the push added to the controller's torque.
+TEST(ClosedLoop, AnExternalTorqueActsThroughTheDynamicsAndNoControllerSeesIt) {
+  const RobotModel robot = scara_robot();
+  const int steps = 2000;  // 2 s at 1 kHz
+  Eigen::VectorXd q0(4);
+  q0 << 0.3, -0.5, 0.1, 0.2;
+  Eigen::MatrixXd reference = Eigen::MatrixXd::Zero(steps, 12);
+  reference.leftCols(4).rowwise() = q0.transpose();
+  const Eigen::MatrixXd hold = inverse_dynamics(robot, reference);
+  TrackingOptions o;
+  const TrackingResult still = track_reference(robot, reference, hold, o);
+  EXPECT_LT((still.q - reference.leftCols(4)).cwiseAbs().maxCoeff(), 1e-10);
+  Eigen::VectorXd push(4);
+  push << 0.4, 0.0, -2.0, 0.0;
+  o.external = Eigen::MatrixXd::Zero(steps, 4);
+  o.external.bottomRows(steps - 200).rowwise() = push.transpose();
+  const TrackingResult pushed = track_reference(robot, reference, hold, o);
+  const Eigen::VectorXd settled = pushed.q.bottomRows(1).transpose() - q0;
+  const Eigen::VectorXd expected = push.cwiseQuotient(pushed.kp);
+  for (int j = 0; j < 4; ++j) EXPECT_NEAR(settled(j), expected(j), 1e-3 * expected.cwiseAbs().maxCoeff()) << "joint " << j + 1;
+  EXPECT_GT(std::abs(settled(0)), 1e-4);  // it moved
+  for (Eigen::Index k : {Eigen::Index{100}, Eigen::Index{250}, Eigen::Index{1999}}) {
+    const Eigen::VectorXd tau = inverse_dynamics(robot, pushed.q.row(k).transpose(), pushed.qd.row(k).transpose(),
+                                                 pushed.qdd.row(k).transpose());
+    EXPECT_LT((tau - pushed.tau.row(k).transpose() - o.external.row(k).transpose()).cwiseAbs().maxCoeff(), 1e-8)
+        << "row " << k;
+  }
+}
+
+// contact_torques draws contacts as simulate does: count pulses of the given
+// duration, each on one joint at size times its range, seeded.
+TEST(ClosedLoop, ContactTorquesArePulsesOfTheAskedSizeAndDuration) {
+  const SimulationResult reference = trajectory(3000, 0.001, 5, 0.0);
+  const Eigen::MatrixXd torque = inverse_dynamics(scara_robot(), reference.X);
+  const Eigen::VectorXd range = torque.colwise().maxCoeff() - torque.colwise().minCoeff();
+  SimulatedContacts c;
+  c.count = 4;
+  c.size = 0.2;
+  c.duration = 0.05;
+  nlohmann::json drawn;
+  const Eigen::MatrixXd ext = contact_torques(c, torque, 0.001, 9, &drawn);
+  ASSERT_EQ(ext.rows(), 3000);
+  ASSERT_EQ(drawn.size(), 4u);
+  int pushed_rows = 0;
+  for (Eigen::Index k = 0; k < ext.rows(); ++k) {
+    int active = 0;
+    for (int j = 0; j < 4; ++j)
+      if (ext(k, j) != 0.0) {
+        ++active;
+        EXPECT_NEAR(std::abs(ext(k, j)), 0.2 * range(j), 1e-12);
+      }
+    EXPECT_LE(active, 1);
+    pushed_rows += active;
+  }
+  EXPECT_NEAR(pushed_rows, 4 * 50, 4);  // 50 rows of 1 ms each
+  for (const auto& k : drawn) {
+    const auto row = static_cast<Eigen::Index>(std::ceil(k.at("start_s").get<double>() / 0.001));
+    EXPECT_EQ(ext(row, k.at("joint").get<int>() - 1), k.at("torque").get<double>());
+  }
+  EXPECT_EQ(contact_torques(c, torque, 0.001, 9), ext);
+  EXPECT_NE(contact_torques(c, torque, 0.001, 10), ext);
+  c.count = 40;
+  EXPECT_NE(test::error_of([&] { contact_torques(c, torque, 0.001, 9); }).find("SimulatedContacts::count (40) contacts"),
+            std::string::npos);
+}
+
 TEST(ClosedLoop, BadInputIsNamed) {
   const RobotModel robot = scara_robot();
   const SimulationResult reference = trajectory(50, 0.001, 1, 0.0);
@@ -116,6 +186,15 @@ TEST(ClosedLoop, BadInputIsNamed) {
   o.velocity_noise = -1.0;
   EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
                 .find("TrackingOptions::velocity_noise must be"),
+            std::string::npos);
+  o = TrackingOptions();
+  o.external = Eigen::MatrixXd::Zero(49, 4);
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("TrackingOptions::external has 49 rows, and the reference 50: give one per step"),
+            std::string::npos);
+  o.external = Eigen::MatrixXd::Zero(50, 3);
+  EXPECT_NE(test::error_of([&] { track_reference(robot, reference.X, Eigen::MatrixXd::Zero(50, 4), o); })
+                .find("TrackingOptions::external needs one column per joint (4)"),
             std::string::npos);
   o = TrackingOptions();
   o.kp = Eigen::VectorXd::Constant(4, 1e9);  // far too stiff for 1 ms steps

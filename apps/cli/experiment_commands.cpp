@@ -181,6 +181,16 @@ Subcommand add_real(CLI::App& app, const std::shared_ptr<bool>& quiet, const std
   }};
 }
 
+// --contacts, --contact-size, --contact-duration and --contact-joint of an experiment that pushes its robot.
+void add_contact_options(CLI::App& k, SimulatedContacts& contacts, const std::string& where) {
+  k.add_option("--contacts", contacts.count, "Contacts " + where)->capture_default_str();
+  k.add_option("--contact-size", contacts.size, "Each contact's torque as a fraction of its joint's torque range")
+      ->capture_default_str();
+  k.add_option("--contact-duration", contacts.duration, "Each contact's duration (s)")->capture_default_str();
+  k.add_option("--contact-joint", contacts.joint, "The joint (1..n) every contact acts on; 0: a joint drawn for each")
+      ->capture_default_str();
+}
+
 // experiment control: closed-loop tracking.
 Subcommand add_control(CLI::App& app, const std::shared_ptr<bool>& quiet) {
   struct ControlArgs {
@@ -210,7 +220,11 @@ Subcommand add_control(CLI::App& app, const std::shared_ptr<bool>& quiet) {
   k->add_option("--velocity-noise", ctl->config.velocity_noise,
                 "Sensor noise: std of the measured velocities (rad/s or m/s)")
       ->capture_default_str();
-  k->add_option("--out", ctl->config.out, "Output folder: tracking.csv, errors.csv, summary.md, tracking.png")
+  add_contact_options(*k, ctl->config.contacts,
+                      "that push the robot during the run (seeded by --seed), the same for every controller; none "
+                      "is told of them");
+  k->add_option("--out", ctl->config.out,
+                "Output folder: tracking.csv, errors.csv, summary.md, tracking.png; external.csv with --contacts")
       ->required();
   k->add_flag("--quiet", *quiet, "Print nothing but errors and warnings");
   return {k, [=]() -> int {
@@ -244,10 +258,7 @@ Subcommand add_contact(CLI::App& app, const std::shared_ptr<bool>& quiet, const 
       ->capture_default_str();
   k->add_option("--dt", c.dt, "Their sampling period: the control period (s)")->capture_default_str();
   k->add_option("--noise", c.noise, "Torque noise standard deviation of every motion")->capture_default_str();
-  k->add_option("--contacts", c.contacts.count, "Contacts on the contact motion")->capture_default_str();
-  k->add_option("--contact-size", c.contacts.size, "Each contact's torque as a fraction of its joint's torque range")
-      ->capture_default_str();
-  k->add_option("--contact-duration", c.contacts.duration, "Each contact's duration (s)")->capture_default_str();
+  add_contact_options(*k, c.contacts, "on the contact motion");
   k->add_option("--false-alarm-rate", c.detection.false_alarm_rate,
                 "Probability, per row and joint, that a contact-free residual exceeds the threshold")
       ->capture_default_str();

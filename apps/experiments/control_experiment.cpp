@@ -1,6 +1,7 @@
 #include "experiments/control_experiment.hpp"
 
 #include <cmath>
+#include <cstdio>
 #include <filesystem>
 #include <functional>
 #include <memory>
@@ -29,9 +30,13 @@ void ControlConfig::validate() const {
 }
 
 nlohmann::json ControlConfig::to_json() const {
-  return {{"experiment", "control"}, {"robot", robot},         {"models", models},   {"seconds", seconds},
-          {"dt", dt},                {"bandwidth", bandwidth}, {"friction", friction}, {"seed", seed},
-          {"position_noise", position_noise}, {"velocity_noise", velocity_noise}};
+  nlohmann::json j{{"experiment", "control"}, {"robot", robot},         {"models", models},   {"seconds", seconds},
+                   {"dt", dt},                {"bandwidth", bandwidth}, {"friction", friction}, {"seed", seed},
+                   {"position_noise", position_noise}, {"velocity_noise", velocity_noise}};
+  if (contacts.count > 0)
+    j["contacts"] = {{"count", contacts.count}, {"size", contacts.size}, {"duration_s", contacts.duration},
+                     {"joint", contacts.joint}};
+  return j;
 }
 
 namespace {
@@ -62,7 +67,8 @@ void joint_table(std::ostream& o, int n, const std::vector<std::pair<std::string
 // summary.md: the set-up, then RMS error and torque per controller and joint; its path.
 std::string write_summary(const ControlConfig& c, const RobotModel& robot,
                           const std::vector<std::pair<std::string, TrackingResult>>& results,
-                          const std::vector<std::pair<std::string, std::string>>& diverged) {
+                          const std::vector<std::pair<std::string, std::string>>& diverged,
+                          const nlohmann::json& drawn_contacts) {
   const int n = robot.num_joints();
   const std::string summary = (fs::path(c.out) / "summary.md").string();
   write_file_atomically(summary, [&](std::ostream& o) {
@@ -77,10 +83,27 @@ std::string write_summary(const ControlConfig& c, const RobotModel& robot,
       o << " Every controller measures the state with Gaussian sensor noise (std " << c.position_noise
         << " on positions, " << c.velocity_noise << " on velocities; the same sequence for all, seed " << c.seed
         << ").";
+    if (c.contacts.count > 0) {
+      o << " " << c.contacts.count << " contacts of " << c.contacts.duration << " s push the robot, each of "
+        << c.contacts.size << " times its joint's torque range along the reference, the same for every "
+        << "controller (external.csv); no controller is told of them. They act at";
+      for (size_t i = 0; i < drawn_contacts.size(); ++i) {
+        const nlohmann::json& k = drawn_contacts[i];
+        char buf[96];
+        std::snprintf(buf, sizeof buf, "%s %.3f s on joint %d (%+.3g)", i == 0 ? "" : ",", k.at("start_s").get<double>(),
+                      k.at("joint").get<int>(), k.at("torque").get<double>());
+        o << buf;
+      }
+      o << ".";
+    }
     o << "\n\n"
       << "RMS position error per joint (rad or m):\n\n";
     joint_table(o, n, results, diverged, &TrackingResult::rms_error);
     for (const auto& [name, why] : diverged) o << "\n- " << name << ": " << why << "\n";
+    if (c.contacts.count > 0) {
+      o << "\nLargest position error per joint (rad or m), the contacts' push included:\n\n";
+      joint_table(o, n, results, {}, &TrackingResult::max_error);
+    }
     o << "\nRMS torque per joint:\n\n";
     joint_table(o, n, results, {}, &TrackingResult::rms_torque);
   });
@@ -115,6 +138,9 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   to.position_noise = c.position_noise;
   to.velocity_noise = c.velocity_noise;
   to.noise_seed = c.seed;
+  const Eigen::MatrixXd true_torque = inverse_dynamics(robot, reference.X, c.friction);
+  nlohmann::json drawn_contacts = nlohmann::json::array();
+  if (c.contacts.count > 0) to.external = contact_torques(c.contacts, true_torque, c.dt, c.seed, &drawn_contacts);
   to.validate(n);  // before any output
   if (to.friction) robot.require_friction("TrackingOptions::friction");
   fs::create_directories(c.out);
@@ -152,7 +178,7 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
     record(name, [&] { return track_reference(robot, reference.X, tau, to); });
   };
   feedforward("pd-only", Eigen::MatrixXd::Zero(reference.X.rows(), n));
-  feedforward("true-model", inverse_dynamics(robot, reference.X, c.friction));
+  feedforward("true-model", true_torque);
   for (const auto& [name, model] : models) feedforward(name, model->predict(reference.X));
   // Computed torque ("-ct"): the model asked, at the measured state, for the
   // torque of the commanded acceleration.
@@ -187,7 +213,16 @@ ExperimentOutcome run_control_experiment(const ControlConfig& c, const ProgressC
   write_csv(errors_csv, header, errors);
   outcome.files.push_back(errors_csv);
 
-  outcome.files.push_back(write_summary(c, robot, results, diverged));
+  if (c.contacts.count > 0) {
+    const std::string external_csv = (fs::path(c.out) / "external.csv").string();
+    std::vector<std::string> columns{"t"};
+    for (int j = 1; j <= n; ++j) columns.push_back("ext" + std::to_string(j));
+    Eigen::MatrixXd external(to.external.rows(), n + 1);
+    external << errors.col(0), to.external;
+    write_csv(external_csv, columns, external);
+    outcome.files.push_back(external_csv);
+  }
+  outcome.files.push_back(write_summary(c, robot, results, diverged, drawn_contacts));
   const std::string png = (fs::path(c.out) / "tracking.png").string();
   const PlotResult p = render_plot("tracking", errors_csv, png);
   if (p.ok) outcome.files.push_back(png);

@@ -9,6 +9,7 @@
 #include <vector>
 
 #include "experiments/experiment_runner.hpp"
+#include "gipdyn/sim/simulate.hpp"
 #include "gipdyn/progress.hpp"
 
 namespace gipdyn {
@@ -22,13 +23,18 @@ struct ControlConfig {
   bool friction = false;            // the true robot has friction
   std::uint64_t seed = 0;           // of the reference trajectory and of the sensor noise
   double position_noise = 0.0, velocity_noise = 0.0;  // std of what the controllers measure
+  // Contacts that push the robot during the run, drawn once (seeded by seed) and the same for every
+  // controller; their size is a fraction of each joint's torque range along the reference. Its bandwidth is
+  // unused: the controllers are the experiment's.
+  SimulatedContacts contacts;
   std::string out;
   void validate() const;
   nlohmann::json to_json() const;
 };
 // Writes tracking.csv (controller, joint, rms_error, max_error, rms_torque),
-// errors.csv (the position error of every controller over time), summary.md
-// and tracking.png.
+// errors.csv (the position error of every controller over time), summary.md,
+// tracking.png and, with contacts, external.csv (t, ext1..extn: the external
+// torque that acted on the robot).
 ExperimentOutcome run_control_experiment(const ControlConfig& config, const ProgressCallback& progress = {});
 
 }  // namespace gipdyn

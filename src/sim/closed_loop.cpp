@@ -19,6 +19,9 @@ void TrackingOptions::validate(int joints) const {
   if (!(position_noise >= 0.0) || !(velocity_noise >= 0.0) || !std::isfinite(position_noise) ||
       !std::isfinite(velocity_noise))
     throw Error("TrackingOptions::position_noise and TrackingOptions::velocity_noise must be finite standard deviations >= 0");
+  if (external.size() > 0 && external.cols() != joints)
+    throw Error("TrackingOptions::external needs one column per joint (" + std::to_string(joints) + "), or none");
+  if (!external.allFinite()) throw Error("TrackingOptions::external contains NaN or Inf");
 }
 
 void critically_damped_gains(const RobotModel& robot, const Eigen::VectorXd& q, double bandwidth, Eigen::VectorXd& kp,
@@ -32,10 +35,13 @@ void critically_damped_gains(const RobotModel& robot, const Eigen::VectorXd& q, 
 
 namespace {
 
-void check_reference(int n, const Eigen::MatrixXd& reference) {
+void check_reference(int n, const Eigen::MatrixXd& reference, const TrackingOptions& options) {
   if (reference.cols() != 3 * n || reference.rows() < 2)
     throw Error("the reference needs at least 2 rows of " + std::to_string(3 * n) + " columns (q, qd, qdd)");
   if (!reference.allFinite()) throw Error("the reference contains NaN or Inf");
+  if (options.external.size() > 0 && options.external.rows() != reference.rows())
+    throw Error("TrackingOptions::external has " + std::to_string(options.external.rows()) +
+                " rows, and the reference " + std::to_string(reference.rows()) + ": give one per step");
 }
 
 // Integrates the true robot under tau = law(k, q, qd) from the reference's first state.
@@ -48,7 +54,10 @@ TrackingResult run_loop(const RobotModel& robot, const Eigen::MatrixXd& referenc
   Eigen::MatrixXd M;
   Eigen::VectorXd h;
   r.q.resize(steps, n);
+  r.qd.resize(steps, n);
+  r.qdd.resize(steps, n);
   r.tau.resize(steps, n);
+  const bool pushed = options.external.size() > 0;
   std::mt19937_64 rng(options.noise_seed);
   std::normal_distribution<double> normal(0.0, 1.0);
   const bool noisy = options.position_noise > 0.0 || options.velocity_noise > 0.0;
@@ -63,10 +72,14 @@ TrackingResult run_loop(const RobotModel& robot, const Eigen::MatrixXd& referenc
       }
     const Eigen::VectorXd tau = law(k, q_seen, qd_seen);
     if (!tau.allFinite()) throw Error("the controller's torque is not finite at step " + std::to_string(k + 1));
-    r.q.row(k) = q.transpose();
-    r.tau.row(k) = tau.transpose();
     mass_matrix_and_bias(robot, q, qd, options.friction, M, h);
-    const Eigen::VectorXd qdd = M.ldlt().solve(tau - h);
+    Eigen::VectorXd force = tau - h;
+    if (pushed) force += options.external.row(k).transpose();
+    const Eigen::VectorXd qdd = M.ldlt().solve(force);
+    r.q.row(k) = q.transpose();
+    r.qd.row(k) = qd.transpose();
+    r.qdd.row(k) = qdd.transpose();
+    r.tau.row(k) = tau.transpose();
     qd += options.dt * qdd;
     q += options.dt * qd;
     if (!q.allFinite() || !qd.allFinite() || qd.cwiseAbs().maxCoeff() > 1e6)
@@ -88,7 +101,7 @@ TrackingResult track_reference(const RobotModel& robot, const Eigen::MatrixXd& r
   const int n = robot.num_joints();
   options.validate(n);
   if (options.friction) robot.require_friction("TrackingOptions::friction");
-  check_reference(n, reference);
+  check_reference(n, reference, options);
   if (feedforward.rows() != reference.rows() || feedforward.cols() != n)
     throw Error("the feed-forward torques need one row of " + std::to_string(n) + " per reference row");
   if (!feedforward.allFinite()) throw Error("the feed-forward torques contain NaN or Inf");
@@ -111,7 +124,7 @@ TrackingResult track_computed_torque(const RobotModel& robot, const Eigen::Matri
   const int n = robot.num_joints();
   options.validate(n);
   if (options.friction) robot.require_friction("TrackingOptions::friction");
-  check_reference(n, reference);
+  check_reference(n, reference, options);
   if (!model) throw Error("track_computed_torque needs a model");
   const double w = options.bandwidth;
   TrackingResult r;

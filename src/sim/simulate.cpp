@@ -2,6 +2,7 @@
 
 #include <algorithm>
 #include <cmath>
+#include <cstdio>
 #include <random>
 
 #include "gipdyn/error.hpp"
@@ -25,9 +26,14 @@ struct Contact {
   double torque = 0.0;
 };
 
-// count contacts, one in each of count equal slots of the motion, at least one duration apart.
-std::vector<Contact> draw_contacts(const SimulatedContacts& c, int joints, double motion_time,
-                                   const Eigen::VectorXd& torque_range, std::uint64_t seed) {
+// count contacts, one in each of count equal slots of the motion (the rows of reference_torque at dt), at
+// least one duration apart, each of c.size times its joint's torque range.
+std::vector<Contact> draw_contacts(const SimulatedContacts& c, const Eigen::MatrixXd& reference_torque, double dt,
+                                   std::uint64_t seed, nlohmann::json* drawn) {
+  const auto joints = static_cast<int>(reference_torque.cols());
+  const double motion_time = static_cast<double>(reference_torque.rows()) * dt;
+  const Eigen::VectorXd torque_range =
+      reference_torque.colwise().maxCoeff() - reference_torque.colwise().minCoeff();
   std::mt19937_64 rng(seed);
   std::uniform_real_distribution<double> unit(0.0, 1.0);
   std::uniform_int_distribution<int> joint(0, joints - 1);
@@ -39,6 +45,11 @@ std::vector<Contact> draw_contacts(const SimulatedContacts& c, int joints, doubl
     k.joint = c.joint > 0 ? c.joint - 1 : joint(rng);
     k.torque = (unit(rng) < 0.5 ? -1.0 : 1.0) * c.size * torque_range(k.joint);
     contacts.push_back(k);
+  }
+  if (drawn) {
+    *drawn = nlohmann::json::array();
+    for (const Contact& k : contacts)
+      drawn->push_back({{"start_s", k.start}, {"joint", k.joint + 1}, {"torque", k.torque}});
   }
   return contacts;
 }
@@ -57,12 +68,7 @@ void simulate_with_contacts(const RobotModel& robot, const SinusoidTrajectory& t
   const int n = robot.num_joints();
   const Eigen::MatrixXd reference = r.X;
   const Eigen::MatrixXd reference_torque = r.tau_true;
-  const Eigen::VectorXd range = reference_torque.colwise().maxCoeff() - reference_torque.colwise().minCoeff();
-  const std::vector<Contact> contacts =
-      draw_contacts(o.contacts, n, o.samples * o.dt, range, contact_seed);
-  drawn = nlohmann::json::array();
-  for (const Contact& k : contacts)
-    drawn.push_back({{"start_s", k.start}, {"joint", k.joint + 1}, {"torque", k.torque}});
+  const std::vector<Contact> contacts = draw_contacts(o.contacts, reference_torque, o.dt, contact_seed, &drawn);
 
   Eigen::VectorXd kp, kd;
   critically_damped_gains(robot, reference.row(0).head(n).transpose(), o.contacts.bandwidth, kp, kd);
@@ -113,10 +119,15 @@ void SimulatedContacts::validate(int joints, int samples, double dt) const {
   if (joint < 0 || joint > joints)
     throw Error("SimulatedContacts::joint must be 0 (drawn at random) or a joint from 1 to " + std::to_string(joints));
   if (!(bandwidth > 0.0) || !std::isfinite(bandwidth)) throw Error("SimulatedContacts::bandwidth must be > 0 rad/s");
-  if (samples * dt < 3.0 * duration * count)
-    throw Error("SimulatedContacts: " + std::to_string(count) + " contacts of " + std::to_string(duration) +
-                " s need a motion of at least 3 x count x duration seconds (samples x dt is " +
-                std::to_string(samples * dt) + " s): ask for fewer contacts, shorter ones or more samples");
+  if (samples * dt < 3.0 * duration * count) {
+    char buf[320];
+    std::snprintf(buf, sizeof buf,
+                  "SimulatedContacts::count (%d) contacts of SimulatedContacts::duration (%g s) need a motion of at "
+                  "least 3 x count x duration = %g s, and this one lasts %g s: ask for fewer or shorter contacts, "
+                  "or a longer motion",
+                  count, duration, 3.0 * duration * count, samples * dt);
+    throw Error(buf);
+  }
 }
 
 void SimulationOptions::validate() const {
@@ -125,6 +136,24 @@ void SimulationOptions::validate() const {
   if (!(dt > 0.0)) throw Error("SimulationOptions::dt must be positive");
   if (!(perturb_length >= 0.0) || !(perturb_angle_deg >= 0.0)) throw Error("SimulationOptions::perturb_length and perturb_angle_deg must be >= 0");
   trajectory.validate();
+}
+
+Eigen::MatrixXd contact_torques(const SimulatedContacts& contacts, const Eigen::MatrixXd& reference_torque, double dt,
+                                std::uint64_t seed, nlohmann::json* drawn) {
+  const auto rows = static_cast<int>(reference_torque.rows());
+  contacts.validate(static_cast<int>(reference_torque.cols()), rows, dt);
+  Eigen::MatrixXd external = Eigen::MatrixXd::Zero(rows, reference_torque.cols());
+  if (contacts.count == 0) {
+    if (drawn) *drawn = nlohmann::json::array();
+    return external;
+  }
+  const std::vector<Contact> drawn_contacts = draw_contacts(contacts, reference_torque, dt, seed, drawn);
+  Eigen::VectorXd ext(reference_torque.cols());
+  for (int k = 0; k < rows; ++k) {
+    add_external_torque(drawn_contacts, contacts.duration, k * dt, ext);
+    external.row(k) = ext.transpose();
+  }
+  return external;
 }
 
 SimulationResult simulate(const RobotModel& nominal, const SimulationOptions& o) {

@@ -75,3 +75,31 @@ def test_control_experiment_names_its_flags_in_errors(tmp_path, gipdyn_bin):
     summary = (tmp_path / "stiff" / "summary.md").read_text()
     assert "| true-model | diverged |" in summary and "lower the gains (--bandwidth)" in summary
     assert "TrackingOptions" not in summary
+
+
+def test_contacts_push_every_controller_alike_and_are_written_beside(tmp_path, gipdyn_bin):
+    args = ["experiment", "control", "--robot", "scara", "--seconds", "1", "--seed", "4", "--quiet"]
+    free, pushed = tmp_path / "free", tmp_path / "pushed"
+    assert run(gipdyn_bin, *args, "--out", str(free)).returncode == 0
+    r = run(gipdyn_bin, *args, "--contacts", "2", "--contact-size", "0.3", "--contact-joint", "1",
+            "--out", str(pushed))
+    assert r.returncode == 0, r.stderr
+    rows = list(csv.DictReader(open(pushed / "external.csv")))
+    assert len(rows) == 1000 and list(rows[0]) == ["t", "ext1", "ext2", "ext3", "ext4"]
+    on = [x for x in rows if float(x["ext1"]) != 0.0]
+    assert 2 * 48 <= len(on) <= 2 * 52  # two pushes of 50 ms at 1 kHz, on joint 1 alone
+    assert all(float(x[f"ext{j}"]) == 0.0 for x in rows for j in (2, 3, 4))
+    # The push acts on the robot and no controller knows it: every one tracks joint 1 worse than without.
+    worst = lambda d: {(x["controller"], x["joint"]): float(x["max_error"]) for x in csv.DictReader(open(d / "tracking.csv"))}
+    before, after = worst(free), worst(pushed)
+    for controller in ("true-model", "true-model-ct"):  # PD alone lags far more than any push moves it
+        assert after[(controller, "1")] > 2 * before[(controller, "1")], controller
+    summary = (pushed / "summary.md").read_text()
+    assert "2 contacts of 0.05 s push the robot" in summary and "on joint 1" in summary
+    assert "Largest position error per joint" in summary
+    assert not (free / "external.csv").exists()
+    r = run(gipdyn_bin, "experiment", "control", "--robot", "scara", "--seconds", "0.1", "--contacts", "3",
+            "--out", str(tmp_path / "short"))
+    lines = r.stderr.strip().splitlines()
+    assert r.returncode == 1 and len(lines) == 1 and "--contacts (3) contacts of --contact-duration (0.05 s) need a motion of at least" in lines[0], r.stderr
+    assert not (tmp_path / "short").exists()

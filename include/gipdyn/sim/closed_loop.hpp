@@ -27,11 +27,17 @@ struct TrackingOptions {
   // controller the same noise sequence.
   double position_noise = 0.0, velocity_noise = 0.0;
   std::uint64_t noise_seed = 0;
+  // The torque the environment applies to each joint at each step (steps x n,
+  // N m or N; contact_torques() draws contacts as simulate does): it acts
+  // through the robot's dynamics, M qdd + C qd + g = tau + external, and no
+  // controller sees it. Empty: none.
+  Eigen::MatrixXd external;
   void validate(int joints) const;  // throws gipdyn::Error naming the field
 };
 
 struct TrackingResult {
   Eigen::MatrixXd q;      // steps x n: the robot's positions
+  Eigen::MatrixXd qd, qdd;  // steps x n: its velocities and true accelerations (a log of the loop, with tau)
   Eigen::MatrixXd tau;    // steps x n: the applied torques
   Eigen::VectorXd kp, kd;  // the gains used
   Eigen::VectorXd rms_error, max_error;  // per joint, |q_ref - q|

@@ -63,4 +63,14 @@ inline constexpr const char* kSimulationGenerator = "gipdyn simulate";
 // derived from options.seed, so the same seed gives the same data.
 SimulationResult simulate(const RobotModel& nominal, const SimulationOptions& options);
 
+// The external torque of `contacts` at the times k dt of the rows of
+// reference_torque (rows x n), drawn as simulate draws them: one contact in
+// each of count equal slots of the motion, on contacts.joint or a drawn joint,
+// of contacts.size times that joint's range in reference_torque, with a drawn
+// sign; seeded. For a closed loop of one's own (TrackingOptions::external).
+// `drawn`, where given, gets each contact's {"start_s", "joint", "torque"}.
+// Throws gipdyn::Error as SimulatedContacts::validate.
+Eigen::MatrixXd contact_torques(const SimulatedContacts& contacts, const Eigen::MatrixXd& reference_torque, double dt,
+                                std::uint64_t seed, nlohmann::json* drawn = nullptr);
+
 }  // namespace gipdyn
