@@ -1215,8 +1215,10 @@ class ContactDetector:
 
     Parameters
     ----------
-    model : InverseDynamicsGP or LagrangianGP, fitted
-        The model of the robot without contact.
+    model : InverseDynamics, InverseDynamicsGP or LagrangianGP, fitted
+        The model of the robot without contact. A model without a predictive
+        standard deviation (an InverseDynamics model of another family than
+        the GPs and LIP) needs calibrate() before detect().
     sample_time : float
         The rows' sampling period in seconds.
     method : {"residual", "momentum"}, default "residual"
@@ -1245,8 +1247,8 @@ class ContactDetector:
     def __init__(self, model, sample_time, method="residual", false_alarm_rate=_CONTACT_DEFAULTS.false_alarm_rate,
                  min_duration=_CONTACT_DEFAULTS.min_duration, momentum_gain=_CONTACT_DEFAULTS.momentum_gain,
                  predictive_variance=_CONTACT_DEFAULTS.predictive_variance):
-        if not isinstance(model, InverseDynamicsGP):
-            raise TypeError("ContactDetector needs a fitted InverseDynamicsGP or LagrangianGP, not "
+        if not isinstance(model, (InverseDynamics, InverseDynamicsGP)):
+            raise TypeError("ContactDetector needs a fitted InverseDynamics, InverseDynamicsGP or LagrangianGP, not "
                             f"{type(model).__name__}")
         model._check_fitted()
         o = ContactOptions()

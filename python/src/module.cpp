@@ -1057,6 +1057,11 @@ void bind_contact_detection(py::module_& m) {
              return std::make_shared<PyContactDetector>(model.estimator, o);
            }),
            py::arg("model"), py::arg("options"))
+      .def(py::init([](const TrainedModel& model, const ContactOptions& o) {
+             py::gil_scoped_release release;
+             return std::make_shared<PyContactDetector>(model.estimator, o);
+           }),
+           py::arg("model"), py::arg("options"))
       .def(
           "calibrate",
           [](PyContactDetector& s, ConstRef X, ConstRef tau) {

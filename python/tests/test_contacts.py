@@ -56,3 +56,18 @@ def test_detector_explains_what_it_cannot_do(scara):
         rbf = gipdyn.InverseDynamicsGP(joints="RRPR", model="rbf", max_iter=20).fit(d["X"][:200], d["tau"][:200])
     with pytest.raises(gipdyn.GipdynError, match="cannot give gravity, inertia"):
         gipdyn.ContactDetector(rbf, sample_time=0.001, method="momentum")
+
+
+def test_any_estimators_model_detects_once_calibrated(scara):
+    # A model of another family than the GPs and LIP (here the identified chain) has no predictive standard
+    # deviation: it detects after calibrate() and says so before.
+    _, d, calibration = scara
+    train = gipdyn.simulate("scara", samples=400, dt=0.1, seed=1)
+    chain = gipdyn.InverseDynamics(joints="RRPR", model="chain").fit(train["X"], train["tau"])
+    detector = gipdyn.ContactDetector(chain, sample_time=0.001, method="momentum")
+    with pytest.raises(gipdyn.GipdynError, match=r"'chain' model gives no predictive standard deviation: calibrate"):
+        detector.detect(d["X"], d["tau"])
+    r = detector.calibrate(calibration["X"], calibration["tau"]).detect(d["X"], d["tau"])
+    score = gipdyn.score_contacts(r, d["external"], 0.001)
+    large = sum(abs(c["torque"]) >= 0.1 for c in d["metadata"]["contacts"]["drawn"])
+    assert score.detected >= large, r.brief_report()
