@@ -46,7 +46,9 @@ Eigen::VectorXd test_nmse(const Estimator& e, const SimulationResult& test) {
 TEST(ChainIdentification, OneShortUr10MotionPinsTheDynamicsDown) {
   const RobotModel ur10 = ur10_robot();
   const SimulationResult train = motion(ur10, 11), test = motion(ur10, 12);
-  const FitResult r = fit_estimator(chain_options(), train.X, train.tau, ur10.joint_types());
+  EstimatorOptions o = chain_options();
+  o.chain.starts = 16;  // a third of the default's starts find it on this motion, in a third of the time
+  const FitResult r = fit_estimator(o, train.X, train.tau, ur10.joint_types());
   ASSERT_TRUE(r.report.ok()) << r.report.message;
   EXPECT_EQ(r.estimator->name(), "chain");
   const Eigen::VectorXd nmse = test_nmse(*r.estimator, test);
