@@ -188,7 +188,9 @@ class SmoothFrictionTest : public ::testing::TestWithParam<std::string> {};
 
 TEST_P(SmoothFrictionTest, RecoversTheSimulatedFriction) {
   const std::string plain_name = GetParam();
-  const SimulationResult train = scara_data(11, 300, 0.01, true), test = scara_data(12, 40, 0.0, true);
+  // LIP, one GP of 4N outputs, learns it from 200 rows as GIP does from 300, in a third of 300 rows' time.
+  const int rows = plain_name == "lip" ? 200 : 300;
+  const SimulationResult train = scara_data(11, rows, 0.01, true), test = scara_data(12, 40, 0.0, true);
   const int n = 4;
   const Eigen::MatrixXd Q = test.X.leftCols(n), QD = test.X.middleCols(n, n);
   const Truth truth = kdl_terms(Q, QD);
@@ -201,7 +203,8 @@ TEST_P(SmoothFrictionTest, RecoversTheSimulatedFriction) {
   const double tau_plain = relative_error(plain->predict(test.X), test.tau_true);
   std::printf("%s+friction: friction error %.3g, gravity %.3g, inertia %.3g, torque %.3g (without friction: %.3g)\n",
               plain_name.c_str(), f_error, g_error, m_error, tau_smooth, tau_plain);
-  // Measured, gip: 8.1e-4, 2.4e-4, 3.0e-3 and 1.9e-3 against 0.43; lip: 2.0e-4, 9.0e-6, 2.1e-3 and 3.6e-4 against 0.54.
+  // Measured, gip: 8.1e-4, 2.4e-4, 3.0e-3 and 1.9e-3 against 0.43; lip (200 rows): 6.2e-4, 3.2e-5, 1.7e-3 and
+  // 2.3e-4 against 0.60.
   EXPECT_LT(f_error, 1e-2);
   EXPECT_LT(g_error, 3e-3);
   EXPECT_LT(m_error, 1e-2);
