@@ -956,6 +956,10 @@ class InverseDynamics(_JointTorqueRegressor):
         self.report_ = fit["report"]
         self.teaching_ = fit["teaching"]
         self._set_fitted_attributes()
+        for line in fit["convergence_warnings"]:  # as InverseDynamicsGP warns, from the library's lines
+            warnings.warn(line, ConvergenceWarning, stacklevel=2)
+        if fit["noise_warning"]:
+            warnings.warn(fit["noise_warning"], NoiseWarning, stacklevel=2)
         return self
 
     def _set_fitted_attributes(self):

@@ -653,10 +653,13 @@ std::shared_ptr<TrainedModel> trained_model_from(const std::string& bytes, const
 }
 
 // What fit_estimator or fit_selected_estimator gave, for InverseDynamics.fit: {model, report (the brief
-// report), teaching, selection_report ('' without a choice by evidence)}.
+// report), convergence_warnings and noise_warning (the library's, as InverseDynamicsGP's model gives them),
+// teaching, selection_report ('' without a choice by evidence)}.
 py::dict trained_to_dict(FitResult& r, const std::string& selection_report) {
   py::dict d;
   d["report"] = r.report.brief_report();
+  d["convergence_warnings"] = python_convergence_warnings(r.report.joints);
+  d["noise_warning"] = noise_share_warning(r.report.joints);
   d["teaching"] = to_string(r.teaching);
   d["selection_report"] = selection_report;
   d["model"] = std::make_shared<TrainedModel>(std::shared_ptr<const Estimator>(std::move(r.estimator)));
@@ -735,11 +738,12 @@ void bind_trained_model(py::module_& m) {
   m.def("fit_any", &fit_any, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"), py::arg("teacher"),
         py::arg("verbose") = false,
         "Fits any estimator of the table (options.name), taught by `teacher` unless None "
-        "(gipdyn/estimators/fit_estimator.hpp): {model, report, teaching, selection_report}");
+        "(gipdyn/estimators/fit_estimator.hpp): {model, report, convergence_warnings, noise_warning, teaching, "
+        "selection_report}");
   m.def("fit_by_evidence", &fit_by_evidence, py::arg("X"), py::arg("Y"), py::arg("joints"), py::arg("options"),
         py::arg("teacher_settings"), py::arg("verbose") = false,
         "The choice by evidence (gipdyn/estimators/model_selection.hpp) over the shared options: "
-        "{model, report, teaching, selection_report}");
+        "{model, report, convergence_warnings, noise_warning, teaching, selection_report}");
 }
 
 // The fitted LIP model and its training.

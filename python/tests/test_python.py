@@ -223,7 +223,8 @@ def test_inverse_dynamics_fits_any_estimator_with_its_physics_and_files(scara, t
     assert loaded.model == "chain" and np.array_equal(loaded.predict(test["X"]), chain.predict(test["X"]))
     with pytest.raises(gipdyn.GipdynError, match=r"holds a 'chain' model, not a GP kernel's: load it with InverseDynamics.load"):
         gipdyn.InverseDynamicsGP.load(tmp_path / "chain.gipdyn")
-    rbf = gipdyn.InverseDynamics(joints="RRPR", model="rbf", max_iter=10).fit(train["X"], train["tau"])
+    with pytest.warns(gipdyn.ConvergenceWarning, match=r"stopped at the evaluation limit.*raise max_iter"):
+        rbf = gipdyn.InverseDynamics(joints="RRPR", model="rbf", max_iter=10).fit(train["X"], train["tau"])
     with pytest.raises(gipdyn.GipdynError, match=r"a 'rbf' model cannot give gravity.*not affine in the accelerations"):
         rbf.gravity(q)
     with pytest.raises(ValueError, match=r"predicts means only: for a predictive standard deviation fit InverseDynamicsGP"):
