@@ -277,6 +277,137 @@ class _JointTorqueRegressor(_RefusesRenamedParameters, *_ESTIMATOR_BASES):
         # Every joint is one output: Y is (N, n), and a 1-D y is the one joint of joints="R" or "P".
         return {"multioutput": True}
 
+    def _training_rows(self, rows):
+        """Row indices to train on: a constant-step subsample of `subsample` rows
+        (None: the preset's limit, every row without a preset)."""
+        limit = self.subsample
+        if limit is None:
+            limit = _core.preset_max_training_rows(str(self.preset)) if self.preset is not None else 0
+        limit = int(limit)
+        if limit < 0:
+            raise ValueError(f"subsample must be >= 0 (0: every row), got {limit}")
+        if limit == 0 or limit >= rows:
+            return None
+        return (np.arange(limit) * rows) // limit  # as the CLI's --subsample
+
+    @property
+    def n_joints(self):
+        return len(self._joint_types())
+
+    def _joint_types(self, fitted=True):
+        """The joint types X is read against: the fitted model's (fitted=False: as fit reads them, from the
+        parameters), else joints, else robot's; none of them is an error (a log cannot tell R from P)."""
+        if fitted and hasattr(self, "model_"):
+            return self.model_.joints
+        if self.joints is not None:
+            return str(self.joints)
+        if getattr(self, "robot", None) is not None:
+            return (self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))).joint_types
+        raise ValueError(_MISSING_JOINTS)
+
+    def _inputs(self, X, joints=None):
+        """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix.
+        joints: those a fit reads X against (_joint_types(fitted=False)); None: the fitted model's. A table
+        with named columns (a pandas DataFrame) gives q1..qn, qd1..qdn, qdd1..qddn by name."""
+        fitting = joints is not None
+        if joints is None:
+            joints = self._joint_types()
+        n = len(joints)
+        X = _as_matrix("X", _by_column_names("X", X, joints, ("q", "qd", "qdd")), one_row=False)
+        if X.shape[1] != 3 * n:
+            got = X.shape[1]
+            if hasattr(self, "model_") and not fitting:
+                fix = "the model was trained on these joints; give it rows of their q, qd, qdd"
+            elif self.joints is None and getattr(self, "robot", None) is not None and got % 3 == 0 and got > 0:
+                robot = self.robot.name if isinstance(self.robot, Robot) else self.robot
+                fix = (f"they are the joints of robot={robot!r}, and {got} columns are {got // 3} joints: give the "
+                       f"robot that made these rows")
+            elif got % 3 == 0 and got > 0:
+                fix = (f"set joints= to one R (revolute) or P (prismatic) per joint of your robot: {got} columns "
+                       f"are {got // 3} joints, e.g. joints={'R' * (got // 3)!r}")
+            else:
+                fix = "X needs q, qd and qdd of every joint, in that order"
+            raise ValueError(f"X has {got} columns (n_features={got}) but must have {3 * n} (q, qd, qdd of "
+                             f"joints={joints!r}): {fix}")
+        return X
+
+    def _training_arrays(self, X, Y, joints):
+        """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
+        n = len(joints)
+        X = self._inputs(X, joints)
+        self._y_is_1d = np.ndim(Y) == 1 and n == 1 and getattr(Y, "columns", None) is None
+        Y = _as_matrix("Y", _by_column_names("Y", Y, joints, ("tau",)), n)
+        if X.shape[0] != Y.shape[0]:
+            raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
+        X, Y = np.asfortranarray(X), np.asfortranarray(Y)
+        if np.isfinite(X).all():
+            for message in _core.training_input_warnings(X, joints, "X"):
+                warnings.warn(message, DataWarning, stacklevel=3)
+        return X, Y
+
+    def _check_fitted(self):
+        if not hasattr(self, "model_"):
+            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit(X, Y) first")
+
+    def _as_fitted_y(self, torques):
+        """Predictions in the shape of the y fit was given: (N,) for a 1-D y of one joint, else (N, n)."""
+        return torques[:, 0] if getattr(self, "_y_is_1d", False) else torques
+
+    def predict_one(self, x):
+        """One sample (3n,) -> torques (n,): the allocation-free control-loop path."""
+        self._check_fitted()
+        x = _as_matrix("x", x, 3 * self.n_joints)
+        if x.shape[0] != 1:
+            raise ValueError("predict_one takes a single sample")
+        return self.model_.predict_one(x[0])
+
+    # rigid-body terms (estimators whose torque is affine in qdd; docs/method.md) --------
+    def gravity(self, q):
+        """Gravity torques g(q): (N, n) for positions q of shape (N, n)."""
+        self._check_fitted()
+        return self.model_.gravity(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
+
+    def inertia(self, q, symmetric=True):
+        """Inertia matrices M(q): (N, n, n) for positions q of shape (N, n).
+
+        Each joint's model learns one row of M; by default the result is the
+        symmetric part of those rows (never farther from the true, symmetric M
+        in Frobenius norm). symmetric=False gives the rows as learned."""
+        self._check_fitted()
+        return self.model_.inertia(np.asfortranarray(_as_matrix("q", q, self.n_joints)), symmetric)
+
+    def coriolis(self, q, qd):
+        """Coriolis and centrifugal torques C(q, qd) qd: (N, n)."""
+        return self._velocity_terms(q, qd)[0]
+
+    def friction(self, q, qd):
+        """Friction torques (the part of the prediction odd in qd): (N, n)."""
+        return self._velocity_terms(q, qd)[1]
+
+    def _velocity_terms(self, q, qd):
+        self._check_fitted()
+        q = np.asfortranarray(_as_matrix("q", q, self.n_joints))
+        qd = np.asfortranarray(_as_matrix("qd", qd, self.n_joints))
+        return self.model_.velocity_terms(q, qd)
+
+    def nmse(self, X, Y):
+        """Per-joint nMSE of the predictions against Y."""
+        self._check_fitted()
+        Y = _as_matrix("Y", _by_column_names("Y", Y, self.model_.joints, ("tau",)), self.n_joints)
+        return nmse(Y, self.predict(X).reshape(Y.shape))
+
+    def score(self, X, Y, sample_weight=None):
+        """The mean over joints of 1 - nMSE: higher is better, 1 is perfect, as
+        scikit-learn's score (it equals the mean per-joint R^2)."""
+        if sample_weight is not None:
+            raise ValueError("sample_weight is not supported")
+        return float(np.mean(1.0 - self.nmse(X, Y)))
+
+    def save(self, path):
+        """Write the model in the same file format as `gipdyn train --out`."""
+        self._check_fitted()
+        self.model_.save(str(path))
+
     def __getstate__(self):
         parent = getattr(super(), "__getstate__", None)
         state = dict(parent() if parent is not None else self.__dict__)
@@ -537,75 +668,7 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         o.robot_friction = bool(self.robot_friction)
         return o
 
-    def _training_rows(self, rows):
-        """Row indices to train on: a constant-step subsample of `subsample` rows
-        (None: the preset's limit, every row without a preset)."""
-        limit = self.subsample
-        if limit is None:
-            limit = _core.preset_max_training_rows(str(self.preset)) if self.preset is not None else 0
-        limit = int(limit)
-        if limit < 0:
-            raise ValueError(f"subsample must be >= 0 (0: every row), got {limit}")
-        if limit == 0 or limit >= rows:
-            return None
-        return (np.arange(limit) * rows) // limit  # as the CLI's --subsample
-
     # fitting ---------------------------------------------------------------
-    @property
-    def n_joints(self):
-        return len(self._joint_types())
-
-    def _joint_types(self, fitted=True):
-        """The joint types X is read against: the fitted model's (fitted=False: as fit reads them, from the
-        parameters), else joints, else robot's; none of them is an error (a log cannot tell R from P)."""
-        if fitted and hasattr(self, "model_"):
-            return self.model_.joints
-        if self.joints is not None:
-            return str(self.joints)
-        if getattr(self, "robot", None) is not None:
-            return (self.robot if isinstance(self.robot, Robot) else Robot.load(str(self.robot))).joint_types
-        raise ValueError(_MISSING_JOINTS)
-
-    def _inputs(self, X, joints=None):
-        """X as a float64 matrix of 3n columns; a wrong width names the joints it was read against and the fix.
-        joints: those a fit reads X against (_joint_types(fitted=False)); None: the fitted model's. A table
-        with named columns (a pandas DataFrame) gives q1..qn, qd1..qdn, qdd1..qddn by name."""
-        fitting = joints is not None
-        if joints is None:
-            joints = self._joint_types()
-        n = len(joints)
-        X = _as_matrix("X", _by_column_names("X", X, joints, ("q", "qd", "qdd")), one_row=False)
-        if X.shape[1] != 3 * n:
-            got = X.shape[1]
-            if hasattr(self, "model_") and not fitting:
-                fix = "the model was trained on these joints; give it rows of their q, qd, qdd"
-            elif self.joints is None and getattr(self, "robot", None) is not None and got % 3 == 0 and got > 0:
-                robot = self.robot.name if isinstance(self.robot, Robot) else self.robot
-                fix = (f"they are the joints of robot={robot!r}, and {got} columns are {got // 3} joints: give the "
-                       f"robot that made these rows")
-            elif got % 3 == 0 and got > 0:
-                fix = (f"set joints= to one R (revolute) or P (prismatic) per joint of your robot: {got} columns "
-                       f"are {got // 3} joints, e.g. joints={'R' * (got // 3)!r}")
-            else:
-                fix = "X needs q, qd and qdd of every joint, in that order"
-            raise ValueError(f"X has {got} columns (n_features={got}) but must have {3 * n} (q, qd, qdd of "
-                             f"joints={joints!r}): {fix}")
-        return X
-
-    def _training_arrays(self, X, Y, joints):
-        """(X, Y) checked against the joints and each other, in Fortran order for the C++ core."""
-        n = len(joints)
-        X = self._inputs(X, joints)
-        self._y_is_1d = np.ndim(Y) == 1 and n == 1 and getattr(Y, "columns", None) is None
-        Y = _as_matrix("Y", _by_column_names("Y", Y, joints, ("tau",)), n)
-        if X.shape[0] != Y.shape[0]:
-            raise ValueError(f"X has {X.shape[0]} rows but Y has {Y.shape[0]}")
-        X, Y = np.asfortranarray(X), np.asfortranarray(Y)
-        if np.isfinite(X).all():
-            for message in _core.training_input_warnings(X, joints, "X"):
-                warnings.warn(message, DataWarning, stacklevel=3)
-        return X, Y
-
     def fit(self, X, Y):
         joints = self._joint_types(fitted=False)  # once: robot= may name a file to load
         X, Y = self._training_arrays(X, Y, joints)
@@ -711,10 +774,6 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         self.log_marginal_likelihood_ = np.array([-m.nll(j) for j in range(len(m.joints))])
         self.training_report_ = list(m.training_report)
 
-    def _check_fitted(self):
-        if not hasattr(self, "model_"):
-            raise NotFittedError(f"this {type(self).__name__} is not fitted yet; call fit(X, Y) first")
-
     # prediction ------------------------------------------------------------
     def predict(self, X, return_std=False):
         """Torques (N, n); with return_std also the latent standard deviations."""
@@ -724,66 +783,7 @@ class InverseDynamicsGP(_JointTorqueRegressor):
             return tuple(self._as_fitted_y(a) for a in self.model_.predict_with_std(X))
         return self._as_fitted_y(self.model_.predict(X))
 
-    def _as_fitted_y(self, torques):
-        """Predictions in the shape of the y fit was given: (N,) for a 1-D y of one joint, else (N, n)."""
-        return torques[:, 0] if getattr(self, "_y_is_1d", False) else torques
-
-    def predict_one(self, x):
-        """One sample (3n,) -> torques (n,): the allocation-free control-loop path."""
-        self._check_fitted()
-        x = _as_matrix("x", x, 3 * self.n_joints)
-        if x.shape[0] != 1:
-            raise ValueError("predict_one takes a single sample")
-        return self.model_.predict_one(x[0])
-
-    # rigid-body terms (gip, gip-friction, pp; docs/method.md) ------------------
-    def gravity(self, q):
-        """Gravity torques g(q): (N, n) for positions q of shape (N, n)."""
-        self._check_fitted()
-        return self.model_.gravity(np.asfortranarray(_as_matrix("q", q, self.n_joints)))
-
-    def inertia(self, q, symmetric=True):
-        """Inertia matrices M(q): (N, n, n) for positions q of shape (N, n).
-
-        Each joint's model learns one row of M; by default the result is the
-        symmetric part of those rows (never farther from the true, symmetric M
-        in Frobenius norm). symmetric=False gives the rows as learned."""
-        self._check_fitted()
-        return self.model_.inertia(np.asfortranarray(_as_matrix("q", q, self.n_joints)), symmetric)
-
-    def coriolis(self, q, qd):
-        """Coriolis and centrifugal torques C(q, qd) qd: (N, n)."""
-        return self._velocity_terms(q, qd)[0]
-
-    def friction(self, q, qd):
-        """Friction torques (the part of the prediction odd in qd): (N, n)."""
-        return self._velocity_terms(q, qd)[1]
-
-    def _velocity_terms(self, q, qd):
-        self._check_fitted()
-        q = np.asfortranarray(_as_matrix("q", q, self.n_joints))
-        qd = np.asfortranarray(_as_matrix("qd", qd, self.n_joints))
-        return self.model_.velocity_terms(q, qd)
-
-    def nmse(self, X, Y):
-        """Per-joint nMSE of the predictions against Y."""
-        self._check_fitted()
-        Y = _as_matrix("Y", _by_column_names("Y", Y, self.model_.joints, ("tau",)), self.n_joints)
-        return nmse(Y, self.predict(X).reshape(Y.shape))
-
-    def score(self, X, Y, sample_weight=None):
-        """The mean over joints of 1 - nMSE: higher is better, 1 is perfect, as
-        scikit-learn's score (it equals the mean per-joint R^2)."""
-        if sample_weight is not None:
-            raise ValueError("sample_weight is not supported")
-        return float(np.mean(1.0 - self.nmse(X, Y)))
-
     # persistence -----------------------------------------------------------
-    def save(self, path):
-        """Write the model in the same file format as `gipdyn train --out`."""
-        self._check_fitted()
-        self.model_.save(str(path))
-
     @classmethod
     def load(cls, path):
         """Load a model written by `save` or by `gipdyn train`, with the parameters that trained it, as far as
@@ -928,13 +928,6 @@ class InverseDynamics(_JointTorqueRegressor):
         settings.seed = options.search.seed
         return settings
 
-    _training_rows = InverseDynamicsGP._training_rows
-    n_joints = InverseDynamicsGP.n_joints
-    _joint_types = InverseDynamicsGP._joint_types
-    _inputs = InverseDynamicsGP._inputs
-    _training_arrays = InverseDynamicsGP._training_arrays
-    _check_fitted = InverseDynamicsGP._check_fitted
-    _as_fitted_y = InverseDynamicsGP._as_fitted_y
 
     def fit(self, X, Y):
         """Fit the model (model="auto": choose it, then refit it) on the rows of (X, Y), in time order."""
@@ -976,15 +969,6 @@ class InverseDynamics(_JointTorqueRegressor):
                              "InverseDynamicsGP or LagrangianGP")
         return self._as_fitted_y(self.model_.predict(np.asfortranarray(self._inputs(X))))
 
-    predict_one = InverseDynamicsGP.predict_one
-    gravity = InverseDynamicsGP.gravity
-    inertia = InverseDynamicsGP.inertia
-    coriolis = InverseDynamicsGP.coriolis
-    friction = InverseDynamicsGP.friction
-    _velocity_terms = InverseDynamicsGP._velocity_terms
-    nmse = InverseDynamicsGP.nmse
-    score = InverseDynamicsGP.score
-    save = InverseDynamicsGP.save
 
     @classmethod
     def load(cls, path):
