@@ -34,8 +34,7 @@ nlohmann::json ControlConfig::to_json() const {
                    {"dt", dt},                {"bandwidth", bandwidth}, {"friction", friction}, {"seed", seed},
                    {"position_noise", position_noise}, {"velocity_noise", velocity_noise}};
   if (contacts.count > 0)
-    j["contacts"] = {{"count", contacts.count}, {"size", contacts.size}, {"duration_s", contacts.duration},
-                     {"joint", contacts.joint}};
+    j["contacts"] = contacts.to_json(false);  // the closed loop's controllers, not the PD of simulate
   return j;
 }
 

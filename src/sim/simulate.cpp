@@ -111,6 +111,12 @@ void simulate_with_contacts(const RobotModel& robot, const SinusoidTrajectory& t
 
 }  // namespace
 
+nlohmann::json SimulatedContacts::to_json(bool with_bandwidth) const {
+  nlohmann::json j{{"count", count}, {"size", size}, {"duration_s", duration}, {"joint", joint}};
+  if (with_bandwidth) j["bandwidth"] = bandwidth;
+  return j;
+}
+
 void SimulatedContacts::validate(int joints, int samples, double dt) const {
   if (count < 0) throw Error("SimulatedContacts::count must be >= 0");
   if (count == 0) return;
@@ -197,10 +203,10 @@ SimulationResult simulate(const RobotModel& nominal, const SimulationOptions& o)
                   {"max_angular_frequency", o.trajectory.max_angular_frequency},
                   {"position_fill", o.trajectory.position_fill},
                   {"velocity_fill", o.trajectory.velocity_fill}}}};
-  if (o.contacts.count > 0)
-    r.metadata["contacts"] = {{"count", o.contacts.count},     {"size", o.contacts.size},
-                              {"duration_s", o.contacts.duration}, {"joint", o.contacts.joint},
-                              {"bandwidth", o.contacts.bandwidth}, {"drawn", drawn_contacts}};
+  if (o.contacts.count > 0) {
+    r.metadata["contacts"] = o.contacts.to_json(true);
+    r.metadata["contacts"]["drawn"] = drawn_contacts;
+  }
   if (nominal.is_dh()) r.metadata["nominal_robot"] = nominal.to_json();
   return r;
 }

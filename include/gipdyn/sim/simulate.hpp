@@ -32,6 +32,9 @@ struct SimulatedContacts {
   double bandwidth = 30.0;  // rad/s: the PD's gains, Kp = w^2 M_jj(q0), Kd = 2 w M_jj(q0)
   // Throws gipdyn::Error naming the field.
   void validate(int joints, int samples, double dt) const;
+  // {"count", "size", "duration_s", "joint"}, and "bandwidth" where the PD
+  // above plays the log back (simulate), the record every folder and log sidecar keeps.
+  nlohmann::json to_json(bool with_bandwidth) const;
 };
 
 struct SimulationOptions {
