@@ -10,8 +10,8 @@ TRAIN's rows, whose torques are standardised once here (so that both models see
 the same targets and their negative log marginal likelihoods compare as they
 are). scikit-learn's GaussianProcessRegressor starts from length scales equal to
 the columns' standard deviations and restarts --restarts times from random
-points; gipdyn runs its default search (`InverseDynamicsGP(model="rbf")`) and
-the same with --restarts restarts. Prints, per joint, each NLL (lower is
+points; gipdyn runs its default search (`InverseDynamicsGP(model="rbf")`, with
+the RBF's own restarts) and the same with --restarts restarts. Prints, per joint, each NLL (lower is
 better) and the nMSE on TEST's rows, as a Markdown table (bench/RESULTS.md).
 """
 import argparse
@@ -68,13 +68,13 @@ def reference(j):
     return -gpr.log_marginal_likelihood_value_, nmse(gpr.predict(test["X"]), j)
 
 
-default_nll, default_nmse, default_s = ours(0)
+default_nll, default_nmse, default_s = ours(None)
 restart_nll, restart_nmse, restart_s = ours(args.restarts)
 t0 = time.time()
 ref = [reference(j) for j in range(Ys.shape[1])]
 ref_s = time.time() - t0
 lines = [f"{args.train}: {len(rows)} training rows, {len(test['X'])} test rows, joints {args.joints}; "
-         f"fit seconds: gipdyn {default_s:.0f} (restarts {args.restarts}: {restart_s:.0f}), "
+         f"fit seconds: gipdyn's default {default_s:.0f} (restarts {args.restarts}: {restart_s:.0f}), "
          f"scikit-learn {ref_s:.0f}", "",
          f"| joint | NLL gipdyn | NLL gipdyn, {args.restarts} restarts | NLL scikit-learn, {args.restarts} restarts "
          f"| test nMSE gipdyn | test nMSE gipdyn, restarts | test nMSE scikit-learn |",

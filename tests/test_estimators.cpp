@@ -9,6 +9,7 @@
 #include <mutex>
 #include <set>
 #include <filesystem>
+#include <optional>
 #include <thread>
 #include <vector>
 
@@ -775,6 +776,7 @@ TEST(OptionsRecord, GivesBackTheOptionsAFitHad) {
   o.search.optimizer.adam_learning_rate = 0.02;
   o.search.gradient_tolerance_per_row = 3e-4;
   o.search.restarts = 2;
+  o.search.restart_spread = 0.5;
   o.search.seed = 11;
   o.search.start_screening_evaluations = 7;
   o.search.hyperparameter_rows = 250;
@@ -803,6 +805,7 @@ TEST(OptionsRecord, GivesBackTheOptionsAFitHad) {
   EXPECT_TRUE(back.gp.prior.enabled);
   EXPECT_EQ(back.gp.prior.width, 1.25);
   EXPECT_EQ(back.nn.hidden, (std::vector<int>{8, 4}));
+  EXPECT_EQ(back.search.restart_spread, 0.5);
   // An older record lacks fields: the defaults fill them.
   EXPECT_EQ(options_record(options_from_record(nlohmann::json{{"estimator", "rbf"}})),
             options_record([] { EstimatorOptions d; d.name = "rbf"; return d; }()));
@@ -827,4 +830,37 @@ TEST(OptionsRecord, GivesBackTheOptionsAFitHad) {
   std::filesystem::remove(path);
   ASSERT_TRUE(loaded->options_record());
   EXPECT_EQ(options_from_record(*loaded->options_record()).search.seed, 9u);
+  // The record holds the starts the fit ran, the table's where the options left them unset.
+  EXPECT_EQ(options_from_record(*loaded->options_record()).search.restarts, estimator_spec("rbf").restarts);
+}
+
+// Where the options leave the restarts unset, each estimator's search runs its table row's (rbf: restarts
+// at a wider spread, since its NLL has optima far from the data-driven start); given ones win.
+TEST(EstimatorSearch, UnsetRestartsAreTheEstimatorsOwnAndGivenOnesWin) {
+  const EstimatorSpec& rbf = estimator_spec("rbf");
+  ASSERT_GT(rbf.restarts, 0);
+  ASSERT_EQ(estimator_spec(default_estimator_name()).restarts, 0);
+  const JointTypes joints = JointTypes::parse("RR");
+  const Eigen::MatrixXd X = test::random_inputs(joints, 40, 5);
+  const Eigen::MatrixXd Y = test::random_matrix(40, 2, -1.0, 1.0, 6);
+  auto starts_run = [&](const std::string& name, std::optional<int> restarts) {
+    EstimatorOptions o;
+    o.name = name;
+    o.search.optimizer.max_iterations = 5;
+    o.search.restarts = restarts;
+    const FitResult r = fit_estimator(o, X, Y, joints);
+    EXPECT_TRUE(r.report.ok()) << r.report.message;
+    return r.report.joints.empty() ? size_t{0} : r.report.joints[0].restart_nlls.size();
+  };
+  EXPECT_EQ(starts_run("rbf", std::nullopt), static_cast<size_t>(1 + rbf.restarts));
+  EXPECT_EQ(starts_run("rbf", 1), size_t{2});
+  EXPECT_EQ(starts_run("gip", std::nullopt), size_t{1});
+  // The spread too: unset, the row's; a search outside the table (train_model) has none and spread 1.
+  EstimatorOptions o;
+  o.name = "rbf";
+  EXPECT_EQ(o.train_options().search.restart_spread, rbf.restart_spread);
+  o.search.restart_spread = 0.25;
+  EXPECT_EQ(o.train_options().search.restart_spread, 0.25);
+  EXPECT_EQ(SearchSettings{}.restart_count(), 0);
+  EXPECT_EQ(SearchSettings{}.restart_spread_or_default(), 1.0);
 }

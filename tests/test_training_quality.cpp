@@ -126,14 +126,14 @@ TEST(TrainingQuality, ScreenedRestartsContinueOnlyTheLeaderAndTheUnperturbedStar
                       &s = screened.fit.report.joints[static_cast<size_t>(j)];
     double lead = std::numeric_limits<double>::infinity();
     int leader = -1;
-    for (int r = 0; r <= o.search.restarts; ++r) {
+    for (int r = 0; r <= o.search.restart_count(); ++r) {
       const double at_budget = full.best_within_budget.at({j, r});
       if (at_budget < lead) {
         lead = at_budget;
         leader = r;
       }
     }
-    for (int r = 0; r <= o.search.restarts; ++r) {
+    for (int r = 0; r <= o.search.restart_count(); ++r) {
       if (r == leader || r == 0) {  // the unperturbed start goes on beside the leader
         EXPECT_EQ(screened.last_iteration.at({j, r}), full.last_iteration.at({j, r})) << "joint " << j << " start " << r;
         EXPECT_EQ(s.restart_nlls[static_cast<size_t>(r)], f.restart_nlls[static_cast<size_t>(r)]);
@@ -209,13 +209,15 @@ TEST(TrainingQuality, SparseGpMatchesTheExactGpAndSurvivesItsModelFile) {
   loaded.predict(Xtest, mean2, &sd2);
   EXPECT_LT((mean - mean2).cwiseAbs().maxCoeff(), 1e-10 * mean.cwiseAbs().maxCoeff());
   EXPECT_LT((sd - sd2).cwiseAbs().maxCoeff(), 1e-6 * sd.cwiseAbs().maxCoeff() + 1e-12);
-  // The single-query path gives the batch path's answer.
+  // The single-query path gives the batch path's answer: the mean to rounding; the standard deviation to the
+  // file round trip's tolerance above, since a sparse GP's variance is a difference of terms much larger than
+  // itself, in which each path's summation order (the BLAS kernels of the CPU) leaves its own rounding.
   PredictionWorkspace ws(loaded);
   Eigen::VectorXd tau(2), stddev(2);
   const Eigen::VectorXd x0 = Xtest.row(7).transpose();
   ws.predict(x0.data(), tau.data(), stddev.data());
   EXPECT_LT((tau - mean2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-10 * mean2.cwiseAbs().maxCoeff());
-  EXPECT_LT((stddev - sd2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-8 * sd2.cwiseAbs().maxCoeff() + 1e-12);
+  EXPECT_LT((stddev - sd2.row(7).transpose()).cwiseAbs().maxCoeff(), 1e-6 * sd2.cwiseAbs().maxCoeff() + 1e-12);
 
   // Online rows: one at a time gives what one batch gives (GpRegressor::add_rows_sparse
   // equals the batch fit, test_sparse_gp), and a window is refused.

@@ -23,6 +23,27 @@ std::string estimator_table_text() {
   return text;
 }
 
+static std::string screening_defaults_text() {
+  std::vector<std::string> clauses;
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.kernel_method && e.start_screening_evaluations != SearchSettings::kDefaultStartScreening)
+      clauses.push_back(e.name + " " + std::to_string(e.start_screening_evaluations));
+  clauses.push_back("the others " + std::to_string(SearchSettings::kDefaultStartScreening));
+  return joined(clauses, "; ");
+}
+
+static std::string restart_defaults_text() {
+  std::vector<std::string> clauses;
+  for (const EstimatorSpec& e : estimator_table()) {
+    if (e.restarts == 0) continue;
+    char spread[32];
+    std::snprintf(spread, sizeof spread, "%g", e.restart_spread);
+    clauses.push_back(e.name + " " + std::to_string(e.restarts) + " at spread " + spread);
+  }
+  clauses.push_back("the others none");
+  return joined(clauses, "; ");
+}
+
 std::string preset_list() {
   std::vector<std::string> clauses;
   for (const std::string& name : preset_names()) {
@@ -81,8 +102,10 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->group(kGpOptions);
   app.add_option("--lr", learning_rate, "GP: Adam learning rate")->capture_default_str()
       ->group(kGpOptions);
-  app.add_option("--restarts", restarts, "GP: extra optimiser runs from perturbed starts; the best NLL is kept")
-      ->capture_default_str()
+  app.add_option("--restarts", restarts,
+                 "GP: extra optimiser runs from perturbed starts; the best NLL is kept (default: the model's own: " +
+                     restart_defaults_text() + ")")
+      ->type_name("INT")
       ->group(kGpOptions);
   if (with_seed)
     app.add_option("--seed", seed, "Seed for GP restarts and the network's initialisation and batches")
@@ -114,8 +137,8 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
   app.add_option("--start-screening", start_screening,
                  "lip (and the lip teacher), and a GP's --restarts: every start first runs at most this many NLL "
                  "evaluations, then only the one with the lowest NLL continues to convergence (0: every start runs "
-                 "to convergence; docs/training.md)")
-      ->capture_default_str()
+                 "to convergence; docs/training.md; default: the model's own: " + screening_defaults_text() + ")")
+      ->type_name("INT")
       ->group(kLipOptions);
   app.add_option("--chain-starts", chain.starts,
                  "chain: random starts of the geometry search (DH numbers and gravity direction); the smallest "
@@ -172,7 +195,7 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--max-iter")) o.search.optimizer.max_iterations = max_iter;
   if (given("--lbfgs-memory")) o.search.optimizer.lbfgs_memory = lbfgs_memory;
   if (given("--lr")) o.search.optimizer.adam_learning_rate = learning_rate;
-  if (given("--restarts")) o.search.restarts = restarts;
+  if (given("--restarts") && restarts) o.search.restarts = *restarts;  // unset: the model's own
   if (given("--warm-start-rows")) o.gp.warm_start_rows = warm_start_rows;
   if (given("--inducing")) o.sparse.inducing_points = inducing;
   if (given("--hyperparameter-rows")) o.search.hyperparameter_rows = hyperparameter_rows;
@@ -191,7 +214,7 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--chain-rows")) o.chain.rows = chain.rows;
   if (given("--chain-length-scale")) o.chain.length_scale = chain.length_scale;
   if (given("--no-serial-chain")) o.serial_chain = !no_serial_chain;
-  if (given("--start-screening")) o.search.start_screening_evaluations = start_screening;
+  if (given("--start-screening") && start_screening) o.search.start_screening_evaluations = *start_screening;
   if (given("--prior") || given("--prior-width")) o.gp.prior = parse_hyperparameter_prior(prior, prior_width);
   if (given("--nn-epochs")) o.nn.epochs = nn.epochs;
   if (given("--nn-batch")) o.nn.batch_size = nn.batch_size;

@@ -3,6 +3,7 @@
 // its optimiser, the nominal robot of model-based estimators, the network's shape.
 #include <CLI/CLI.hpp>
 #include <memory>
+#include <optional>
 #include <string>
 
 #include "gipdyn/estimators/fit_estimator.hpp"
@@ -14,7 +15,9 @@ struct EstimatorArgs {
   double prior_width = 2.0;
   // Library defaults, so that --help shows what the library does.
   int max_iter = OptimizerOptions{}.max_iterations, lbfgs_memory = OptimizerOptions{}.lbfgs_memory;
-  int restarts = SearchSettings{}.restarts, threads = 0;
+  int threads = 0;
+  // Unset where not given: the model's own (EstimatorSpec::restarts, start_screening_evaluations).
+  std::optional<int> restarts, start_screening;
   int warm_start_rows = GpOptions{}.warm_start_rows, inducing = SparseOptions{}.inducing_points;
   int hyperparameter_rows = SearchSettings{}.hyperparameter_rows;
   std::string hyperparameter_objective = to_string(SparseOptions{}.hyperparameter_objective);
@@ -23,7 +26,6 @@ struct EstimatorArgs {
   double min_noise = 1e-8, learning_rate = 0.01;
   bool robot_friction = false;
   bool no_serial_chain = false;
-  int start_screening = SearchSettings{}.start_screening_evaluations;
   NeuralNetworkOptions nn;
   ChainIdentificationOptions chain;
 

@@ -143,7 +143,7 @@ void print_plan(const TrainArgs& a, const TrainPlan& plan, const DistributedRun*
   if (!a.preset.empty()) std::printf(" (preset %s)", a.preset.c_str());
   if (is_kernel_estimator(o.name))
     std::printf(", optimizer %s (max %d), %d restart(s)", a.estimator.optimizer.c_str(),
-                o.search.optimizer.max_iterations, o.search.restarts);
+                o.search.optimizer.max_iterations, estimator_search(o.name, o.search).restart_count());
   if (is_kernel_estimator(o.name) && o.sparse.inducing_points > 0)
     std::printf(", sparse GP with %d inducing rows", o.sparse.inducing_points);
   if (o.robot_prior.robot) std::printf(", nominal robot %s", o.robot_prior.robot->name().c_str());

@@ -154,7 +154,8 @@ nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<st
           // Always written: a folder from before the option existed ran with 10 pairs and must not resume
           // with another optimiser's fits mixed into its tables.
           {"lbfgs_memory", b.search.optimizer.lbfgs_memory},
-          {"restarts", b.search.restarts},
+          // Unset: each estimator's own (EstimatorSpec::restarts).
+          {"restarts", b.search.restarts ? nlohmann::json(*b.search.restarts) : nlohmann::json("each model's own")},
           {"warm_start_rows", b.gp.warm_start_rows},
           {"gradient_tolerance", b.search.gradient_tolerance_per_row},
           {"scaling", to_string(b.gp.scaling)},

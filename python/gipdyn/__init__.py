@@ -237,6 +237,13 @@ def _recorded_parameters(cls, model):
         where = record.get(group, {}) if group else record
         if name in names and key in where:
             params[name] = where[key]
+    # The file records the starts the search ran; where they are the estimator's own, the parameter is None,
+    # as in the fit that left them to the estimator.
+    if record.get("estimator") in _core.estimator_names():
+        own = _core.estimator_search(record["estimator"], SearchSettings())
+        for name, attribute in (("restarts", "restarts"), ("start_screening", "start_screening_evaluations")):
+            if name in params and params[name] == getattr(own, attribute):
+                params[name] = None
     # The teacher: its block where it taught (or was asked to); none where no teacher was asked for, or where
     # the automatic teacher never applies to these options, which trains the same model.
     if "teacher" in names:
@@ -451,8 +458,9 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         The hyperparameter optimiser.
     max_iter : int
         Safety cap on NLL evaluations (L-BFGS) or steps (Adam) per joint and start.
-    restarts : int
+    restarts : int or None, default None
         Extra optimiser runs from perturbed starts; the lowest NLL is kept.
+        None: the model's own (@RESTART_DEFAULTS@).
     random_state : int, RandomState or None, default 0
         Seeds restarts and teacher states. None is 0: every fit is seeded, and
         the same call gives the same model.
@@ -520,9 +528,10 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         The joints run from the base to the tip of one serial chain (the lip
         teacher's inertia entry ab then depends only on the joints after
         min(a, b)). False for joints in another order.
-    start_screening : int
+    start_screening : int or None, default None
         Every start runs this many NLL evaluations, then only the best goes on
-        (0: every start to convergence).
+        (0: every start to convergence). None: the model's own
+        (@SCREENING_DEFAULTS@).
 
     Attributes
     ----------
@@ -634,11 +643,13 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         o.search.optimizer.kind = str(self.optimizer)
         o.search.optimizer.max_iterations = int(self.max_iter)
         o.search.optimizer.adam_learning_rate = float(self.learning_rate)
-        o.search.restarts = int(self.restarts)
+        if self.restarts is not None:
+            o.search.restarts = int(self.restarts)
         o.search.seed = _seed(self.random_state)
         o.search.min_noise_fraction = float(self.min_noise)
         o.search.gradient_tolerance_per_row = float(self.gradient_tolerance)
-        o.search.start_screening_evaluations = int(self.start_screening)
+        if self.start_screening is not None:
+            o.search.start_screening_evaluations = int(self.start_screening)
         o.serial_chain = bool(self.serial_chain)
         return o
 
@@ -798,7 +809,21 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         return est
 
 
-InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace(
+def _restart_defaults():
+    """The table's restarts per estimator, for the docstrings: "rbf 5 at spread 2; the others none"."""
+    own = [f'{r["name"]} {r["restarts"]} at spread {r["restart_spread"]:g}' for r in _core.estimator_table() if r["restarts"]]
+    return "; ".join(own + ["the others none"])
+
+
+def _screening_defaults():
+    """The table's start screening per estimator, for the docstrings: "rbf 0; the others 60"."""
+    default = _core.SearchSettings().start_screening_or_default()
+    own = [f'{r["name"]} {r["start_screening"]}' for r in _core.estimator_table() if r["start_screening"] != default]
+    return "; ".join(own + [f"the others {default}"])
+
+
+InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace("@RESTART_DEFAULTS@", _restart_defaults()).replace(
+    "@SCREENING_DEFAULTS@", _screening_defaults()).replace(
     "@KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"])).replace(
     "@ROBOT_KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"] and r["needs_robot"]))
 
@@ -838,7 +863,7 @@ class InverseDynamics(_JointTorqueRegressor):
         or the library's.
     restarts : int, optional
         Extra optimiser runs from perturbed starts. None: the preset's or the
-        library's.
+        model's own (@RESTART_DEFAULTS@).
     random_state : int, RandomState or None, default 0
         Seeds every random process of the fit (restarts, teacher states,
         network initialisation). None is 0.
@@ -990,7 +1015,7 @@ class InverseDynamics(_JointTorqueRegressor):
         return est
 
 
-InverseDynamics.__doc__ = InverseDynamics.__doc__.replace(
+InverseDynamics.__doc__ = InverseDynamics.__doc__.replace("@RESTART_DEFAULTS@", _restart_defaults()).replace(
     "@ESTIMATORS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table())).replace(
     "@ROBOT_ESTIMATORS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["needs_robot"])).replace(
     "@PRESETS@", ", ".join(f'"{name}"' for name in _core.preset_names()))
@@ -1020,10 +1045,10 @@ class LagrangianGP(InverseDynamicsGP):
     serial_chain : bool, default True
         False for joints not ordered from the base to the tip of one serial
         chain: every inertia entry may then depend on every joint.
-    start_screening : int
+    start_screening : int or None, default None
         Every start (three starting noises plus the restarts) runs this many
         NLL evaluations, then only the one with the lowest NLL goes on (0:
-        every start to convergence).
+        every start to convergence). None: the library's.
 
     Attributes
     ----------

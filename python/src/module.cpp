@@ -117,9 +117,26 @@ std::vector<std::string> python_convergence_warnings(const std::vector<JointRepo
   return out;
 }
 
-// A trained model, read-only and shared, plus the single-query workspace of
-// predict_one: the workspace is mutable, so calls from several Python threads
-// take turns on it.
+// predict_one of a trained model, which is read-only and shared: one query
+// through the estimator's workspace, made on the first call; the workspace is
+// mutable, so calls from several Python threads take turns on it.
+class SingleQuery {
+ public:
+  Eigen::VectorXd predict(const Estimator& estimator, const Eigen::VectorXd& x) {
+    const int n = estimator.joints().size();
+    if (x.size() != 3 * n) throw Error("x must have " + std::to_string(3 * n) + " entries (q, qd, qdd)");
+    std::lock_guard<std::mutex> lock(mutex_);
+    if (!workspace_) workspace_ = estimator.make_query_workspace();
+    Eigen::VectorXd tau(n);
+    workspace_->predict(x.data(), tau.data());
+    return tau;
+  }
+
+ private:
+  std::unique_ptr<QueryWorkspace> workspace_;
+  std::mutex mutex_;
+};
+
 // A fitted model itself where it has the factors predictive variances need,
 // else its copy with them, built on the first request and kept: asking for
 // variances changes neither the model nor the Python estimator holding it.
@@ -141,8 +158,7 @@ class WithFactors {
 struct Model {
   std::shared_ptr<const GpEstimator> estimator;  // the physics functions take an Estimator
   const InverseDynamicsModel* model;
-  std::unique_ptr<PredictionWorkspace> workspace;
-  std::mutex workspace_mutex;
+  SingleQuery query;
   WithFactors<InverseDynamicsModel> factors;
   const InverseDynamicsModel& variance_model() const { return factors.of(*model); }
   explicit Model(InverseDynamicsModel m) : Model(std::make_shared<const GpEstimator>(std::move(m))) {}
@@ -514,6 +530,8 @@ void bind_estimator_options(py::module_& m) {
       .def_readwrite("initial_noise_fraction", &SearchSettings::initial_noise_fraction)
       .def_readwrite("min_noise_fraction", &SearchSettings::min_noise_fraction)
       .def_readwrite("threads", &SearchSettings::threads)
+      .def("restart_count", &SearchSettings::restart_count)
+      .def("start_screening_or_default", &SearchSettings::start_screening_or_default)
       .def("validate", &SearchSettings::validate);
   py::class_<GpOptions> gp_options(m, "GpOptions");
   gp_options.def(py::init<>())
@@ -607,15 +625,7 @@ void bind_gp_model(py::module_& m) {
           py::arg("X"))
       .def(
           "predict_one",
-          [](Model& s, const Eigen::VectorXd& x) {
-            if (x.size() != 3 * s.model->num_joints())
-              throw Error("x must have " + std::to_string(3 * s.model->num_joints()) + " entries (q, qd, qdd)");
-            std::lock_guard<std::mutex> lock(s.workspace_mutex);
-            if (!s.workspace) s.workspace = std::make_unique<PredictionWorkspace>(*s.model);
-            Eigen::VectorXd tau(s.model->num_joints());
-            s.workspace->predict(x.data(), tau.data());
-            return tau;
-          },
+          [](Model& s, const Eigen::VectorXd& x) { return s.query.predict(*s.estimator, x); },
           py::arg("x"))
       .def_property_readonly(
           "teaching_record",
@@ -639,12 +649,10 @@ void bind_gp_model(py::module_& m) {
 }
 
 // Any estimator's trained model (read-only; the model of the choice by
-// evidence among them), plus the single-query workspace of predict_one, which
-// calls from several Python threads take turns on.
+// evidence among them), plus predict_one's workspace.
 struct TrainedModel {
   std::shared_ptr<const Estimator> estimator;
-  std::unique_ptr<QueryWorkspace> workspace;
-  std::mutex workspace_mutex;
+  SingleQuery query;
   explicit TrainedModel(std::shared_ptr<const Estimator> e) : estimator(std::move(e)) {}
 };
 
@@ -716,15 +724,7 @@ void bind_trained_model(py::module_& m) {
           py::arg("X"))
       .def(
           "predict_one",
-          [](TrainedModel& s, const Eigen::VectorXd& x) {
-            const int n = s.estimator->joints().size();
-            if (x.size() != 3 * n) throw Error("x must have " + std::to_string(3 * n) + " entries (q, qd, qdd)");
-            std::lock_guard<std::mutex> lock(s.workspace_mutex);
-            if (!s.workspace) s.workspace = s.estimator->make_query_workspace();
-            Eigen::VectorXd tau(n);
-            s.workspace->predict(x.data(), tau.data());
-            return tau;
-          },
+          [](TrainedModel& s, const Eigen::VectorXd& x) { return s.query.predict(*s.estimator, x); },
           py::arg("x"))
       .def("save", [](const TrainedModel& s, const std::string& path) { save_estimator(*s.estimator, path); })
       .def("to_bytes",
@@ -887,6 +887,9 @@ void bind_fitting(py::module_& m) {
       py::arg("choice"), py::arg("options"), py::arg("settings"), py::arg("any_estimator") = false,
       "The library's rule (gipdyn/estimators/fit_estimator.hpp): the TeacherOptions a fit of these options gets "
       "for teacher=choice (\"auto\", \"none\" or an estimator's name), or None");
+  m.def("estimator_search", &estimator_search, py::arg("name"), py::arg("search"),
+        "The search a fit of estimator `name` runs: `search` with the starts it leaves unset (restarts, "
+        "restart_spread, start_screening_evaluations) from the estimator table");
   m.def(
       "estimator_table",
       [] {
@@ -901,12 +904,15 @@ void bind_fitting(py::module_& m) {
           d["rigid_body_terms"] = e.rigid_body_terms;
           d["default"] = e.default_estimator;
           d["default_teacher"] = e.default_teacher;
+          d["restarts"] = e.restarts;
+          d["restart_spread"] = e.restart_spread;
+          d["start_screening"] = e.start_screening_evaluations;
           rows.append(d);
         }
         return rows;
       },
       "The library's table of estimators: one dict per estimator (name, help, gp_kernel, needs_robot, friction, "
-      "rigid_body_terms, default, default_teacher)");
+      "rigid_body_terms, default, default_teacher, restarts, restart_spread, start_screening)");
 }
 
 // Logs: consistency checks, reading, simulation.

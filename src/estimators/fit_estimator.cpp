@@ -41,11 +41,19 @@ void EstimatorOptions::set_seed(std::uint64_t seed) {
   chain.seed = seed;
 }
 
+SearchSettings estimator_search(const std::string& name, SearchSettings search) {
+  const EstimatorSpec& spec = estimator_spec(name);
+  if (!search.restarts) search.restarts = spec.restarts;
+  if (!search.restart_spread) search.restart_spread = spec.restart_spread;
+  if (!search.start_screening_evaluations) search.start_screening_evaluations = spec.start_screening_evaluations;
+  return search;
+}
+
 TrainOptions EstimatorOptions::train_options() const {
   TrainOptions o;
   o.kernel = name;
   o.robot_prior = robot_prior;
-  o.search = search;
+  o.search = estimator_search(name, search);
   o.gp = gp;
   o.sparse = sparse;
   o.nll_backend = nll_backend;
@@ -63,7 +71,7 @@ LagrangianOptions EstimatorOptions::lagrangian_options() const {
     throw Error(lip + "SparseOptions::inducing_points is not supported (exact GP only); leave it at 0");
   if (nll_backend) throw Error(lip + "TrainOptions::nll_backend is not supported (one process only); leave it unset");
   LagrangianOptions o;
-  o.search = search;
+  o.search = estimator_search(name, search);
   o.serial_chain = serial_chain;
   o.friction = estimator_spec(name).friction;
   return o;

@@ -292,7 +292,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const int num_starts = static_cast<int>(start_points.size());
   SearchOptions search;
   search.optimizer = opt;
-  search.screening_evaluations = o.start_screening_evaluations;
+  search.screening_evaluations = o.start_screening_or_default();
   search.threads = sharing_threads(o.threads, num_starts);
   search.bytes_per_start = start_bytes;
   const std::string name = estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction);

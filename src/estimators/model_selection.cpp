@@ -112,6 +112,7 @@ EstimatorOptions candidate_options(const std::string& name, const EstimatorOptio
   EstimatorOptions o = base;
   o.name = name;
   o.teacher.reset();
+  if (!o.search.restarts) o.search.restarts = 0;
   if (spec.default_estimator) o.teacher = choose_teacher(kAutomaticTeacher, o, teacher_settings);
   if (spec.family == EstimatorFamily::Lagrangian) o.search = teacher_settings.teacher_search(base.search);
   return o;

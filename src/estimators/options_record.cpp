@@ -10,7 +10,7 @@
 namespace gipdyn {
 
 nlohmann::json options_record(const EstimatorOptions& o) {
-  const SearchSettings& s = o.search;
+  const SearchSettings s = estimator_search(o.name, o.search);  // the starts the fit ran
   return {
       {"estimator", o.name},
       {"search",
@@ -19,9 +19,10 @@ nlohmann::json options_record(const EstimatorOptions& o) {
         {"lbfgs_memory", s.optimizer.lbfgs_memory},
         {"adam_learning_rate", s.optimizer.adam_learning_rate},
         {"gradient_tolerance_per_row", s.gradient_tolerance_per_row},
-        {"restarts", s.restarts},
+        {"restarts", s.restart_count()},
+        {"restart_spread", s.restart_spread_or_default()},
         {"seed", s.seed},
-        {"start_screening_evaluations", s.start_screening_evaluations},
+        {"start_screening_evaluations", s.start_screening_or_default()},
         {"hyperparameter_rows", s.hyperparameter_rows},
         {"min_noise_fraction", s.min_noise_fraction}}},
       {"gp",
@@ -52,8 +53,9 @@ nlohmann::json options_record(const EstimatorOptions& o) {
 namespace {
 
 // Reads record[group][key] (group empty: record[key]) into value where the record has it.
+// present, where given: whether the record has it.
 template <class T>
-void read(const nlohmann::json& record, const char* group, const char* key, T& value) {
+void read(const nlohmann::json& record, const char* group, const char* key, T& value, bool* present = nullptr) {
   const nlohmann::json* where = &record;
   if (*group) {
     if (!record.contains(group)) return;
@@ -62,10 +64,19 @@ void read(const nlohmann::json& record, const char* group, const char* key, T& v
   if (!where->contains(key)) return;
   try {
     value = where->at(key).get<T>();
+    if (present) *present = true;
   } catch (const nlohmann::json::exception&) {
     throw Error(std::string("the options record's ") + (*group ? std::string(group) + "." : std::string()) + key +
                 " is not of its type: " + where->at(key).dump());
   }
+}
+
+template <class T>
+void read_optional(const nlohmann::json& record, const char* group, const char* key, std::optional<T>& value) {
+  T read_value{};
+  bool present = false;
+  read(record, group, key, read_value, &present);
+  if (present) value = read_value;
 }
 
 template <class Enum>
@@ -88,9 +99,10 @@ EstimatorOptions options_from_record(const nlohmann::json& record) {
   read(record, "search", "lbfgs_memory", s.optimizer.lbfgs_memory);
   read(record, "search", "adam_learning_rate", s.optimizer.adam_learning_rate);
   read(record, "search", "gradient_tolerance_per_row", s.gradient_tolerance_per_row);
-  read(record, "search", "restarts", s.restarts);
+  read_optional(record, "search", "restarts", s.restarts);
+  read_optional(record, "search", "restart_spread", s.restart_spread);
   read(record, "search", "seed", s.seed);
-  read(record, "search", "start_screening_evaluations", s.start_screening_evaluations);
+  read_optional(record, "search", "start_screening_evaluations", s.start_screening_evaluations);
   read(record, "search", "hyperparameter_rows", s.hyperparameter_rows);
   read(record, "search", "min_noise_fraction", s.min_noise_fraction);
   read_choice(record, "gp", "scaling", o.gp.scaling, parse_output_scaling);

@@ -18,9 +18,11 @@ namespace gipdyn {
 void SearchSettings::validate() const {
   optimizer.validate();
   if (!(gradient_tolerance_per_row >= 0.0)) throw Error("SearchSettings::gradient_tolerance_per_row must be >= 0");
-  if (restarts < 0 || restarts > 1000) throw Error("SearchSettings::restarts must be between 0 and 1000");
-  if (!(restart_spread >= 0.0)) throw Error("SearchSettings::restart_spread must be >= 0");
-  if (start_screening_evaluations < 0)
+  if (restarts && (*restarts < 0 || *restarts > 1000))
+    throw Error("SearchSettings::restarts must be between 0 and 1000");
+  if (restart_spread && !(*restart_spread >= 0.0 && std::isfinite(*restart_spread)))
+    throw Error("SearchSettings::restart_spread must be finite and >= 0");
+  if (start_screening_evaluations && *start_screening_evaluations < 0)
     throw Error("SearchSettings::start_screening_evaluations must be >= 0 (0: every start runs to convergence)");
   if (hyperparameter_rows < 0) throw Error("SearchSettings::hyperparameter_rows must be >= 0 (0: all rows)");
   if (hyperparameter_rows > 0 && hyperparameter_rows < static_cast<int>(kMinTrainingRows))
@@ -37,9 +39,10 @@ std::vector<Eigen::VectorXd> restart_points(const Eigen::VectorXd& from, const S
   std::mt19937_64 rng(settings.seed * 1000003ULL + stream);
   std::normal_distribution<double> normal(0.0, 1.0);
   std::vector<Eigen::VectorXd> points;
-  for (int r = 0; r < settings.restarts; ++r) {
+  const double spread = settings.restart_spread_or_default();
+  for (int r = 0; r < settings.restart_count(); ++r) {
     Eigen::VectorXd point = from;
-    for (Eigen::Index k = 0; k < point.size(); ++k) point(k) += settings.restart_spread * normal(rng);
+    for (Eigen::Index k = 0; k < point.size(); ++k) point(k) += spread * normal(rng);
     points.push_back(point);
   }
   return points;

@@ -206,7 +206,7 @@ class JointTraining {
     SearchOptions search;
     search.optimizer = opt_;
     search.optimizer.gradient_tolerance = o_.search.gradient_tolerance_per_row * static_cast<double>(yr.size());
-    search.screening_evaluations = o_.search.start_screening_evaluations;
+    search.screening_evaluations = o_.search.start_screening_or_default();
     search.continued_starts = 1;  // the data-driven (or taught) start: restarts only add to it
     search.threads = 1;  // the joints are the parallel work
     const double side = static_cast<double>(sparse ? Zm_->rows() : yr.size());

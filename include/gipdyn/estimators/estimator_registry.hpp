@@ -6,6 +6,8 @@
 #include <string>
 #include <vector>
 
+#include "gipdyn/model/hyperparameter_search.hpp"
+
 namespace gipdyn {
 
 struct KernelSpec;
@@ -30,6 +32,14 @@ struct EstimatorSpec {
   bool kernel_method = false;
   // A predictive standard deviation beside the torque (uncertainty.hpp).
   bool predictive_variance = false;
+  // Kernel methods: the restarts of its hyperparameter search, their spread
+  // and their screening, where SearchSettings leaves them unset. An NLL with
+  // several deep optima needs restarts wider than the data-driven start's
+  // neighbourhood, each run to its end: the leader after a short budget is
+  // not the deepest (bench/RESULTS.md, "A wider restart spread").
+  int restarts = 0;
+  double restart_spread = 1.0;
+  int start_screening_evaluations = SearchSettings::kDefaultStartScreening;
   // The estimator train fits by default, and the one that teaches it by
   // default (TeacherOptions::name; fit_estimator.hpp's automatic teaching).
   bool default_estimator = false, default_teacher = false;

@@ -43,15 +43,20 @@ struct EstimatorOptions {
   // Seeds every random process of a fit: the search's starts and teacher
   // states, the network's initialisation, the chain's geometry search.
   void set_seed(std::uint64_t seed);
-  // The per-joint GPs' options: this estimator's kernel and robot prior, and
-  // search, gp, sparse, nll_backend.
+  // The per-joint GPs' options: this estimator's kernel and robot prior, its
+  // search (estimator_search), gp, sparse, nll_backend.
   TrainOptions train_options() const;
-  // lip's options: search, serial_chain, and the friction of this estimator's
+  // lip's options: its search (estimator_search), serial_chain, and the friction of this estimator's
   // row. Throws gipdyn::Error, naming the field, for a GP setting that would
   // change the model and that LIP cannot honour (a mean, a prior, a warm
   // start, inducing points, a backend).
   LagrangianOptions lagrangian_options() const;
 };
+
+// `search` with the starts it leaves unset (SearchSettings::restarts,
+// restart_spread and start_screening_evaluations) taken from the estimator table's row of `name`: the search
+// a fit of that estimator runs.
+SearchSettings estimator_search(const std::string& name, SearchSettings search);
 
 // Every option a fit of `options` reads, checked before any work: the
 // struct's own fields, then the chosen estimator's (train_options(),

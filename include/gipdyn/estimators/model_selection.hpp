@@ -71,7 +71,10 @@ struct Selection {
 // threads, seed, teacher settings): the GP's search as given; gip taught by
 // its automatic teacher (choose_teacher "auto"); lip with the search that
 // teacher has (TeacherOptions::teacher_search), so that gip's teacher is the
-// lip candidate and is scored as it, without a second fit.
+// lip candidate and is scored as it, without a second fit. Restarts only
+// where `base` gives them: a candidate's own (EstimatorSpec::restarts) would
+// multiply the choice's cost to sharpen a score that ranks held-out error, not
+// the NLL (the chosen one's refit on the whole log has the options it was scored with).
 EstimatorOptions candidate_options(const std::string& name, const EstimatorOptions& base,
                                    const TeacherOptions& teacher_settings = {});
 

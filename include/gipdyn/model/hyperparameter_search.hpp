@@ -9,6 +9,7 @@
 #include <Eigen/Dense>
 #include <cstdint>
 #include <functional>
+#include <optional>
 #include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
@@ -33,8 +34,13 @@ struct SearchSettings {
   double gradient_tolerance_per_row = 1e-5;
   // Restarts from perturbed starts (log-parameters + N(0, restart_spread^2)),
   // seeded; the run with the lowest NLL is kept (like scikit-learn's n_restarts_optimizer).
-  int restarts = 0;
-  double restart_spread = 1.0;
+  // Unset: the estimator's own (EstimatorSpec::restarts and restart_spread,
+  // filled in by EstimatorOptions), since how many optima an NLL has depends on
+  // the model; a search outside the estimator table: no restarts, spread 1.
+  std::optional<int> restarts;
+  std::optional<double> restart_spread;
+  int restart_count() const { return restarts.value_or(0); }
+  double restart_spread_or_default() const { return restart_spread.value_or(1.0); }
   std::uint64_t seed = 0;
   // Screening of the starts (SearchOptions::screening_evaluations): lip's
   // starts (three starting noises, plus restarts) and a GP joint's restarts
@@ -42,8 +48,12 @@ struct SearchSettings {
   // the lowest NLL then continues to convergence (a GP joint's unperturbed
   // start goes on too, so that its restarts never end above it). docs/results/training.md measures
   // how close the leader at this budget ends to the best of the starts run to
-  // the end. 0: every start runs to convergence.
-  int start_screening_evaluations = 60;
+  // the end. 0: every start runs to convergence. Unset: the estimator's own
+  // (EstimatorSpec::start_screening_evaluations); outside the estimator table,
+  // kDefaultStartScreening.
+  std::optional<int> start_screening_evaluations;
+  static constexpr int kDefaultStartScreening = 60;
+  int start_screening_or_default() const { return start_screening_evaluations.value_or(kDefaultStartScreening); }
   // With more rows than this, the hyperparameters are searched on a
   // constant-step subsample of this many rows, and the model is then
   // conditioned on every row: one O(N^3) factorisation (or one O(N M^2) pass
