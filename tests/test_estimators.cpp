@@ -18,6 +18,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/model_selection.hpp"
 #include "gipdyn/estimators/online_update.hpp"
+#include "gipdyn/estimators/neural_network.hpp"
 #include "gipdyn/estimators/options_record.hpp"
 #include "gipdyn/estimators/per_joint_estimator.hpp"
 #include "gipdyn/gipdyn.h"
@@ -354,6 +355,73 @@ TEST(Estimators, NeuralNetworkUsesThePapersLayerWidths) {
   NeuralNetworkOptions o;
   EXPECT_EQ(o.hidden_for(4), (std::vector<int>{400, 400}));
   EXPECT_EQ(o.hidden_for(6), (std::vector<int>{600, 600}));
+}
+
+// Early stopping keeps the weights of the epoch with the lowest loss on the held-out stretches, stops `patience`
+// epochs after it, and says so; the stored weights give that loss again, computed here from their predictions.
+TEST(Estimators, NeuralNetworkKeepsTheEpochWithTheLowestHeldOutLoss) {
+  const Split s = scara_split(0.01, 200);
+  const JointTypes j = scara_robot().joint_types();
+  NeuralNetworkOptions o;
+  o.hidden = {16, 16};
+  o.epochs = 400;
+  o.learning_rate = 1e-2;
+  o.patience = 8;
+  o.seed = 2;
+  // Three of 20 stretches of 10 rows, spread over the log: rows 30-39, 100-109 and 160-169.
+  const std::vector<bool> held_out = o.held_out_rows(s.train.X.rows());
+  std::vector<Eigen::Index> held_out_rows;
+  for (Eigen::Index r = 0; r < s.train.X.rows(); ++r)
+    if (held_out[static_cast<size_t>(r)]) held_out_rows.push_back(r);
+  ASSERT_EQ(held_out_rows.size(), 30u);
+  EXPECT_EQ(held_out_rows.front(), 30);
+  EXPECT_EQ(held_out_rows[10], 100);
+  EXPECT_EQ(held_out_rows.back(), 169);
+  const NeuralNetwork net = NeuralNetwork::train(s.train.X, s.train.tau, j, o);
+  ASSERT_LT(net.epochs_run(), o.epochs) << "the held-out loss should stop falling within the epochs on 200 rows";
+  EXPECT_EQ(net.epochs_run(), net.kept_epoch() + o.patience);
+  // The held-out loss: mean square of the held-out rows' residuals in units of each torque column's spread
+  // over every row (the network's standardisation).
+  const Eigen::MatrixXd& Y = s.train.tau;
+  const Eigen::RowVectorXd mean = Y.colwise().mean();
+  const Eigen::RowVectorXd spread = ((Y.rowwise() - mean).array().square().colwise().mean()).sqrt().matrix();
+  const Eigen::MatrixXd residual =
+      (net.predict(s.train.X(held_out_rows, Eigen::all)) - Y(held_out_rows, Eigen::all)).array().rowwise() /
+      spread.array();
+  EXPECT_NEAR(residual.array().square().mean(), net.validation_loss(), 1e-9 * net.validation_loss());
+
+  EstimatorOptions fit_options = options("nn");
+  fit_options.nn = o;
+  const FitResult fit = fit_estimator(fit_options, s.train.X, s.train.tau, j);
+  EXPECT_EQ(fit.report.status, FitStatus::Converged);
+  EXPECT_NE(fit.report.message.find("kept epoch " + std::to_string(net.kept_epoch()) + " of " +
+                                    std::to_string(net.epochs_run())),
+            std::string::npos)
+      << fit.report.message;
+  EXPECT_EQ(fit.estimator->summary().at("kept_epoch").get<int>(), net.kept_epoch());
+  // Stopped by the epoch limit while the held-out loss still fell: not converged, and the fix named.
+  fit_options.nn.epochs = 3;
+  const FitResult capped = fit_estimator(fit_options, s.train.X, s.train.tau, j);
+  EXPECT_EQ(capped.report.status, FitStatus::NotConverged);
+  EXPECT_NE(capped.report.message.find("more epochs"), std::string::npos) << capped.report.message;
+  // Without a held-out block every row trains for all the epochs.
+  fit_options.nn.validation_fraction = 0.0;
+  const FitResult every_row = fit_estimator(fit_options, s.train.X, s.train.tau, j);
+  EXPECT_EQ(every_row.report.status, FitStatus::Completed);
+  EXPECT_EQ(every_row.estimator->summary().at("epochs_run").get<int>(), 3);
+  EXPECT_FALSE(every_row.estimator->summary().contains("validation_loss"));
+  // The kept epoch and its loss survive a save.
+  const std::string path = temp_path("early_stopping.gipdyn");
+  save_estimator(*fit.estimator, path);
+  const std::unique_ptr<Estimator> back = load_estimator(path);
+  std::filesystem::remove(path);
+  EXPECT_EQ(back->summary(), fit.estimator->summary());
+  // Bad settings are one-line errors naming the field.
+  o.validation_fraction = 1.0;
+  EXPECT_NE(error_of([&] { o.validate(); }).find("NeuralNetworkOptions::validation_fraction"), std::string::npos);
+  o.validation_fraction = 0.1;
+  o.patience = 0;
+  EXPECT_NE(error_of([&] { o.validate(); }).find("NeuralNetworkOptions::patience"), std::string::npos);
 }
 
 TEST(Estimators, BadOptionsAndMissingRobotAreOneLineErrors) {
@@ -793,6 +861,8 @@ TEST(OptionsRecord, GivesBackTheOptionsAFitHad) {
   o.nn.epochs = 3;
   o.nn.batch_size = 16;
   o.nn.learning_rate = 0.005;
+  o.nn.validation_fraction = 0.3;
+  o.nn.patience = 7;
   o.nn.seed = 4;
   o.chain.starts = 5;
   o.chain.rows = 50;
@@ -806,9 +876,16 @@ TEST(OptionsRecord, GivesBackTheOptionsAFitHad) {
   EXPECT_EQ(back.gp.prior.width, 1.25);
   EXPECT_EQ(back.nn.hidden, (std::vector<int>{8, 4}));
   EXPECT_EQ(back.search.restart_spread, 0.5);
-  // An older record lacks fields: the defaults fill them.
-  EXPECT_EQ(options_record(options_from_record(nlohmann::json{{"estimator", "rbf"}})),
-            options_record([] { EstimatorOptions d; d.name = "rbf"; return d; }()));
+  EXPECT_EQ(back.nn.validation_fraction, 0.3);
+  EXPECT_EQ(back.nn.patience, 7);
+  // An older record lacks fields: the defaults fill them, but for early stopping, which a network of a record
+  // written before it existed did not have.
+  EXPECT_EQ(options_record(options_from_record(nlohmann::json{{"estimator", "rbf"}})), options_record([] {
+              EstimatorOptions d;
+              d.name = "rbf";
+              d.nn.validation_fraction = 0.0;
+              return d;
+            }()));
   EXPECT_NE(error_of([] { options_from_record(nlohmann::json{{"search", {{"restarts", "two"}}}}); })
                 .find("search.restarts is not of its type"),
             std::string::npos);

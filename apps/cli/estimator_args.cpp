@@ -156,11 +156,20 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->group(kChainOptions);
   app.add_option("--nn-hidden", nn_hidden, "nn: hidden layer widths, e.g. 400,400 (default: 400,400; 600,600 for 6+ joints)")
       ->group(kNetworkOptions);
-  app.add_option("--nn-epochs", nn.epochs, "nn: training epochs")->capture_default_str()
+  app.add_option("--nn-epochs", nn.epochs, "nn: the most training epochs (fewer where the held-out loss stops falling)")
+      ->capture_default_str()
       ->group(kNetworkOptions);
   app.add_option("--nn-batch", nn.batch_size, "nn: minibatch size")->capture_default_str()
       ->group(kNetworkOptions);
   app.add_option("--nn-lr", nn.learning_rate, "nn: Adam learning rate")->capture_default_str()
+      ->group(kNetworkOptions);
+  app.add_option("--nn-validation", nn.validation_fraction,
+                 "nn: share of the rows held out for early stopping, as stretches of consecutive rows spread over "
+                 "the log (0: train on every row for all the epochs)")
+      ->capture_default_str()
+      ->group(kNetworkOptions);
+  app.add_option("--nn-patience", nn.patience, "nn: stop after this many epochs without a lower held-out loss")
+      ->capture_default_str()
       ->group(kNetworkOptions);
 }
 
@@ -219,6 +228,8 @@ EstimatorOptions EstimatorArgs::overlay(EstimatorOptions o, const CLI::App* app)
   if (given("--nn-epochs")) o.nn.epochs = nn.epochs;
   if (given("--nn-batch")) o.nn.batch_size = nn.batch_size;
   if (given("--nn-lr")) o.nn.learning_rate = nn.learning_rate;
+  if (given("--nn-validation")) o.nn.validation_fraction = nn.validation_fraction;
+  if (given("--nn-patience")) o.nn.patience = nn.patience;
   if (!nn_hidden.empty()) o.nn.hidden = parse_int_list(nn_hidden, "--nn-hidden", "400,400");
   if (estimator_needs_robot(o.name)) o.robot_prior = robot_prior();
   return o;

@@ -52,6 +52,8 @@ const FieldNames& cli_field_names() {
       {"OptimizerOptions::adam_learning_rate", "--lr"},
       {"NeuralNetworkOptions::hidden", "--nn-hidden"},
       {"NeuralNetworkOptions::epochs", "--nn-epochs"},
+      {"NeuralNetworkOptions::validation_fraction", "--nn-validation"},
+      {"NeuralNetworkOptions::patience", "--nn-patience"},
       {"NeuralNetworkOptions::batch_size", "--nn-batch"},
       {"NeuralNetworkOptions::learning_rate", "--nn-lr"},
       {"SimulationOptions::samples", "--samples"},

@@ -165,7 +165,10 @@ nlohmann::json base_options_json(const EstimatorOptions& b, const std::vector<st
           {"nn_hidden", b.nn.hidden},
           {"nn_epochs", b.nn.epochs},
           {"nn_batch", b.nn.batch_size},
-          {"nn_lr", b.nn.learning_rate}};
+          {"nn_lr", b.nn.learning_rate},
+          // Always written: a folder from before early stopping trained its networks on every row.
+          {"nn_validation", b.nn.validation_fraction},
+          {"nn_patience", b.nn.patience}};
   // Only when set, so folders written before mean functions existed still resume.
   if (b.gp.mean != MeanKind::Zero) j["mean"] = to_string(b.gp.mean);
   if (b.sparse.inducing_points > 0) j["inducing"] = b.sparse.inducing_points;

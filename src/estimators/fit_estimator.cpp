@@ -137,8 +137,24 @@ FitResult fit_network(const EstimatorOptions& o, const Eigen::MatrixXd& X, const
     result.report.message = "nn: the training loss diverged (NaN); lower NeuralNetworkOptions::learning_rate";
     return result;
   }
+  const std::vector<bool> mask = o.nn.held_out_rows(X.rows());
+  const auto held_out = static_cast<long>(std::count(mask.begin(), mask.end(), true));
+  char line[200];
+  if (held_out == 0) {
+    result.report.status = FitStatus::Completed;  // a fixed number of epochs, with no stopping rule
+    std::snprintf(line, sizeof line, "nn: %d epochs on every row (no rows held out for early stopping)",
+                  net.epochs_run());
+  } else {
+    // Early stopping is the network's stopping rule: met where the held-out loss stopped falling before the
+    // last epoch; otherwise the network may have more to learn.
+    const bool stopped = net.epochs_run() < o.nn.epochs;
+    result.report.status = stopped ? FitStatus::Converged : FitStatus::NotConverged;
+    std::snprintf(line, sizeof line, "nn: kept epoch %d of %d, the lowest loss %.3g on the %ld rows held out%s",
+                  net.kept_epoch(), net.epochs_run(), net.validation_loss(), held_out,
+                  stopped ? "" : "; it still fell in the last NeuralNetworkOptions::patience epochs: more epochs may lower it");
+  }
+  result.report.message = line;
   result.estimator = std::make_unique<NeuralNetworkEstimator>(std::move(net));
-  result.report.status = FitStatus::Completed;  // a fixed number of epochs, with no convergence test
   return result;
 }
 

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <limits>
 #include <numeric>
 #include <random>
 
@@ -55,6 +56,23 @@ void NeuralNetworkOptions::validate() const {
   if (batch_size < 1) throw Error("NeuralNetworkOptions::batch_size must be >= 1");
   if (!(learning_rate > 0.0)) throw Error("NeuralNetworkOptions::learning_rate must be > 0");
   if (threads < 1) throw Error("NeuralNetworkOptions::threads must be >= 1");
+  if (!(validation_fraction >= 0.0 && validation_fraction < 1.0))
+    throw Error("NeuralNetworkOptions::validation_fraction must be in [0, 1) (0: no early stopping)");
+  if (patience < 1) throw Error("NeuralNetworkOptions::patience must be >= 1");
+}
+
+std::vector<bool> NeuralNetworkOptions::held_out_rows(long rows) const {
+  std::vector<bool> held_out(static_cast<size_t>(rows), false);
+  const int blocks = static_cast<int>(std::lround(validation_fraction * kTimeBlocks));
+  if (blocks < 1) return held_out;
+  long count = 0;
+  for (int b = 0; b < blocks; ++b) {
+    // Block k of kTimeBlocks, spread evenly: the middle of each of `blocks` equal parts of the log.
+    const long k = (2L * b + 1) * kTimeBlocks / (2L * blocks);
+    for (long r = k * rows / kTimeBlocks; r < (k + 1) * rows / kTimeBlocks; ++r, ++count) held_out[static_cast<size_t>(r)] = true;
+  }
+  if (count < kMinValidationRows || rows - count < kMinValidationRows) held_out.assign(held_out.size(), false);
+  return held_out;
 }
 
 std::vector<int> NeuralNetworkOptions::hidden_for(int num_joints) const {
@@ -135,14 +153,27 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
   // Row-major copies so that a batch is a contiguous block of rows.
   using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
   const RowMajor xr = Xs, yr = Ys;
-  const auto N = static_cast<int64_t>(X.rows());
-  const torch::Tensor xt = torch::from_blob(const_cast<double*>(xr.data()), {N, 3 * n}, torch::kDouble).clone();
-  const torch::Tensor yt = torch::from_blob(const_cast<double*>(yr.data()), {N, n}, torch::kDouble).clone();
+  const auto rows = static_cast<int64_t>(X.rows());
+  const torch::Tensor x_all = torch::from_blob(const_cast<double*>(xr.data()), {rows, 3 * n}, torch::kDouble).clone();
+  const torch::Tensor y_all = torch::from_blob(const_cast<double*>(yr.data()), {rows, n}, torch::kDouble).clone();
+  const std::vector<bool> held_out_mask = options.held_out_rows(rows);
+  std::vector<int64_t> training_rows, validation_rows;
+  for (int64_t r = 0; r < rows; ++r) (held_out_mask[static_cast<size_t>(r)] ? validation_rows : training_rows).push_back(r);
+  const auto held_out = static_cast<int64_t>(validation_rows.size());
+  const int64_t N = rows - held_out;
+  auto select = [](const torch::Tensor& t, std::vector<int64_t>& indices) {
+    return t.index_select(0, torch::from_blob(indices.data(), {static_cast<int64_t>(indices.size())}, torch::kLong));
+  };
+  const torch::Tensor xt = select(x_all, training_rows), yt = select(y_all, training_rows);
+  const torch::Tensor xv = held_out > 0 ? select(x_all, validation_rows) : torch::Tensor();
+  const torch::Tensor yv = held_out > 0 ? select(y_all, validation_rows) : torch::Tensor();
 
   torch::optim::Adam adam(model->parameters(), torch::optim::AdamOptions(options.learning_rate));
   std::mt19937_64 rng(options.seed);
   std::vector<int64_t> order(static_cast<size_t>(N));
   std::iota(order.begin(), order.end(), 0);
+  std::vector<torch::Tensor> kept;  // the parameters of the epoch with the lowest held-out loss
+  double best = std::numeric_limits<double>::infinity();
   for (int epoch = 1; epoch <= options.epochs; ++epoch) {
     std::shuffle(order.begin(), order.end(), rng);
     const torch::Tensor perm = torch::from_blob(order.data(), {N}, torch::kLong).clone();
@@ -156,13 +187,41 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
       adam.step();
       total += loss.item<double>() * static_cast<double>(stop - start);
     }
-    net.final_loss_ = total / static_cast<double>(N);
+    const double training_loss = total / static_cast<double>(N);
+    net.epochs_run_ = epoch;
+    bool stop = false;
+    if (held_out == 0) {
+      net.final_loss_ = training_loss;
+      net.kept_epoch_ = epoch;
+    } else {
+      torch::NoGradGuard no_grad;
+      const double validation = torch::mse_loss(model->forward(xv), yv).item<double>();
+      if (validation < best) {  // NaN never improves: a diverged run keeps its last good epoch
+        best = validation;
+        net.final_loss_ = training_loss;
+        net.validation_loss_ = validation;
+        net.kept_epoch_ = epoch;
+        kept.clear();
+        for (const auto& p : model->parameters()) kept.push_back(p.detach().clone());
+      }
+      stop = epoch - net.kept_epoch_ >= options.patience;
+    }
     if (progress) {
       ProgressEvent e;
       e.iteration = epoch;
-      e.objective = net.final_loss_;
+      e.objective = training_loss;
       e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
       progress(e);
+    }
+    if (stop) break;
+  }
+  if (held_out > 0) {
+    if (kept.empty()) {  // no epoch gave a finite held-out loss
+      net.final_loss_ = std::numeric_limits<double>::quiet_NaN();
+    } else {
+      torch::NoGradGuard no_grad;
+      const auto parameters = model->parameters();
+      for (size_t k = 0; k < parameters.size(); ++k) parameters[k].copy_(kept[k]);
     }
   }
 
@@ -223,6 +282,9 @@ void NeuralNetwork::to_container(ModelContainer& c) const {
   c.header["joints"] = joints_.str();
   c.header["layers"] = static_cast<int>(weights_.size());
   c.header["final_training_loss"] = final_loss_;
+  c.header["epochs_run"] = epochs_run_;
+  c.header["kept_epoch"] = kept_epoch_;
+  if (std::isfinite(validation_loss_)) c.header["validation_loss"] = validation_loss_;
   c.add("x_mean", x_mean_);
   c.add("x_scale", x_scale_);
   c.add("y_mean", y_mean_);
@@ -238,6 +300,9 @@ NeuralNetwork NeuralNetwork::from_container(const ModelContainer& c, const std::
   net.joints_ = JointTypes::parse(c.header.at("joints").get<std::string>());
   const int n = net.joints_.size();
   net.final_loss_ = c.header.value("final_training_loss", 0.0);
+  net.epochs_run_ = c.header.value("epochs_run", 0);  // 0: a file that did not record it
+  net.kept_epoch_ = c.header.value("kept_epoch", net.epochs_run_);
+  net.validation_loss_ = c.header.value("validation_loss", std::numeric_limits<double>::quiet_NaN());
   auto row = [&](const std::string& name, int size) -> Eigen::RowVectorXd {
     const Eigen::MatrixXd& a = c.array(name, what);
     if (a.rows() != 1 || a.cols() != size) throw Error(what + " is corrupted (shape of " + name + "); re-save the model");

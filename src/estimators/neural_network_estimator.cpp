@@ -1,4 +1,6 @@
 #include "gipdyn/estimators/neural_network_estimator.hpp"
+
+#include <cmath>
 #include "gipdyn/io/detail/model_container.hpp"
 
 namespace gipdyn {
@@ -30,7 +32,13 @@ ModelContainer NeuralNetworkEstimator::to_container() const {
 }
 
 nlohmann::json NeuralNetworkEstimator::summary() const {
-  return {{"estimator", name()}, {"weights", net_.num_weights()}, {"final_training_loss", net_.final_loss()}};
+  nlohmann::json s = {{"estimator", name()},
+                      {"weights", net_.num_weights()},
+                      {"final_training_loss", net_.final_loss()},
+                      {"epochs_run", net_.epochs_run()},
+                      {"kept_epoch", net_.kept_epoch()}};
+  if (std::isfinite(net_.validation_loss())) s["validation_loss"] = net_.validation_loss();
+  return s;
 }
 
 }  // namespace gipdyn

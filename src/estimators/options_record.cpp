@@ -41,6 +41,8 @@ nlohmann::json options_record(const EstimatorOptions& o) {
         {"epochs", o.nn.epochs},
         {"batch_size", o.nn.batch_size},
         {"learning_rate", o.nn.learning_rate},
+        {"validation_fraction", o.nn.validation_fraction},
+        {"patience", o.nn.patience},
         {"seed", o.nn.seed}}},
       {"chain",
        {{"starts", o.chain.starts},
@@ -122,6 +124,11 @@ EstimatorOptions options_from_record(const nlohmann::json& record) {
   read(record, "nn", "epochs", o.nn.epochs);
   read(record, "nn", "batch_size", o.nn.batch_size);
   read(record, "nn", "learning_rate", o.nn.learning_rate);
+  // A record without it was written before early stopping: every row trained for all the epochs.
+  bool early_stopping_recorded = false;
+  read(record, "nn", "validation_fraction", o.nn.validation_fraction, &early_stopping_recorded);
+  if (!early_stopping_recorded) o.nn.validation_fraction = 0.0;
+  read(record, "nn", "patience", o.nn.patience);
   read(record, "nn", "seed", o.nn.seed);
   read(record, "chain", "starts", o.chain.starts);
   read(record, "chain", "rows", o.chain.rows);

@@ -6,6 +6,7 @@
 // trained network is usable without libtorch.
 #include <Eigen/Dense>
 #include <cstdint>
+#include <limits>
 #include <string>
 #include <vector>
 
@@ -21,13 +22,30 @@ struct ModelContainer;
 struct NeuralNetworkOptions {
   // Hidden layer widths; empty: two layers of 400 units, 600 for robots with 6 or more joints (the paper's).
   std::vector<int> hidden;
+  // The most epochs; fewer where the held-out loss stops falling.
   int epochs = 300;
   int batch_size = 64;
   double learning_rate = 1e-3;
+  // Early stopping: this share of the rows is held out: the log cut into
+  // kTimeBlocks stretches of consecutive rows, and the nearest whole number of
+  // them held out, spread evenly over the log (where the rows are in time
+  // order: whole stretches of motion, so that neighbouring samples do not carry
+  // a held-out row's torque into training, yet inside the states the log
+  // visits, which the log's last stretch alone may leave). The network trains
+  // on the other rows and keeps the weights of the epoch with the lowest
+  // held-out loss, stopping once `patience` epochs in a row have not lowered it.
+  // 0, or fewer than kMinValidationRows rows held out or left to train on:
+  // every row trains for all the epochs.
+  double validation_fraction = 0.15;
+  int patience = 30;
+  static constexpr int kTimeBlocks = 20;
+  static constexpr int kMinValidationRows = 20;
   std::uint64_t seed = 0;
   int threads = 1;  // libtorch intra-op threads; 1 keeps results bit-reproducible
   void validate() const;  // throws gipdyn::Error naming the bad field
   std::vector<int> hidden_for(int num_joints) const;
+  // Whether each of `rows` rows is held out for early stopping (all false: none is).
+  std::vector<bool> held_out_rows(long rows) const;
 };
 
 // Whether this build can train networks (libtorch found at configure time).
@@ -49,7 +67,13 @@ class NeuralNetwork {
   void predict_one(const double* x, double* tau, Eigen::VectorXd& a, Eigen::VectorXd& b) const;
   int widest_layer() const;
   int num_weights() const;
+  // The mean training loss of the kept epoch (standardised units).
   double final_loss() const { return final_loss_; }
+  // Early stopping: the epochs run, the one whose weights were kept and its
+  // held-out loss (NaN, and the kept epoch the last, without held-out rows).
+  int epochs_run() const { return epochs_run_; }
+  int kept_epoch() const { return kept_epoch_; }
+  double validation_loss() const { return validation_loss_; }
 
   void to_container(ModelContainer& c) const;
   static NeuralNetwork from_container(const ModelContainer& c, const std::string& what);
@@ -60,6 +84,8 @@ class NeuralNetwork {
   std::vector<Eigen::MatrixXd> weights_;  // layer l: out x in
   std::vector<Eigen::VectorXd> biases_;
   double final_loss_ = 0.0;
+  int epochs_run_ = 0, kept_epoch_ = 0;
+  double validation_loss_ = std::numeric_limits<double>::quiet_NaN();
 };
 
 }  // namespace gipdyn
