@@ -23,27 +23,6 @@ std::string estimator_table_text() {
   return text;
 }
 
-static std::string screening_defaults_text() {
-  std::vector<std::string> clauses;
-  for (const EstimatorSpec& e : estimator_table())
-    if (e.kernel_method && e.start_screening_evaluations != SearchSettings::kDefaultStartScreening)
-      clauses.push_back(e.name + " " + std::to_string(e.start_screening_evaluations));
-  clauses.push_back("the others " + std::to_string(SearchSettings::kDefaultStartScreening));
-  return joined(clauses, "; ");
-}
-
-static std::string restart_defaults_text() {
-  std::vector<std::string> clauses;
-  for (const EstimatorSpec& e : estimator_table()) {
-    if (e.restarts == 0) continue;
-    char spread[32];
-    std::snprintf(spread, sizeof spread, "%g", e.restart_spread);
-    clauses.push_back(e.name + " " + std::to_string(e.restarts) + " at spread " + spread);
-  }
-  clauses.push_back("the others none");
-  return joined(clauses, "; ");
-}
-
 std::string preset_list() {
   std::vector<std::string> clauses;
   for (const std::string& name : preset_names()) {
@@ -104,7 +83,7 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->group(kGpOptions);
   app.add_option("--restarts", restarts,
                  "GP: extra optimiser runs from perturbed starts; the best NLL is kept (default: the model's own: " +
-                     restart_defaults_text() + ")")
+                     restart_defaults_summary() + ")")
       ->type_name("INT")
       ->group(kGpOptions);
   if (with_seed)
@@ -137,7 +116,7 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
   app.add_option("--start-screening", start_screening,
                  "lip (and the lip teacher), and a GP's --restarts: every start first runs at most this many NLL "
                  "evaluations, then only the one with the lowest NLL continues to convergence (0: every start runs "
-                 "to convergence; docs/training.md; default: the model's own: " + screening_defaults_text() + ")")
+                 "to convergence; docs/training.md; default: the model's own: " + start_screening_defaults_summary() + ")")
       ->type_name("INT")
       ->group(kLipOptions);
   app.add_option("--chain-starts", chain.starts,

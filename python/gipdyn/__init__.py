@@ -809,21 +809,8 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         return est
 
 
-def _restart_defaults():
-    """The table's restarts per estimator, for the docstrings: "rbf 5 at spread 2; the others none"."""
-    own = [f'{r["name"]} {r["restarts"]} at spread {r["restart_spread"]:g}' for r in _core.estimator_table() if r["restarts"]]
-    return "; ".join(own + ["the others none"])
-
-
-def _screening_defaults():
-    """The table's start screening per estimator, for the docstrings: "rbf 0; the others 60"."""
-    default = _core.SearchSettings().start_screening_or_default()
-    own = [f'{r["name"]} {r["start_screening"]}' for r in _core.estimator_table() if r["start_screening"] != default]
-    return "; ".join(own + [f"the others {default}"])
-
-
-InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace("@RESTART_DEFAULTS@", _restart_defaults()).replace(
-    "@SCREENING_DEFAULTS@", _screening_defaults()).replace(
+InverseDynamicsGP.__doc__ = InverseDynamicsGP.__doc__.replace("@RESTART_DEFAULTS@", _core.restart_defaults_summary()).replace(
+    "@SCREENING_DEFAULTS@", _core.start_screening_defaults_summary()).replace(
     "@KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"])).replace(
     "@ROBOT_KERNELS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["gp_kernel"] and r["needs_robot"]))
 
@@ -1015,7 +1002,7 @@ class InverseDynamics(_JointTorqueRegressor):
         return est
 
 
-InverseDynamics.__doc__ = InverseDynamics.__doc__.replace("@RESTART_DEFAULTS@", _restart_defaults()).replace(
+InverseDynamics.__doc__ = InverseDynamics.__doc__.replace("@RESTART_DEFAULTS@", _core.restart_defaults_summary()).replace(
     "@ESTIMATORS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table())).replace(
     "@ROBOT_ESTIMATORS@", ", ".join(f'"{r["name"]}"' for r in _core.estimator_table() if r["needs_robot"])).replace(
     "@PRESETS@", ", ".join(f'"{name}"' for name in _core.preset_names()))

@@ -890,6 +890,10 @@ void bind_fitting(py::module_& m) {
   m.def("estimator_search", &estimator_search, py::arg("name"), py::arg("search"),
         "The search a fit of estimator `name` runs: `search` with the starts it leaves unset (restarts, "
         "restart_spread, start_screening_evaluations) from the estimator table");
+  m.def("restart_defaults_summary", &restart_defaults_summary,
+        "Each estimator's own restarts where it has some, for help text: \"rbf 10 at spread 2; the others none\"");
+  m.def("start_screening_defaults_summary", &start_screening_defaults_summary,
+        "Each kernel method's own start screening where it differs from the default, for help text");
   m.def(
       "estimator_table",
       [] {

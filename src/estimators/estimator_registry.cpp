@@ -1,6 +1,7 @@
 #include "gipdyn/estimators/estimator_registry.hpp"
 
 #include <algorithm>
+#include <cstdio>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
@@ -157,6 +158,27 @@ const std::string& estimator_name(EstimatorFamily family, bool EstimatorSpec::*v
   for (const EstimatorSpec& e : estimator_table())
     if (e.family == family && (!variant || e.*variant == on)) return e.name;
   throw Error("estimator table: no row of this family and variant");
+}
+
+std::string restart_defaults_summary() {
+  std::vector<std::string> clauses;
+  for (const EstimatorSpec& e : estimator_table()) {
+    if (e.restarts == SearchSettings::kDefaultRestarts) continue;
+    char spread[32];
+    std::snprintf(spread, sizeof spread, "%g", e.restart_spread);
+    clauses.push_back(e.name + " " + std::to_string(e.restarts) + " at spread " + spread);
+  }
+  clauses.push_back("the others none");
+  return joined(clauses, "; ");
+}
+
+std::string start_screening_defaults_summary() {
+  std::vector<std::string> clauses;
+  for (const EstimatorSpec& e : estimator_table())
+    if (e.kernel_method && e.start_screening_evaluations != SearchSettings::kDefaultStartScreening)
+      clauses.push_back(e.name + " " + std::to_string(e.start_screening_evaluations));
+  clauses.push_back("the others " + std::to_string(SearchSettings::kDefaultStartScreening));
+  return joined(clauses, "; ");
 }
 
 void require_known_estimator(const std::string& name) { estimator_spec(name); }

@@ -37,8 +37,8 @@ struct EstimatorSpec {
   // several deep optima needs restarts wider than the data-driven start's
   // neighbourhood, each run to its end: the leader after a short budget is
   // not the deepest (bench/RESULTS.md, "A wider restart spread").
-  int restarts = 0;
-  double restart_spread = 1.0;
+  int restarts = SearchSettings::kDefaultRestarts;
+  double restart_spread = SearchSettings::kDefaultRestartSpread;
   int start_screening_evaluations = SearchSettings::kDefaultStartScreening;
   // The estimator train fits by default, and the one that teaches it by
   // default (TeacherOptions::name; fit_estimator.hpp's automatic teaching).
@@ -92,6 +92,12 @@ const std::string& default_teacher_name();
 // variant: the family's first row), e.g. estimator_name(EstimatorFamily::Lagrangian,
 // &EstimatorSpec::friction, true) for LIP with friction.
 const std::string& estimator_name(EstimatorFamily family, bool EstimatorSpec::*variant = nullptr, bool on = false);
+
+// The estimators' own search starts, one clause each where it differs from
+// SearchSettings' default, for help text: "rbf 10 at spread 2; the others
+// none" and "rbf 0; the others 60".
+std::string restart_defaults_summary();
+std::string start_screening_defaults_summary();
 
 // Readers of the table's columns, for valid names (else they throw as estimator_spec).
 EstimatorFamily estimator_family(const std::string& name);

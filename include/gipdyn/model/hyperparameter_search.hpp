@@ -36,11 +36,14 @@ struct SearchSettings {
   // seeded; the run with the lowest NLL is kept (like scikit-learn's n_restarts_optimizer).
   // Unset: the estimator's own (EstimatorSpec::restarts and restart_spread,
   // filled in by EstimatorOptions), since how many optima an NLL has depends on
-  // the model; a search outside the estimator table: no restarts, spread 1.
+  // the model; a search outside the estimator table: kDefaultRestarts at
+  // kDefaultRestartSpread.
   std::optional<int> restarts;
   std::optional<double> restart_spread;
-  int restart_count() const { return restarts.value_or(0); }
-  double restart_spread_or_default() const { return restart_spread.value_or(1.0); }
+  static constexpr int kDefaultRestarts = 0;
+  static constexpr double kDefaultRestartSpread = 1.0;
+  int restart_count() const { return restarts.value_or(kDefaultRestarts); }
+  double restart_spread_or_default() const { return restart_spread.value_or(kDefaultRestartSpread); }
   std::uint64_t seed = 0;
   // Screening of the starts (SearchOptions::screening_evaluations): lip's
   // starts (three starting noises, plus restarts) and a GP joint's restarts
