@@ -380,6 +380,7 @@ TEST(Estimators, NeuralNetworkKeepsTheEpochWithTheLowestHeldOutLoss) {
   const NeuralNetwork net = NeuralNetwork::train(s.train.X, s.train.tau, j, o);
   ASSERT_LT(net.epochs_run(), o.epochs) << "the held-out loss should stop falling within the epochs on 200 rows";
   EXPECT_EQ(net.epochs_run(), net.kept_epoch() + o.patience);
+  EXPECT_EQ(net.held_out_row_count(), 30);
   // The held-out loss: mean square of the held-out rows' residuals in units of each torque column's spread
   // over every row (the network's standardisation).
   const Eigen::MatrixXd& Y = s.train.tau;
@@ -398,7 +399,9 @@ TEST(Estimators, NeuralNetworkKeepsTheEpochWithTheLowestHeldOutLoss) {
                                     std::to_string(net.epochs_run())),
             std::string::npos)
       << fit.report.message;
+  EXPECT_NE(fit.report.message.find("on the 30 rows held out"), std::string::npos) << fit.report.message;
   EXPECT_EQ(fit.estimator->summary().at("kept_epoch").get<int>(), net.kept_epoch());
+  EXPECT_EQ(fit.estimator->summary().at("held_out_rows").get<long>(), 30);
   // Stopped by the epoch limit while the held-out loss still fell: not converged, and the fix named.
   fit_options.nn.epochs = 3;
   const FitResult capped = fit_estimator(fit_options, s.train.X, s.train.tau, j);
@@ -410,6 +413,7 @@ TEST(Estimators, NeuralNetworkKeepsTheEpochWithTheLowestHeldOutLoss) {
   EXPECT_EQ(every_row.report.status, FitStatus::Completed);
   EXPECT_EQ(every_row.estimator->summary().at("epochs_run").get<int>(), 3);
   EXPECT_FALSE(every_row.estimator->summary().contains("validation_loss"));
+  EXPECT_FALSE(every_row.estimator->summary().contains("held_out_rows"));
   // The kept epoch and its loss survive a save.
   const std::string path = temp_path("early_stopping.gipdyn");
   save_estimator(*fit.estimator, path);

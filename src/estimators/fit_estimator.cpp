@@ -137,8 +137,7 @@ FitResult fit_network(const EstimatorOptions& o, const Eigen::MatrixXd& X, const
     result.report.message = "nn: the training loss diverged (NaN); lower NeuralNetworkOptions::learning_rate";
     return result;
   }
-  const std::vector<bool> mask = o.nn.held_out_rows(X.rows());
-  const auto held_out = static_cast<long>(std::count(mask.begin(), mask.end(), true));
+  const long held_out = net.held_out_row_count();
   char line[200];
   if (held_out == 0) {
     result.report.status = FitStatus::Completed;  // a fixed number of epochs, with no stopping rule

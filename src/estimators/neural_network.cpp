@@ -161,6 +161,7 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
   for (int64_t r = 0; r < rows; ++r) (held_out_mask[static_cast<size_t>(r)] ? validation_rows : training_rows).push_back(r);
   const auto held_out = static_cast<int64_t>(validation_rows.size());
   const int64_t N = rows - held_out;
+  net.held_out_row_count_ = static_cast<long>(held_out);
   auto select = [](const torch::Tensor& t, std::vector<int64_t>& indices) {
     return t.index_select(0, torch::from_blob(indices.data(), {static_cast<int64_t>(indices.size())}, torch::kLong));
   };
@@ -285,6 +286,7 @@ void NeuralNetwork::to_container(ModelContainer& c) const {
   c.header["epochs_run"] = epochs_run_;
   c.header["kept_epoch"] = kept_epoch_;
   if (std::isfinite(validation_loss_)) c.header["validation_loss"] = validation_loss_;
+  if (held_out_row_count_ > 0) c.header["held_out_rows"] = held_out_row_count_;
   c.add("x_mean", x_mean_);
   c.add("x_scale", x_scale_);
   c.add("y_mean", y_mean_);
@@ -303,6 +305,7 @@ NeuralNetwork NeuralNetwork::from_container(const ModelContainer& c, const std::
   net.epochs_run_ = c.header.value("epochs_run", 0);  // 0: a file that did not record it
   net.kept_epoch_ = c.header.value("kept_epoch", net.epochs_run_);
   net.validation_loss_ = c.header.value("validation_loss", std::numeric_limits<double>::quiet_NaN());
+  net.held_out_row_count_ = c.header.value("held_out_rows", 0L);
   auto row = [&](const std::string& name, int size) -> Eigen::RowVectorXd {
     const Eigen::MatrixXd& a = c.array(name, what);
     if (a.rows() != 1 || a.cols() != size) throw Error(what + " is corrupted (shape of " + name + "); re-save the model");

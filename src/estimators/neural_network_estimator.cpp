@@ -38,6 +38,7 @@ nlohmann::json NeuralNetworkEstimator::summary() const {
                       {"epochs_run", net_.epochs_run()},
                       {"kept_epoch", net_.kept_epoch()}};
   if (std::isfinite(net_.validation_loss())) s["validation_loss"] = net_.validation_loss();
+  if (net_.held_out_row_count() > 0) s["held_out_rows"] = net_.held_out_row_count();
   return s;
 }
 

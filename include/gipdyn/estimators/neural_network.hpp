@@ -69,11 +69,13 @@ class NeuralNetwork {
   int num_weights() const;
   // The mean training loss of the kept epoch (standardised units).
   double final_loss() const { return final_loss_; }
-  // Early stopping: the epochs run, the one whose weights were kept and its
-  // held-out loss (NaN, and the kept epoch the last, without held-out rows).
+  // Early stopping: the epochs run, the one whose weights were kept, its
+  // held-out loss and the number of rows held out (NaN, the last epoch and 0
+  // without held-out rows).
   int epochs_run() const { return epochs_run_; }
   int kept_epoch() const { return kept_epoch_; }
   double validation_loss() const { return validation_loss_; }
+  long held_out_row_count() const { return held_out_row_count_; }
 
   void to_container(ModelContainer& c) const;
   static NeuralNetwork from_container(const ModelContainer& c, const std::string& what);
@@ -85,6 +87,7 @@ class NeuralNetwork {
   std::vector<Eigen::VectorXd> biases_;
   double final_loss_ = 0.0;
   int epochs_run_ = 0, kept_epoch_ = 0;
+  long held_out_row_count_ = 0;
   double validation_loss_ = std::numeric_limits<double>::quiet_NaN();
 };
 
