@@ -42,17 +42,22 @@ sys.exit(0 if d <= 1e-12 else 1)' "$a" "$b"); then
 train() {
   local out=$1
   shift
-  "$@" train --data "$work/train.csv" --model gip --teacher none --threads 1 --max-iter 40 --quiet --out "$out"
+  "$@" train --data "$work/train.csv" --model gip --teacher none --threads 1 --max-iter 15 --quiet --out "$out"
 }
 
 # This CPU's run: the reference the emulated CPUs must reproduce.
-"$gipdyn" simulate --robot scara --samples 300 --seed 5 --out "$work/train.csv" > /dev/null
+"$gipdyn" simulate --robot scara --samples 200 --seed 5 --out "$work/train.csv" > /dev/null
 train "$work/native.gipdyn" "$gipdyn" > /dev/null
 "$gipdyn" predict --model "$work/native.gipdyn" --data "$work/train.csv" --out "$work/native.csv" > /dev/null
 
 # The physics of fe models and the learned robot's forward dynamics; the rest of
 # test_physics trains GP models, minutes each under emulation.
 physics_filter='Physics.FisherianEstimatorRecoversKdlsTermsIncludingFriction:Physics.ModelsWithoutTheStructureAreRefused:ForwardDynamics.IntegratingTheTorquesReproducesTheMotion'
+# The robot tests but the trajectory's finite differences (no KDL, and most of the time), and the
+# closed loops that run KDL's dynamics in the shortest loops: a KDL call crashes on its first sample
+# where the ABI differs, so a longer loop finds nothing more.
+robot_filter='-Trajectory.*'
+closed_loop_filter='ClosedLoop.ComputedTorqueWithTheRightModelTracks:ClosedLoop.AnExternalTorqueActsThroughTheDynamicsAndNoControllerSeesIt'
 for cpu in Haswell-v4:AVX2 qemu64:SSE2; do
   model=${cpu%%:*}
   loops=${cpu##*:}
@@ -64,10 +69,10 @@ for cpu in Haswell-v4:AVX2 qemu64:SSE2; do
     exit 1
   fi
   emulated "$build/tests/test_kernels" --gtest_brief=1 --gtest_filter='FactorPairProduct.*:*GipKernel*'
-  emulated "$build/tests/test_robot" --gtest_brief=1
+  emulated "$build/tests/test_robot" --gtest_brief=1 --gtest_filter="$robot_filter"
   emulated "$build/tests/test_physics" --gtest_brief=1 --gtest_filter="$physics_filter"
-  emulated "$build/tests/test_closed_loop" --gtest_brief=1
-  emulated "$gipdyn" simulate --robot scara --samples 300 --seed 5 --out "$work/train_$model.csv" > /dev/null
+  emulated "$build/tests/test_closed_loop" --gtest_brief=1 --gtest_filter="$closed_loop_filter"
+  emulated "$gipdyn" simulate --robot scara --samples 200 --seed 5 --out "$work/train_$model.csv" > /dev/null
   same_numbers "simulate's log on $model" "$work/train.csv" "$work/train_$model.csv"
   train "$work/$model.gipdyn" emulated "$gipdyn" > /dev/null
   emulated "$gipdyn" predict --model "$work/$model.gipdyn" --data "$work/train.csv" --out "$work/$model.csv" > /dev/null
