@@ -10,7 +10,7 @@ import gipdyn
 @pytest.fixture(scope="module")
 def scara():
     train = gipdyn.simulate("scara", samples=400, dt=0.1, seed=1)
-    model = gipdyn.InverseDynamicsGP(joints="RRPR", model="gip").fit(train["X"], train["tau"])
+    model = gipdyn.InverseDynamicsGP(joints="RRPR", model="gip", teacher="none").fit(train["X"], train["tau"])
     contacts = gipdyn.simulate("scara", samples=3000, dt=0.001, seed=4, contacts=4)
     calibration = gipdyn.simulate("scara", samples=2000, dt=0.001, seed=5)
     return model, contacts, calibration
