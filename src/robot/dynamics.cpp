@@ -26,33 +26,38 @@ void check_sizes(const RobotModel& robot, const Eigen::VectorXd& q, const Eigen:
 
 Eigen::Vector3d vec(const KDL::Vector& v) { return {v.x(), v.y(), v.z()}; }
 
-// Spatial force f = I a + v x* (I v) at the frame origin, for a body with mass
-// m, first moment h = m c and inertia Io about the origin; v = (lin, ang) and
-// a = (lin, ang) as KDL twists; f = (force, torque) as a KDL wrench.
-Vector6 body_wrench(double m, const Eigen::Vector3d& h, const Eigen::Matrix3d& Io, const Eigen::Vector3d& vl,
-                    const Eigen::Vector3d& w, const Eigen::Vector3d& al, const Eigen::Vector3d& wd) {
-  const Eigen::Vector3d p_lin = m * vl - h.cross(w);   // linear momentum
-  const Eigen::Vector3d p_ang = Io * w + h.cross(vl);  // angular momentum about the origin
-  Vector6 f;
-  f.head<3>() = m * al - h.cross(wd) + w.cross(p_lin);
-  f.tail<3>() = Io * wd + h.cross(al) + w.cross(p_ang) + vl.cross(p_lin);
-  return f;
+Eigen::Matrix3d cross_matrix(const Eigen::Vector3d& v) {
+  Eigen::Matrix3d m;
+  m << 0.0, -v.z(), v.y(), v.z(), 0.0, -v.x(), -v.y(), v.x(), 0.0;
+  return m;
 }
 
-// Columns: the wrench of a body whose only non-zero standard parameter is the k-th.
+// L(v) with Io v = L(v) (Ixx, Ixy, Ixz, Iyy, Iyz, Izz) for a symmetric Io.
+Eigen::Matrix<double, 3, 6> inertia_product(const Eigen::Vector3d& v) {
+  Eigen::Matrix<double, 3, 6> L;
+  L << v.x(), v.y(), v.z(), 0.0, 0.0, 0.0,
+       0.0, v.x(), 0.0, v.y(), v.z(), 0.0,
+       0.0, 0.0, v.x(), 0.0, v.y(), v.z();
+  return L;
+}
+
+// The spatial force f = I a + v x* (I v) at the frame origin, as (force,
+// torque), is linear in the body's standard parameters (m, h = m c, and the
+// inertia Io about the origin: Ixx Ixy Ixz Iyy Iyz Izz); the columns of its
+// matrix, for v = (vl, w) and a = (al, wd) as KDL twists:
+//   force  = m (al + w x vl) + ([wd x] + [w x][w x]) h
+//   torque = [(vl x w - al) x] h + (L(wd) + [w x] L(w)) Io
+// (from force = m al - h x wd + w x (m vl - h x w) and torque = Io wd + h x al
+// + w x (Io w + h x vl) + vl x (m vl - h x w); vl x vl vanishes and
+// w x (h x vl) - vl x (h x w) = (vl x w) x h).
 Matrix6x10 body_wrench_regressor(const Eigen::Vector3d& vl, const Eigen::Vector3d& w, const Eigen::Vector3d& al,
                                  const Eigen::Vector3d& wd) {
-  Matrix6x10 A;
-  const Eigen::Matrix3d Z = Eigen::Matrix3d::Zero();
-  const Eigen::Vector3d z = Eigen::Vector3d::Zero();
-  A.col(0) = body_wrench(1.0, z, Z, vl, w, al, wd);
-  for (int k = 0; k < 3; ++k) A.col(1 + k) = body_wrench(0.0, Eigen::Vector3d::Unit(k), Z, vl, w, al, wd);
-  const int idx[6][2] = {{0, 0}, {0, 1}, {0, 2}, {1, 1}, {1, 2}, {2, 2}};  // Ixx Ixy Ixz Iyy Iyz Izz
-  for (int k = 0; k < 6; ++k) {
-    Eigen::Matrix3d E = Eigen::Matrix3d::Zero();
-    E(idx[k][0], idx[k][1]) = E(idx[k][1], idx[k][0]) = 1.0;
-    A.col(4 + k) = body_wrench(0.0, z, E, vl, w, al, wd);
-  }
+  const Eigen::Matrix3d W = cross_matrix(w);
+  Matrix6x10 A = Matrix6x10::Zero();
+  A.block<3, 1>(0, 0) = al + w.cross(vl);
+  A.block<3, 3>(0, 1) = cross_matrix(wd) + W * W;
+  A.block<3, 3>(3, 1) = cross_matrix(vl.cross(w) - al);
+  A.block<3, 6>(3, 4) = inertia_product(wd) + W * inertia_product(w);
   return A;
 }
 
