@@ -8,7 +8,6 @@
 namespace gipdyn {
 namespace {
 
-using Vector6 = Eigen::Matrix<double, 6, 1>;
 using Matrix6x10 = Eigen::Matrix<double, 6, 10>;
 
 KDL::JntArray to_jnt(const Eigen::VectorXd& v) {
