@@ -15,6 +15,7 @@
 #include "gipdyn/estimators/fit_estimator.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/estimators/physics.hpp"
+#include "gipdyn/gp/lagrangian_weight_space_nll.hpp"
 #include "gipdyn/kernels/friction_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 #include "gipdyn/kernels/lagrangian_weight_space.hpp"
@@ -262,6 +263,72 @@ TEST_P(LagrangianKernelTest, WeightSpaceMeanEqualsTheKernelSum) {
   }
 }
 
+// The weight-space likelihood against kernel space: the NLL from the (N n)^2
+// covariance and its factor, the gradient from add_gradient (itself checked
+// against finite differences above) and the noise's trace term.
+TEST_P(LagrangianKernelTest, WeightSpaceLikelihoodEqualsKernelSpace) {
+  std::mt19937_64 rng(13);
+  LagrangianKernel k = random_kernel(GetParam(), rng);
+  const int n = k.joints().size();
+  const int rows = 14;  // fewer than most feature counts: the formulas must not assume more torques
+  Eigen::MatrixXd X(rows, 3 * n);
+  for (int r = 0; r < rows; ++r) X.row(r) = random_state(n, rng).transpose();
+  std::normal_distribution<double> normal;
+  Eigen::VectorXd y(rows * n);
+  for (Eigen::Index i = 0; i < y.size(); ++i) y(i) = normal(rng);
+  if (!LagrangianWeightSpaceNll::worthwhile(k, 1000000)) {  // too many features at any size
+    EXPECT_THROW(LagrangianWeightSpaceNll(k, X, y), Error);
+    return;
+  }
+  const LagrangianWeightSpaceNll weight_space(k, X, y);
+  EXPECT_EQ(static_cast<double>(weight_space.features()), LagrangianWeightSpaceNll::feature_count(k));
+  EXPECT_EQ(LagrangianWeightSpaceNll::worthwhile(k, rows), weight_space.features() < rows * n);
+  const int P = k.num_params();
+  for (const double noise_level : {0.3, 1e-4}) {
+    Eigen::VectorXd noise(n);
+    for (int i = 0; i < n; ++i) noise(i) = noise_level * (1.0 + 0.5 * i);
+    Eigen::MatrixXd K = k.torque_covariance(X, X);
+    for (Eigen::Index r = 0; r < rows; ++r) K.diagonal().segment(r * n, n) += noise;
+    const Eigen::LLT<Eigen::MatrixXd> llt(K);
+    ASSERT_EQ(llt.info(), Eigen::Success);
+    const Eigen::VectorXd alpha = llt.solve(y);
+    const double nll = 0.5 * y.dot(alpha) + llt.matrixL().toDenseMatrix().diagonal().array().log().sum() +
+                       0.5 * static_cast<double>(y.size()) * std::log(2.0 * M_PI);
+    Eigen::MatrixXd W = llt.solve(Eigen::MatrixXd::Identity(K.rows(), K.cols()));
+    W -= alpha * alpha.transpose();
+    Eigen::VectorXd gradient = Eigen::VectorXd::Zero(P + n);
+    k.add_gradient(X, W, gradient.head(P));
+    gradient.head(P) *= 0.5;
+    for (Eigen::Index r = 0; r < rows; ++r)
+      for (int i = 0; i < n; ++i) gradient(P + i) += 0.5 * noise(i) * W(r * n + i, r * n + i);
+
+    Eigen::VectorXd weights;
+    const NllEvaluation e = weight_space.evaluate(k, noise, true, &weights);
+    ASSERT_TRUE(e.ok()) << e.message;
+    EXPECT_NEAR(e.nll, nll, 1e-9 * std::max(1.0, std::abs(nll))) << "noise " << noise_level;
+    const double scale = gradient.cwiseAbs().maxCoeff();
+    for (int p = 0; p < P + n; ++p)
+      EXPECT_NEAR(e.gradient(p), gradient(p), 1e-7 * scale)
+          << (p < P ? k.param_names()[static_cast<size_t>(p)] : "noise " + std::to_string(p - P)) << ", noise "
+          << noise_level;
+    EXPECT_LT((weights - alpha).cwiseAbs().maxCoeff(), 1e-8 * alpha.cwiseAbs().maxCoeff());
+    const NllEvaluation value_only = weight_space.evaluate(k, noise, false);
+    EXPECT_EQ(value_only.nll, e.nll);
+    EXPECT_EQ(value_only.gradient.size(), 0);
+  }
+  // A noise variance far below the kernel's scale leaves A too ill-conditioned for its rounding: refused
+  // (kernel space and its jitter take over), never a value.
+  Eigen::VectorXd tiny = Eigen::VectorXd::Constant(n, 0.3);
+  tiny(n - 1) = 1e-30;
+  const NllEvaluation refused = weight_space.evaluate(k, tiny, true);
+  EXPECT_EQ(refused.status, NllEvaluation::Status::NotPositiveDefinite) << refused.nll;
+  EXPECT_NE(refused.message.find("kernel space"), std::string::npos) << refused.message;
+  // Features belong to one structure: a kernel of other joints or without friction is refused.
+  const LagrangianKernel other(JointTypes::parse(n == 1 ? "P" : std::string(static_cast<size_t>(n), 'P')),
+                               k.has_friction(), k.serial_chain());
+  EXPECT_THROW(weight_space.evaluate(other, Eigen::VectorXd::Ones(n), false), Error);
+}
+
 INSTANTIATE_TEST_SUITE_P(Joints, LagrangianKernelTest,
                          ::testing::Values("R", "RR", "RRPR", "RPRRRR", "R+friction", "RRPR+friction", "RR+chain",
                                            "RRPR+chain", "RPRRRR+chain", "RRPR+chain+friction"));
@@ -284,6 +351,32 @@ SimulationResult small_scara(unsigned seed, int samples) {
   o.dt = 0.1;
   o.seed = seed;
   return simulate(scara_robot(), o);
+}
+
+// The weights a final fit conditions on, (K + D)^-1 y, from weight space
+// solve the system as well as a factorisation of K + D does, also where a
+// joint's torque is nearly constant and its noise tiny (a SCARA's prismatic
+// joint): D^-1 times the residual alone would miss y by orders of magnitude more.
+TEST(LagrangianWeightSpaceNll, FinalWeightsSolveTheSystemAsWellAsAFactorisation) {
+  const SimulationResult sim = small_scara(3, 300);
+  const int n = 4;
+  LagrangianKernel k(JointTypes::parse("RRPR"), true, true);
+  k.initialize(sim.X, 1.0);
+  Eigen::VectorXd y(sim.X.rows() * n);
+  for (Eigen::Index r = 0; r < sim.X.rows(); ++r)
+    for (int i = 0; i < n; ++i) y(r * n + i) = sim.tau(r, i);
+  y /= std::sqrt(y.squaredNorm() / static_cast<double>(y.size()));
+  const Eigen::VectorXd noise = Eigen::VectorXd::Constant(n, 3e-7);  // what LIP learns on such logs
+  Eigen::MatrixXd C = k.torque_covariance(sim.X, sim.X);
+  for (Eigen::Index r = 0; r < sim.X.rows(); ++r) C.diagonal().segment(r * n, n) += noise;
+  const Eigen::LLT<Eigen::MatrixXd> llt(C);
+  ASSERT_EQ(llt.info(), Eigen::Success);
+  const double factorised = (C * llt.solve(y) - y).norm();
+  ASSERT_TRUE(LagrangianWeightSpaceNll::worthwhile(k, sim.X.rows()));
+  Eigen::VectorXd alpha;
+  const NllEvaluation e = LagrangianWeightSpaceNll(k, sim.X, y).evaluate(k, noise, false, &alpha);
+  ASSERT_TRUE(e.ok()) << e.message;
+  EXPECT_LT((C * alpha - y).norm(), 3.0 * factorised + 1e-14 * y.norm()) << "factorised: " << factorised;
 }
 
 TEST(LagrangianEstimator, FitsSavesAndLoadsTheSamePredictionsAndEnergies) {

@@ -26,6 +26,7 @@
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/gp/weight_space_nll.hpp"
+#include "gipdyn/gp/lagrangian_weight_space_nll.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/gp/hyperparameter_prior.hpp"
 #include "gipdyn/gp/mean_function.hpp"
