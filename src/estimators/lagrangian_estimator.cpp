@@ -10,6 +10,7 @@
 #include "gipdyn/error.hpp"
 #include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/gp/lagrangian_weight_space_nll.hpp"
 #include "gipdyn/model/hyperparameter_search.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/parallel_tasks.hpp"
@@ -167,15 +168,27 @@ std::vector<Eigen::VectorXd> lip_start_points(const Eigen::VectorXd& x0, const O
   return starts;
 }
 
-// One start's NLL of the stacked torques y over the states X: its own kernel and workspace.
+// One start's NLL of the stacked torques y over the states X: its own kernel
+// and workspace, or the shared weight-space likelihood where there is one.
 Objective lip_objective(const LagrangianKernel& kernel, const Eigen::MatrixXd& X, const Eigen::VectorXd& y,
-                        const JitterPolicy& jitter) {
+                        const JitterPolicy& jitter, std::shared_ptr<const LagrangianWeightSpaceNll> weight_space) {
   const int P = kernel.num_params(), n = kernel.joints().size();
-  auto ws = std::make_shared<LikelihoodWorkspace>(X, y, n, jitter);
   auto trial = std::make_shared<LagrangianKernel>(kernel);
-  return [ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+  auto ws = std::make_shared<LikelihoodWorkspace>(X, y, n, jitter);  // allocates only when it evaluates
+  return [weight_space, ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
     trial->set_log_params(x.head(P));
-    const Evaluation e = ws->evaluate(*trial, x.tail(n).array().exp(), true);
+    const Eigen::VectorXd noise = x.tail(n).array().exp();
+    if (weight_space) {
+      // Where weight space is too ill-conditioned (NotPositiveDefinite), kernel space and its jitter evaluate.
+      const NllEvaluation w = weight_space->evaluate(*trial, noise, true);
+      if (w.ok() || w.status != NllEvaluation::Status::NotPositiveDefinite) {
+        if (!w.ok()) return false;
+        f = w.nll;
+        g = w.gradient;
+        return true;
+      }
+    }
+    const Evaluation e = ws->evaluate(*trial, noise, true);
     if (!e.ok) return false;
     f = e.nll;
     g = e.gradient;
@@ -241,12 +254,27 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const Eigen::MatrixXd& Yh = subsampled ? Y_subsample : Y;
   const double system = static_cast<double>(X.rows()) * n;
   const double subsystem = static_cast<double>(Xh.rows()) * n;
+  // Where the kernel has fewer features than there are torques (short chains:
+  // LagrangianWeightSpaceNll), the likelihood is evaluated in weight space,
+  // which equals kernel space up to rounding at a cost that does not grow
+  // with the rows past the features' products.
+  const LagrangianKernel structure(joints, friction, options.serial_chain);
+  const bool search_in_weight_space = LagrangianWeightSpaceNll::worthwhile(structure, Xh.rows());
+  const bool final_in_weight_space = LagrangianWeightSpaceNll::worthwhile(structure, X.rows());
   // Each start in flight holds one (H n)^2 matrix (the kernel, its factor and
-  // then its inverse in place); they are freed before the final fit's (N n)^2.
-  const double start_bytes = 8.0 * subsystem * subsystem;
-  require_memory(8.0 * std::max(system * system, subsystem * subsystem),
-                 "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints (one " +
-                     std::to_string(static_cast<long>(system)) + "-square matrix)",
+  // then its inverse in place), or in weight space a few r^2 ones; they are
+  // freed before the final fit's (N n)^2 or its features.
+  const double start_bytes = search_in_weight_space ? LagrangianWeightSpaceNll::evaluation_bytes(structure, Xh.rows())
+                                                    : 8.0 * subsystem * subsystem;
+  const double final_bytes = final_in_weight_space ? LagrangianWeightSpaceNll::bytes(structure, X.rows()) +
+                                                         LagrangianWeightSpaceNll::evaluation_bytes(structure, X.rows())
+                                                   : 8.0 * system * system;
+  const double search_bytes = search_in_weight_space ? LagrangianWeightSpaceNll::bytes(structure, Xh.rows()) + start_bytes
+                                                     : start_bytes;
+  require_memory(std::max(final_bytes, search_bytes),
+                 "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints" +
+                     (final_in_weight_space ? std::string()
+                                            : " (one " + std::to_string(static_cast<long>(system)) + "-square matrix)"),
                  subsampled ? "train on fewer rows" : "train on fewer rows, or learn the hyperparameters on a "
                                                       "subsample (SearchSettings::hyperparameter_rows) and train on "
                                                       "fewer rows");
@@ -290,6 +318,10 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   // reach the noise-explained optima show it early, while the good ones spend
   // most of their evaluations on the last few nats.
   const int num_starts = static_cast<int>(start_points.size());
+  // The starts share one weight-space likelihood: its features depend on the states alone.
+  const auto weight_space = search_in_weight_space
+                                ? std::make_shared<const LagrangianWeightSpaceNll>(kernel, Xh, yh)
+                                : std::shared_ptr<const LagrangianWeightSpaceNll>();
   SearchOptions search;
   search.optimizer = opt;
   search.screening_evaluations = o.start_screening_or_default();
@@ -297,7 +329,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   search.bytes_per_start = start_bytes;
   const std::string name = estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction);
   const SearchResult found = search_hyperparameters(
-      start_points, [&](int) { return lip_objective(kernel, Xh, yh, o.jitter); }, search,
+      start_points, [&](int) { return lip_objective(kernel, Xh, yh, o.jitter, weight_space); }, search,
       [&](int r) -> ProgressCallback {
         if (!progress) return {};
         return [&, r](const ProgressEvent& optimizer_event) {
@@ -323,10 +355,27 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   }
   kernel.set_log_params(kept.x.head(P));
   const Eigen::VectorXd noise = kept.x.tail(n).array().exp();
-  LikelihoodWorkspace final_ws(X, y, n, o.jitter);
   if (subsampled) shared.hyperparameter_rows = static_cast<long>(Xh.rows());
   shared.screening_evaluations = found.screening_evaluations;
-  const Evaluation final_fit = final_ws.evaluate(kernel, noise, false);
+  Evaluation final_fit;
+  Eigen::VectorXd alpha;
+  NllEvaluation weight_space_fit;
+  if (final_in_weight_space) weight_space_fit = LagrangianWeightSpaceNll(kernel, X, y).evaluate(kernel, noise, false, &alpha);
+  if (final_in_weight_space && weight_space_fit.status != NllEvaluation::Status::NotPositiveDefinite) {
+    final_fit.ok = weight_space_fit.ok();
+    final_fit.message = weight_space_fit.message;
+    final_fit.nll = weight_space_fit.nll;
+    final_fit.jitter = weight_space_fit.jitter;
+  } else {
+    if (final_in_weight_space)  // too ill-conditioned there: kernel space's (N n)^2 matrix after all
+      require_memory(8.0 * system * system,
+                     "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints (one " +
+                         std::to_string(static_cast<long>(system)) + "-square matrix)",
+                     "train on fewer rows");
+    LikelihoodWorkspace final_ws(X, y, n, o.jitter);
+    final_fit = final_ws.evaluate(kernel, noise, false);
+    alpha = final_ws.alpha();
+  }
   if (!final_fit.ok) {
     out.report.message = "lip: final fit failed: " + final_fit.message;
     return out;
@@ -336,7 +385,7 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   shared.seconds = seconds();
   out.report.joints = joint_reports(shared, noise, joint_variance);
   out.report.status = combine_joint_statuses(out.report.joints);
-  out.estimator = std::make_unique<LagrangianEstimator>(kernel, noise * scale * scale, scale, X, final_ws.alpha());
+  out.estimator = std::make_unique<LagrangianEstimator>(kernel, noise * scale * scale, scale, X, std::move(alpha));
   return out;
 }
 

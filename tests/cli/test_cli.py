@@ -380,13 +380,14 @@ def test_train_writes_the_teacher_and_notes_the_joints_it_fits_far_better(tmp_pa
 
 
 def test_train_by_default_learns_from_the_log_where_the_teacher_cannot_start(tmp_path, gipdyn_bin):
-    # LIP on 3500 rows of a SCARA is one 14000-square system, 1.5 GiB: more than a 1.5 GB address space leaves.
+    # LIP on 2330 rows of a 6-joint arm (13980 torques, taught by default) is one 13980-square system in kernel
+    # space (its features outnumber the torques), 1.5 GiB: more than a 1.5 GB address space leaves.
     # The teacher nobody asked for must not stop a fit GIP alone can make (it stopped train with an error).
     log = tmp_path / "log.csv"
-    assert run(gipdyn_bin, "simulate", "--robot", "scara", "--samples", "3500", "--seed", "3", "--out", str(log),
+    assert run(gipdyn_bin, "simulate", "--robot", "ur10", "--samples", "2330", "--seed", "3", "--out", str(log),
                "--quiet").returncode == 0
     out = tmp_path / "m.gipdyn"
-    command = [gipdyn_bin, "train", "--data", str(log), "--joints", "RRPR", "--max-iter", "2", "--threads", "1",
+    command = [gipdyn_bin, "train", "--data", str(log), "--joints", "RRRRRR", "--max-iter", "2", "--threads", "1",
                "--out", str(out)]
     teacher = tmp_path / "teacher.gipdyn"
     r = subprocess.run(["bash", "-c", 'ulimit -v 1500000 && exec "$@"', "bash", *command, "--teacher-out",
@@ -394,10 +395,10 @@ def test_train_by_default_learns_from_the_log_where_the_teacher_cannot_start(tmp
     assert r.returncode == 0, r.stderr
     assert f"no teacher model written to {teacher}: the teacher lip failed to fit the log" in r.stderr
     assert not teacher.exists()
-    assert "the teacher lip failed: lip on 3500 rows of 4 joints" in r.stdout and "needs about 1.5 GiB" in r.stdout
+    assert "the teacher lip failed: lip on 2330 rows of 6 joints" in r.stdout and "needs about 1.5 GiB" in r.stdout
     assert "gip learned from the log: the teacher lip failed to fit it" in r.stdout
     header = model_header(out)
-    assert header["teacher"]["outcome"] == "teacher failed" and header["num_training_samples"] == 3500
+    assert header["teacher"]["outcome"] == "teacher failed" and header["num_training_samples"] == 2330
     # Asked for by name, the teacher's failure is the command's.
     r = subprocess.run(["bash", "-c", 'ulimit -v 1500000 && exec "$@"', "bash", *command[:-2], "--teacher", "lip",
                         "--out", str(tmp_path / "named.gipdyn")], capture_output=True, text=True, timeout=300)

@@ -3,7 +3,10 @@
 // (kernels/lagrangian_kernel.hpp, docs/method.md section 11). The joints are
 // coupled through the energies, so the system is (N n) x (N n): memory and
 // time grow with n^2 and n^3 over a per-joint GP's (measured in
-// bench/RESULTS.md); train it on fewer rows.
+// bench/RESULTS.md); train it on fewer rows. On short chains (a SCARA: fewer
+// features than torques) the likelihood is evaluated and the model
+// conditioned in weight space instead (gp/lagrangian_weight_space_nll.hpp),
+// at a cost that grows only linearly with the rows.
 //
 // Besides torques it estimates the kinetic energy and the potential energy
 // (the latter up to a constant, which torques cannot identify).
