@@ -23,6 +23,7 @@
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
+#include "gipdyn/gp/lagrangian_weight_space_nll.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
 #include "gipdyn/gp/weight_space_nll.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
@@ -373,6 +374,29 @@ void BM_LipGradient(benchmark::State& state) {
                  (k.serial_chain() ? ", serial chain" : ""));
 }
 
+// One NLL + gradient evaluation of LIP in weight space (the serial chain with
+// friction, as the estimators fit it), where LagrangianWeightSpaceNll::worthwhile
+// chooses it: the SCARA. Its kernel-space counterpart is BM_LipGram plus
+// BM_LipGradient plus potrf and potri of the (N n)^2 system.
+void BM_LipWeightSpaceNll(benchmark::State& state) {
+  const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
+  const int n = p.joints.size();
+  LagrangianKernel k(p.joints, true, true);
+  k.initialize(p.X, 1.0);
+  Eigen::VectorXd y(p.X.rows() * n);
+  for (Eigen::Index r = 0; r < p.X.rows(); ++r)
+    for (int i = 0; i < n; ++i) y(r * n + i) = p.Y(r, i);
+  y /= std::sqrt(y.squaredNorm() / static_cast<double>(y.size()));
+  const LagrangianWeightSpaceNll nll(k, p.X, y);
+  const Eigen::VectorXd noise = Eigen::VectorXd::Constant(n, 1e-3);
+  for (auto _ : state) {
+    const NllEvaluation e = nll.evaluate(k, noise, true);
+    benchmark::DoNotOptimize(e.gradient.data());
+  }
+  state.SetLabel(label(static_cast<int>(state.range(0))) + " " + std::to_string(nll.features()) + " features" +
+                 (LagrangianWeightSpaceNll::worthwhile(k, p.X.rows()) ? ", chosen" : ""));
+}
+
 // One query's torques from a LIP model on N rows (weights arbitrary: the cost does not depend on them).
 void BM_LipPredictOne(benchmark::State& state) {
   const Problem& p = problem(static_cast<int>(state.range(0)), static_cast<int>(state.range(1)));
@@ -491,6 +515,7 @@ BENCHMARK(BM_AddOneSampleSparse)
     ->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_LipGram)->Apply(lip_chain_sizes);
 BENCHMARK(BM_LipGradient)->Apply(lip_chain_sizes);
+BENCHMARK(BM_LipWeightSpaceNll)->Args({4, 150})->Args({4, 300})->Args({4, 600})->Args({4, 2000})->Unit(benchmark::kMillisecond);
 BENCHMARK(BM_LipPredictOne)->Apply(lip_sizes)->Unit(benchmark::kMicrosecond);
 BENCHMARK(BM_LipQueryWeightSpace)->Apply(lip_query_chain_sizes);
 BENCHMARK(BM_LipQueryKernelSpace)->Apply(lip_query_sizes);
