@@ -316,26 +316,13 @@ TEST_P(LagrangianKernelTest, WeightSpaceLikelihoodEqualsKernelSpace) {
     EXPECT_EQ(value_only.nll, e.nll);
     EXPECT_EQ(value_only.gradient.size(), 0);
   }
-  // A noise variance far below the kernel's scale leaves A too ill-conditioned for its rounding: a jitter
-  // joins every noise variance, as kernel space adds it to the diagonal, and the NLL is that of K + D + jitter.
+  // A noise variance far below the kernel's scale leaves A too ill-conditioned for its rounding: refused
+  // (kernel space and its jitter take over), never a value.
   Eigen::VectorXd tiny = Eigen::VectorXd::Constant(n, 0.3);
   tiny(n - 1) = 1e-30;
-  const NllEvaluation jittered = weight_space.evaluate(k, tiny, true);
-  ASSERT_TRUE(jittered.ok()) << jittered.message;
-  EXPECT_GT(jittered.jitter, 0.0);
-  Eigen::MatrixXd Kj = k.torque_covariance(X, X);
-  for (Eigen::Index r = 0; r < rows; ++r)
-    Kj.diagonal().segment(r * n, n) += (tiny.array() + jittered.jitter).matrix();
-  const Eigen::LLT<Eigen::MatrixXd> jittered_llt(Kj);
-  ASSERT_EQ(jittered_llt.info(), Eigen::Success);
-  const double jittered_nll = 0.5 * y.dot(jittered_llt.solve(y)) +
-                              jittered_llt.matrixL().toDenseMatrix().diagonal().array().log().sum() +
-                              0.5 * static_cast<double>(y.size()) * std::log(2.0 * M_PI);
-  EXPECT_NEAR(jittered.nll, jittered_nll, 1e-5 * std::max(1.0, std::abs(jittered_nll)));  // both ill-conditioned
-  // Beyond the largest jitter: refused, never a value.
-  JitterPolicy none;
-  none.max_relative = 0.0;
-  EXPECT_EQ(weight_space.evaluate(k, tiny, true, nullptr, none).status, NllEvaluation::Status::NotPositiveDefinite);
+  const NllEvaluation refused = weight_space.evaluate(k, tiny, true);
+  EXPECT_EQ(refused.status, NllEvaluation::Status::NotPositiveDefinite) << refused.nll;
+  EXPECT_NE(refused.message.find("kernel space"), std::string::npos) << refused.message;
   // Features belong to one structure: a kernel of other joints or without friction is refused.
   const LagrangianKernel other(JointTypes::parse(n == 1 ? "P" : std::string(static_cast<size_t>(n), 'P')),
                                k.has_friction(), k.serial_chain());

@@ -174,19 +174,20 @@ Objective lip_objective(const LagrangianKernel& kernel, const Eigen::MatrixXd& X
                         const JitterPolicy& jitter, std::shared_ptr<const LagrangianWeightSpaceNll> weight_space) {
   const int P = kernel.num_params(), n = kernel.joints().size();
   auto trial = std::make_shared<LagrangianKernel>(kernel);
-  if (weight_space)
-    return [weight_space, trial, P, n, jitter](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
-      trial->set_log_params(x.head(P));
-      const NllEvaluation e = weight_space->evaluate(*trial, x.tail(n).array().exp(), true, nullptr, jitter);
-      if (!e.ok()) return false;
-      f = e.nll;
-      g = e.gradient;
-      return true;
-    };
-  auto ws = std::make_shared<LikelihoodWorkspace>(X, y, n, jitter);
-  return [ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+  auto ws = std::make_shared<LikelihoodWorkspace>(X, y, n, jitter);  // allocates only when it evaluates
+  return [weight_space, ws, trial, P, n](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
     trial->set_log_params(x.head(P));
     const Eigen::VectorXd noise = x.tail(n).array().exp();
+    if (weight_space) {
+      // Where weight space is too ill-conditioned (NotPositiveDefinite), kernel space and its jitter evaluate.
+      const NllEvaluation w = weight_space->evaluate(*trial, noise, true);
+      if (w.ok() || w.status != NllEvaluation::Status::NotPositiveDefinite) {
+        if (!w.ok()) return false;
+        f = w.nll;
+        g = w.gradient;
+        return true;
+      }
+    }
     const Evaluation e = ws->evaluate(*trial, noise, true);
     if (!e.ok) return false;
     f = e.nll;
@@ -358,13 +359,19 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   shared.screening_evaluations = found.screening_evaluations;
   Evaluation final_fit;
   Eigen::VectorXd alpha;
-  if (final_in_weight_space) {
-    const NllEvaluation e = LagrangianWeightSpaceNll(kernel, X, y).evaluate(kernel, noise, false, &alpha, o.jitter);
-    final_fit.ok = e.ok();
-    final_fit.message = e.message;
-    final_fit.nll = e.nll;
-    final_fit.jitter = e.jitter;
+  NllEvaluation weight_space_fit;
+  if (final_in_weight_space) weight_space_fit = LagrangianWeightSpaceNll(kernel, X, y).evaluate(kernel, noise, false, &alpha);
+  if (final_in_weight_space && weight_space_fit.status != NllEvaluation::Status::NotPositiveDefinite) {
+    final_fit.ok = weight_space_fit.ok();
+    final_fit.message = weight_space_fit.message;
+    final_fit.nll = weight_space_fit.nll;
+    final_fit.jitter = weight_space_fit.jitter;
   } else {
+    if (final_in_weight_space)  // too ill-conditioned there: kernel space's (N n)^2 matrix after all
+      require_memory(8.0 * system * system,
+                     "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints (one " +
+                         std::to_string(static_cast<long>(system)) + "-square matrix)",
+                     "train on fewer rows");
     LikelihoodWorkspace final_ws(X, y, n, o.jitter);
     final_fit = final_ws.evaluate(kernel, noise, false);
     alpha = final_ws.alpha();

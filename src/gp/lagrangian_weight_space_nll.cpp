@@ -19,10 +19,10 @@ namespace {
 constexpr double kMaxFeatures = 2000.0;
 constexpr int kMaxMonomials = 6;
 // Below this reciprocal condition number of A, the rounding of its r x r
-// products (about 1e-16 / rcond, absolute) reaches a tenth of its identity
-// part, the noise: about where kernel space's factorisation of K + D fails and
-// it adds jitter. On simulated SCARA logs a few of a fit's evaluations cross it.
-constexpr double kMinReciprocalCondition = 1e-15;
+// products (about 1e-16 / rcond, absolute) approaches its identity part, the
+// noise: kernel space, whose factorisation fails there and adds jitter, is the
+// one to evaluate. On simulated SCARA logs a few of a fit's evaluations cross it.
+constexpr double kMinReciprocalCondition = 1e-13;
 using Monomials = std::array<double, kMaxMonomials>;
 
 int factor_size(bool revolute) { return revolute ? 3 : 2; }
@@ -226,12 +226,11 @@ void LagrangianWeightSpaceNll::check_structure(const LagrangianKernel& kernel) c
                 "features");
 }
 
-NllEvaluation LagrangianWeightSpaceNll::evaluate(const LagrangianKernel& kernel, const Eigen::VectorXd& noise_in,
-                                                 bool with_gradient, Eigen::VectorXd* alpha,
-                                                 const JitterPolicy& jitter_policy) const {
+NllEvaluation LagrangianWeightSpaceNll::evaluate(const LagrangianKernel& kernel, const Eigen::VectorXd& noise,
+                                                 bool with_gradient, Eigen::VectorXd* alpha) const {
   check_structure(kernel);
   const int n = n_;
-  if (noise_in.size() != n || !(noise_in.array() > 0.0).all())
+  if (noise.size() != n || !(noise.array() > 0.0).all())
     throw Error("LagrangianWeightSpaceNll: one positive noise variance per joint expected");
   const Eigen::Index N = rows_, rE = energy_features_, r = energy_features_ + friction_features_;
   const Eigen::VectorXd& lp = kernel.log_params();
@@ -311,60 +310,40 @@ NllEvaluation LagrangianWeightSpaceNll::evaluate(const LagrangianKernel& kernel,
     }
   }
 
-  // The kernel's mean diagonal plus the noise's: the scale of the jitter, as in kernel space.
-  double mean_diagonal = 0.0;
+  // B = Phi^T D^-1 Phi (lower triangle) and b = Phi^T D^-1 y.
+  Eigen::MatrixXd B = Eigen::MatrixXd::Zero(r, r);
+  Eigen::VectorXd b = Eigen::VectorXd::Zero(r);
   for (int j = 0; j < n; ++j) {
     const auto uj = static_cast<size_t>(j);
-    mean_diagonal += gram_[uj].diagonal().dot(root_s.head(rE).cwiseAbs2()) + static_cast<double>(N) * noise_in(j);
-    if (friction_) mean_diagonal += F[uj].colwise().squaredNorm().dot(root_s.segment(rE + 4 * j, 4).cwiseAbs2());
+    const double inv = 1.0 / noise(j);
+    B.topLeftCorner(rE, rE) += inv * gram_[uj];
+    b.head(rE) += inv * phi_y_[uj];
+    if (!friction_) continue;
+    B.block(rE + 4 * j, 0, 4, rE) = inv * cross[uj].transpose();
+    B.block(rE + 4 * j, rE + 4 * j, 4, 4) = inv * F[uj].transpose() * F[uj];
+    b.segment(rE + 4 * j, 4) = inv * F[uj].transpose() * y_[uj];
   }
-  mean_diagonal /= static_cast<double>(N * n);
-
-  // B = Phi^T D^-1 Phi (lower triangle), b = Phi^T D^-1 y and A = I + S^1/2 B S^1/2, factorised in place.
-  // A >= I, so only rounding fails it: where a noise variance is so small against the kernel that rounding
-  // swamps the identity (reciprocal condition below kMinReciprocalCondition), a jitter is added to every
-  // noise variance, as kernel space adds it to the diagonal of K + D where its factorisation fails.
-  Eigen::VectorXd noise = noise_in, b(r);
-  Eigen::MatrixXd B(r, r), L;
-  bool finite = true;
-  const CholeskyResult c = factorize_with_jitter(
-      mean_diagonal,
-      [&](double jitter) {
-        noise = noise_in.array() + jitter;
-        B.setZero();
-        b.setZero();
-        for (int j = 0; j < n; ++j) {
-          const auto uj = static_cast<size_t>(j);
-          const double inv = 1.0 / noise(j);
-          B.topLeftCorner(rE, rE) += inv * gram_[uj];
-          b.head(rE) += inv * phi_y_[uj];
-          if (!friction_) continue;
-          B.block(rE + 4 * j, 0, 4, rE) = inv * cross[uj].transpose();
-          B.block(rE + 4 * j, rE + 4 * j, 4, 4) = inv * F[uj].transpose() * F[uj];
-          b.segment(rE + 4 * j, 4) = inv * F[uj].transpose() * y_[uj];
-        }
-        L = root_s.asDiagonal() * B * root_s.asDiagonal();
-        L.diagonal().array() += 1.0;
-        finite = L.allFinite();
-        if (!finite) return true;  // reported below; no jitter mends it
-        const double norm1 = L.selfadjointView<Eigen::Lower>().toDenseMatrix().cwiseAbs().colwise().sum().maxCoeff();
-        const lapack_int size = static_cast<lapack_int>(r);
-        double rcond = 0.0;
-        return LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', size, L.data(), size) == 0 &&
-               LAPACKE_dpocon(LAPACK_COL_MAJOR, 'L', size, L.data(), size, norm1, &rcond) == 0 &&
-               rcond >= kMinReciprocalCondition;
-      },
-      jitter_policy);
-  if (!finite) {
+  // A = I + S^1/2 B S^1/2, factorised in place (lower triangle).
+  Eigen::MatrixXd L = root_s.asDiagonal() * B * root_s.asDiagonal();
+  L.diagonal().array() += 1.0;
+  if (!L.allFinite()) {
     e.message = "the weight-space matrix has NaN or Inf entries (check the inputs and the hyperparameters)";
     return e;
   }
-  if (!c.ok()) {
+  const double norm1 = L.selfadjointView<Eigen::Lower>().toDenseMatrix().cwiseAbs().colwise().sum().maxCoeff();
+  const lapack_int size = static_cast<lapack_int>(r);
+  double rcond = 0.0;
+  if (LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', size, L.data(), size) != 0 ||
+      LAPACKE_dpocon(LAPACK_COL_MAJOR, 'L', size, L.data(), size, norm1, &rcond) != 0 ||
+      !(rcond >= kMinReciprocalCondition)) {
+    // A >= I, so only rounding fails it: where a noise variance is so small
+    // against the kernel that rounding swamps the identity, kernel space's
+    // jitter is what keeps the factorisation meaningful.
     e.status = NllEvaluation::Status::NotPositiveDefinite;
-    e.message = c.message;
+    e.message = "the weight-space matrix is too ill-conditioned (a noise variance far below the kernel's scale); "
+                "evaluate in kernel space";
     return e;
   }
-  e.jitter = c.jitter;
   Eigen::VectorXd m = root_s.cwiseProduct(b);
   cholesky_solve(L, m);
   const Eigen::VectorXd v = root_s.cwiseProduct(m);  // the posterior mean of the features' weights
@@ -479,9 +458,7 @@ NllEvaluation LagrangianWeightSpaceNll::evaluate(const LagrangianKernel& kernel,
     if (friction_)
       trace += 2.0 * A_scaled.block(rE + 4 * j, 0, 4, rE).cwiseProduct(cross[uj].transpose()).sum() +
                A_scaled.block(rE + 4 * j, rE + 4 * j, 4, 4).cwiseProduct(F[uj].transpose() * F[uj]).sum();
-    // d (K + D + jitter) / d log sigma_j^2 is sigma_j^2 (not the jittered variance) on joint j's diagonal.
-    e.gradient(P + j) = 0.5 * noise_in(j) / noise(j) *
-                        (static_cast<double>(N) - (trace + residual[uj].squaredNorm()) / noise(j));
+    e.gradient(P + j) = 0.5 * (static_cast<double>(N) - (trace + residual[uj].squaredNorm()) / noise(j));
   }
 
   // Friction's velocities move its features psi_k = d phi_k / d theta:

@@ -28,7 +28,6 @@
 #include <vector>
 
 #include "gipdyn/eigen_abi.hpp"
-#include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/lagrangian_kernel.hpp"
 
@@ -57,13 +56,11 @@ class LagrangianWeightSpaceNll {
   // joint), the order of LIP's search. alpha (optional): (K + noise)^-1 y,
   // sample-major, the kernel-space weights of the posterior mean. The kernel
   // must have the structure of the one given to the constructor.
-  // Where A is too ill-conditioned for its rounding (a noise variance far
-  // below the kernel's scale), a jitter is added to every noise variance, as
-  // kernel space adds one to its diagonal (JitterPolicy's steps, relative to
-  // the mean diagonal of K + D; the evaluation's jitter says which), and
-  // NotPositiveDefinite beyond the largest.
+  // NotPositiveDefinite where A is too ill-conditioned for its rounding (a
+  // noise variance far below the kernel's scale): evaluate in kernel space,
+  // whose jitter handles it.
   NllEvaluation evaluate(const LagrangianKernel& kernel, const Eigen::VectorXd& noise, bool with_gradient,
-                         Eigen::VectorXd* alpha = nullptr, const JitterPolicy& jitter = {}) const;
+                         Eigen::VectorXd* alpha = nullptr) const;
 
   Eigen::Index features() const { return energy_features_ + friction_features_; }
 
