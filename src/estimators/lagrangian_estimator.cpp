@@ -196,6 +196,37 @@ Objective lip_objective(const LagrangianKernel& kernel, const Eigen::MatrixXd& X
   };
 }
 
+// Where LIP's likelihood on `rows` states is evaluated, and what it costs in
+// memory. Weight space (LagrangianWeightSpaceNll) is used where the kernel has
+// fewer features than there are torques; it equals kernel space up to
+// rounding at a cost that does not grow with the rows past the features'
+// products. Kernel space holds nothing between evaluations, and each
+// evaluation one (rows n)^2 matrix (the kernel, its factor and then its
+// inverse in place).
+struct LikelihoodSpace {
+  bool weight_space = false;
+  double held_bytes = 0.0;        // the features and their products, shared by the starts
+  double evaluation_bytes = 0.0;  // one evaluation in flight
+  double total_bytes() const { return held_bytes + evaluation_bytes; }
+};
+
+double kernel_space_bytes(Eigen::Index rows, int joints) {
+  const double system = static_cast<double>(rows) * joints;
+  return 8.0 * system * system;
+}
+
+LikelihoodSpace likelihood_space(const LagrangianKernel& structure, Eigen::Index rows) {
+  LikelihoodSpace space;
+  space.weight_space = LagrangianWeightSpaceNll::worthwhile(structure, rows);
+  if (space.weight_space) {
+    space.held_bytes = LagrangianWeightSpaceNll::bytes(structure, rows);
+    space.evaluation_bytes = LagrangianWeightSpaceNll::evaluation_bytes(structure, rows);
+  } else {
+    space.evaluation_bytes = kernel_space_bytes(rows, structure.joints().size());
+  }
+  return space;
+}
+
 // The one coupled fit's report, per joint, with each joint's noise as a share
 // of its torque variance, as for GP joints.
 std::vector<JointReport> joint_reports(const JointReport& shared, const Eigen::VectorXd& noise,
@@ -252,29 +283,16 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   const Eigen::MatrixXd Y_subsample = subsampled ? Eigen::MatrixXd(Y(rows, Eigen::all)) : Eigen::MatrixXd();
   const Eigen::MatrixXd& Xh = subsampled ? X_subsample : X;
   const Eigen::MatrixXd& Yh = subsampled ? Y_subsample : Y;
-  const double system = static_cast<double>(X.rows()) * n;
-  const double subsystem = static_cast<double>(Xh.rows()) * n;
-  // Where the kernel has fewer features than there are torques (short chains:
-  // LagrangianWeightSpaceNll), the likelihood is evaluated in weight space,
-  // which equals kernel space up to rounding at a cost that does not grow
-  // with the rows past the features' products.
   const LagrangianKernel structure(joints, friction, options.serial_chain);
-  const bool search_in_weight_space = LagrangianWeightSpaceNll::worthwhile(structure, Xh.rows());
-  const bool final_in_weight_space = LagrangianWeightSpaceNll::worthwhile(structure, X.rows());
-  // Each start in flight holds one (H n)^2 matrix (the kernel, its factor and
-  // then its inverse in place), or in weight space a few r^2 ones; they are
-  // freed before the final fit's (N n)^2 or its features.
-  const double start_bytes = search_in_weight_space ? LagrangianWeightSpaceNll::evaluation_bytes(structure, Xh.rows())
-                                                    : 8.0 * subsystem * subsystem;
-  const double final_bytes = final_in_weight_space ? LagrangianWeightSpaceNll::bytes(structure, X.rows()) +
-                                                         LagrangianWeightSpaceNll::evaluation_bytes(structure, X.rows())
-                                                   : 8.0 * system * system;
-  const double search_bytes = search_in_weight_space ? LagrangianWeightSpaceNll::bytes(structure, Xh.rows()) + start_bytes
-                                                     : start_bytes;
-  require_memory(std::max(final_bytes, search_bytes),
-                 "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints" +
-                     (final_in_weight_space ? std::string()
-                                            : " (one " + std::to_string(static_cast<long>(system)) + "-square matrix)"),
+  const LikelihoodSpace search_space = likelihood_space(structure, Xh.rows());
+  const LikelihoodSpace final_space = likelihood_space(structure, X.rows());
+  // What a fit on every row needs, in the words of its memory errors.
+  const std::string kernel_space_matrix =
+      " (one " + std::to_string(static_cast<long>(X.rows()) * n) + "-square matrix)";
+  const std::string what = "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints";
+  // The starts' evaluations are freed before the final fit's.
+  require_memory(std::max(final_space.total_bytes(), search_space.total_bytes()),
+                 what + (final_space.weight_space ? std::string() : kernel_space_matrix),
                  subsampled ? "train on fewer rows" : "train on fewer rows, or learn the hyperparameters on a "
                                                       "subsample (SearchSettings::hyperparameter_rows) and train on "
                                                       "fewer rows");
@@ -319,14 +337,14 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   // most of their evaluations on the last few nats.
   const int num_starts = static_cast<int>(start_points.size());
   // The starts share one weight-space likelihood: its features depend on the states alone.
-  const auto weight_space = search_in_weight_space
+  const auto weight_space = search_space.weight_space
                                 ? std::make_shared<const LagrangianWeightSpaceNll>(kernel, Xh, yh)
                                 : std::shared_ptr<const LagrangianWeightSpaceNll>();
   SearchOptions search;
   search.optimizer = opt;
   search.screening_evaluations = o.start_screening_or_default();
   search.threads = sharing_threads(o.threads, num_starts);
-  search.bytes_per_start = start_bytes;
+  search.bytes_per_start = search_space.evaluation_bytes;
   const std::string name = estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction);
   const SearchResult found = search_hyperparameters(
       start_points, [&](int) { return lip_objective(kernel, Xh, yh, o.jitter, weight_space); }, search,
@@ -360,18 +378,20 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   Evaluation final_fit;
   Eigen::VectorXd alpha;
   NllEvaluation weight_space_fit;
-  if (final_in_weight_space) weight_space_fit = LagrangianWeightSpaceNll(kernel, X, y).evaluate(kernel, noise, false, &alpha);
-  if (final_in_weight_space && weight_space_fit.status != NllEvaluation::Status::NotPositiveDefinite) {
+  if (final_space.weight_space) {
+    // Without a subsample the search's likelihood is the final fit's.
+    const auto final_weight_space =
+        subsampled ? std::make_shared<const LagrangianWeightSpaceNll>(kernel, X, y) : weight_space;
+    weight_space_fit = final_weight_space->evaluate(kernel, noise, false, &alpha);
+  }
+  if (final_space.weight_space && weight_space_fit.status != NllEvaluation::Status::NotPositiveDefinite) {
     final_fit.ok = weight_space_fit.ok();
     final_fit.message = weight_space_fit.message;
     final_fit.nll = weight_space_fit.nll;
     final_fit.jitter = weight_space_fit.jitter;
   } else {
-    if (final_in_weight_space)  // too ill-conditioned there: kernel space's (N n)^2 matrix after all
-      require_memory(8.0 * system * system,
-                     "lip on " + std::to_string(X.rows()) + " rows of " + std::to_string(n) + " joints (one " +
-                         std::to_string(static_cast<long>(system)) + "-square matrix)",
-                     "train on fewer rows");
+    if (final_space.weight_space)  // too ill-conditioned there: kernel space's (N n)^2 matrix after all
+      require_memory(kernel_space_bytes(X.rows(), n), what + kernel_space_matrix, "train on fewer rows");
     LikelihoodWorkspace final_ws(X, y, n, o.jitter);
     final_fit = final_ws.evaluate(kernel, noise, false);
     alpha = final_ws.alpha();
