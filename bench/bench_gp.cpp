@@ -13,6 +13,7 @@
 #include <cstdio>
 #include <filesystem>
 #include <map>
+#include <random>
 #include <string>
 #include <tuple>
 #include <vector>
@@ -22,6 +23,7 @@
 #include "gipdyn/gipdyn.h"
 #include "gipdyn/model/model_file.hpp"
 #include "gipdyn/estimators/lagrangian_estimator.hpp"
+#include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/gp/lagrangian_weight_space_nll.hpp"
 #include "gipdyn/gp/sparse_gp.hpp"
@@ -209,6 +211,32 @@ void BM_PotrfPotri(benchmark::State& state) {
     benchmark::DoNotOptimize(K.data());
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) + " floor");
+}
+
+// One Cholesky factorisation of a well-conditioned N x N matrix: LAPACK's
+// potrf on one thread (threads 0 in the label's place: -1) against
+// cholesky_in_place's tiles on 1 and 2 threads (gp/cholesky.hpp). The
+// matrix is a random one, A A^T / N + I: the factorisation's cost does not
+// depend on the kernel.
+void BM_Cholesky(benchmark::State& state) {
+  use_single_threaded_blas();
+  const int N = static_cast<int>(state.range(0)), threads = static_cast<int>(state.range(1));
+  std::mt19937_64 rng(1);
+  std::normal_distribution<double> normal;
+  Eigen::MatrixXd A(N, 256);
+  for (Eigen::Index k = 0; k < A.size(); ++k) A.data()[k] = normal(rng);
+  Eigen::MatrixXd K0 = A * A.transpose() / 256.0, K;
+  K0.diagonal().array() += 1.0;
+  for (auto _ : state) {
+    state.PauseTiming();
+    K = K0;
+    state.ResumeTiming();
+    const bool ok = threads < 0 ? LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', N, K.data(), N) == 0
+                                : cholesky_in_place(K, threads);
+    if (!ok) state.SkipWithError("not positive definite");
+    benchmark::DoNotOptimize(K.data());
+  }
+  state.SetLabel(threads < 0 ? "LAPACK potrf" : "tiles on " + std::to_string(threads) + " thread(s)");
 }
 
 const InverseDynamicsModel& quick_model(int robot, int N, const std::string& kernel = "gip") {
@@ -502,6 +530,11 @@ BENCHMARK(BM_NllGradientGipEnvelope)->Apply(sizes);
 BENCHMARK(BM_NllGradientGipEnvelopeFriction)->Apply(sizes);
 BENCHMARK(BM_NllWeights)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
+BENCHMARK(BM_Cholesky)
+    ->ArgsProduct({{2048, 4096, 8192, 12000}, {-1, 1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime();
 BENCHMARK(BM_NllGradientPpExact)->Apply(sizes);
 BENCHMARK(BM_NllGradientSp)->Apply(sizes);
 BENCHMARK(BM_NllGradientPpWeightSpace)->Apply(sizes)->Unit(benchmark::kMicrosecond);

@@ -2,9 +2,13 @@
 // jitter fallback of the Cholesky factorisation.
 #include <gtest/gtest.h>
 
+#include <lapacke.h>
+
 #include <cmath>
+#include <vector>
 
 #include "gipdyn/features.hpp"
+#include "gipdyn/gp/cholesky.hpp"
 #include "gipdyn/gp/exact_gp.hpp"
 #include "gipdyn/kernels/kernel_factory.hpp"
 #include "gipdyn/robot/robot_loader.hpp"
@@ -153,6 +157,39 @@ TEST(Cholesky, FailsWithAClearMessageBeyondTheBound) {
   N(1, 0) = std::nan("");
   const CholeskyResult rn = cholesky_with_jitter(N, [&](Eigen::MatrixXd&) {});
   EXPECT_EQ(rn.status, CholeskyResult::Status::NonFinite);
+}
+
+// A large matrix is factorised tile by tile on several threads: the factor
+// is the same bit for bit on 1, 2 and 3 threads, equals LAPACK's potrf up to
+// rounding (an independent factorisation of the same matrix), leaves the
+// upper triangle alone, and an indefinite matrix is refused.
+TEST(Cholesky, LargeMatricesGetTheSameFactorOnAnyNumberOfThreads) {
+  const Eigen::Index n = 2500;  // past the tiled threshold, and not a whole number of tiles
+  const Eigen::MatrixXd A = Eigen::MatrixXd::NullaryExpr(n, 200, [](Eigen::Index i, Eigen::Index j) {
+    const double k = static_cast<double>(i * 200 + j + 1);
+    return std::sin(0.37 * k) + 0.1 * std::cos(2.9 * k);
+  });
+  Eigen::MatrixXd S = A * A.transpose() / 200.0;
+  S.diagonal().array() += 1e-3;
+  std::vector<Eigen::MatrixXd> factors;
+  for (int threads : {1, 2, 3}) {
+    Eigen::MatrixXd K = S;
+    ASSERT_TRUE(cholesky_in_place(K, threads));
+    EXPECT_EQ(K.triangularView<Eigen::StrictlyUpper>().toDenseMatrix(),
+              S.triangularView<Eigen::StrictlyUpper>().toDenseMatrix());
+    factors.push_back(K.triangularView<Eigen::Lower>());
+  }
+  EXPECT_EQ(factors[0], factors[1]);
+  EXPECT_EQ(factors[0], factors[2]);
+  Eigen::MatrixXd lapack = S;
+  ASSERT_EQ(LAPACKE_dpotrf(LAPACK_COL_MAJOR, 'L', static_cast<lapack_int>(n), lapack.data(), static_cast<lapack_int>(n)), 0);
+  const Eigen::MatrixXd reference = lapack.triangularView<Eigen::Lower>();
+  EXPECT_LT((factors[0] - reference).cwiseAbs().maxCoeff(), 1e-9 * reference.cwiseAbs().maxCoeff());
+  EXPECT_LT((factors[0] * factors[0].transpose() - S).norm(), 1e-12 * S.norm());
+
+  Eigen::MatrixXd indefinite = S;
+  indefinite(n - 10, n - 10) = -1.0;  // in the last tile: every earlier step succeeds
+  EXPECT_FALSE(cholesky_in_place(indefinite, 2));
 }
 
 TEST(ExactGp, NllReportsFailureInsteadOfThrowing) {

@@ -26,7 +26,15 @@ struct CholeskyResult {
 };
 
 // Factorises the symmetric matrix whose lower triangle is in K into K = L L^T
-// in place (lower triangle). If LAPACK's potrf fails, rebuild(K) restores the
+// in place (lower triangle); false where it is not positive definite. From
+// 2048 rows on, tile by tile on `threads` threads (0: the machine's), each
+// tile by the same single-threaded BLAS call whichever thread runs it, so the
+// factor is the same for every thread count; smaller matrices are one LAPACK
+// potrf.
+bool cholesky_in_place(Eigen::MatrixXd& K, int threads = 0);
+
+// Factorises the symmetric matrix whose lower triangle is in K into K = L L^T
+// in place (lower triangle), by cholesky_in_place. If LAPACK's potrf fails, rebuild(K) restores the
 // lower triangle and the factorisation is retried with growing jitter.
 CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
                                     const JitterPolicy& policy = {});
