@@ -1,53 +1,94 @@
 #include "gipdyn/estimators/neural_network.hpp"
 
+#include <dlfcn.h>
+
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdlib>
+#include <filesystem>
 #include <limits>
-#include <numeric>
-#include <random>
+#include <string>
+#include <vector>
 
 #include "gipdyn/detail/blas_threads.hpp"
 #include "gipdyn/error.hpp"
+#include "gipdyn/estimators/detail/neural_network_plugin.hpp"
+#include "gipdyn/io/detail/model_container.hpp"
 #include "gipdyn/memory.hpp"
 #include "gipdyn/training_data.hpp"
 
-#ifdef GIPDYN_HAVE_TORCH
-#include <ATen/CPUGeneratorImpl.h>
-#include <torch/torch.h>
-#include "gipdyn/io/detail/model_container.hpp"
-#endif
-
 namespace gipdyn {
 
-#ifdef GIPDYN_HAVE_TORCH
 namespace {
 
-// Each fit draws its initial weights from a generator of its own. Seeding
-// libtorch's global generator instead made fits running on other threads at
-// the same time draw from one stream, so their weights depended on which
-// thread drew first. The draws are libtorch's own default initialisation
-// (Linear::reset_parameters: kaiming_uniform_ with a = sqrt(5) for the weight,
-// U(-1/sqrt(fan_in), 1/sqrt(fan_in)) for the bias), in its order and at its
-// single precision, so that a seed gives the network it always gave.
-void draw_initial_weights(torch::nn::Sequential& model, std::uint64_t seed) {
-  at::Generator generator = at::detail::createCPUGenerator(seed);
-  torch::NoGradGuard no_grad;
-  const double a = std::sqrt(5.0);
-  const double gain = std::sqrt(2.0 / (1 + std::pow(a, 2)));
-  for (const auto& module : model->children()) {
-    auto* linear = module->as<torch::nn::Linear>();
-    if (!linear) continue;
-    const int64_t fan_in = linear->weight.size(1);
-    const double weight_bound = std::sqrt(3.0) * (gain / std::sqrt(fan_in));
-    linear->weight.uniform_(-weight_bound, weight_bound, generator);
-    const double bias_bound = 1 / std::sqrt(fan_in);
-    linear->bias.uniform_(-bias_bound, bias_bound, generator);
-  }
+// The libtorch plugin, opened once per process the first time it is needed:
+// GIPDYN_TORCH_PLUGIN where set, else the first found of the one installed
+// beside this code, the build tree's and the one at the configured prefix.
+struct NetworkPlugin {
+  GipdynTrainNetwork train = nullptr;
+  std::string error;  // why there is none
+};
+
+const NetworkPlugin& network_plugin() {
+  static const NetworkPlugin plugin = [] {
+    NetworkPlugin p;
+#ifndef GIPDYN_HAVE_TORCH
+    p.error = "this gipdyn was built without libtorch, so it cannot train the nn estimator; install libtorch-dev "
+              "(scripts/install-deps.sh) and rebuild";
+#else
+    std::vector<std::string> candidates;
+    if (const char* path = std::getenv("GIPDYN_TORCH_PLUGIN"); path && *path) {
+      candidates.push_back(path);
+    } else {
+      // Beside the program or library this code was linked into, where an
+      // installation put both (PREFIX/bin or PREFIX/LIBDIR, and
+      // PREFIX/LIBDIR/gipdyn), wherever the prefix was chosen at install time.
+      Dl_info self{};
+      std::filesystem::path object;
+      if (dladdr(reinterpret_cast<void*>(&network_plugin), &self) && self.dli_fname &&
+          std::string(self.dli_fname).find('/') != std::string::npos)
+        object = self.dli_fname;
+      else
+        object = "/proc/self/exe";
+      std::error_code ec;
+      const std::filesystem::path resolved = std::filesystem::canonical(object, ec);
+      if (!ec)
+        candidates.push_back((resolved.parent_path().parent_path() / GIPDYN_INSTALL_LIBDIR / "gipdyn" /
+                              GIPDYN_TORCH_PLUGIN_NAME).string());
+      candidates.push_back(GIPDYN_TORCH_PLUGIN_BUILD);
+      candidates.push_back(GIPDYN_TORCH_PLUGIN_INSTALLED);
+    }
+    std::string tried;
+    for (const std::string& path : candidates) {
+      if (!std::filesystem::exists(path)) {
+        tried += (tried.empty() ? "" : ", ") + path + " (missing)";
+        continue;
+      }
+      void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
+      if (!handle) {
+        const char* why = dlerror();
+        tried += (tried.empty() ? "" : ", ") + path + " (" + (why ? why : "cannot be opened") + ")";
+        continue;
+      }
+      auto abi = reinterpret_cast<GipdynNetworkPluginAbi>(dlsym(handle, "gipdyn_network_plugin_abi"));
+      auto train = reinterpret_cast<GipdynTrainNetwork>(dlsym(handle, "gipdyn_train_network"));
+      if (!abi || !train || abi() != GIPDYN_NETWORK_PLUGIN_ABI) {
+        tried += (tried.empty() ? "" : ", ") + path + " (from another version of gipdyn)";
+        continue;  // the handle stays open: unloading libtorch is not safe
+      }
+      p.train = train;
+      return p;
+    }
+    p.error = "the nn estimator's libtorch plugin could not be loaded: " + tried +
+              "; reinstall gipdyn, or set GIPDYN_TORCH_PLUGIN to the path of libgipdyn_torch.so";
+#endif
+    return p;
+  }();
+  return plugin;
 }
 
 }  // namespace
-#endif
 
 void NeuralNetworkOptions::validate() const {
   for (int h : hidden)
@@ -81,13 +122,7 @@ std::vector<int> NeuralNetworkOptions::hidden_for(int num_joints) const {
   return {width, width};
 }
 
-bool neural_network_training_available() {
-#ifdef GIPDYN_HAVE_TORCH
-  return true;
-#else
-  return false;
-#endif
-}
+bool neural_network_training_available() { return network_plugin().train != nullptr; }
 
 namespace {
 
@@ -119,123 +154,74 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
     require_memory(8.0 * (4.0 * weights + 3.0 * activations), "a network of this shape",
                    "use narrower layers (NeuralNetworkOptions::hidden) or smaller batches");
   }
-#ifndef GIPDYN_HAVE_TORCH
-  (void)progress;
-  throw Error("this gipdyn was built without libtorch, so it cannot train the nn estimator; "
-              "install libtorch-dev (scripts/install-deps.sh) and rebuild");
-#else
+  const NetworkPlugin& plugin = network_plugin();
+  if (!plugin.train) throw Error(plugin.error);
   NeuralNetwork net;
   net.joints_ = joints;
   standardisation(X, net.x_mean_, net.x_scale_);
   standardisation(Y, net.y_mean_, net.y_scale_);
-  const Eigen::MatrixXd Xs = ((X.rowwise() - net.x_mean_).array().rowwise() / net.x_scale_.array()).matrix();
-  const Eigen::MatrixXd Ys = ((Y.rowwise() - net.y_mean_).array().rowwise() / net.y_scale_.array()).matrix();
+  // Row-major copies so that a batch is a contiguous block of rows.
+  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
+  const RowMajor xr = ((X.rowwise() - net.x_mean_).array().rowwise() / net.x_scale_.array()).matrix();
+  const RowMajor yr = ((Y.rowwise() - net.y_mean_).array().rowwise() / net.y_scale_.array()).matrix();
+  const std::vector<bool> held_out_mask = options.held_out_rows(static_cast<long>(X.rows()));
+  std::vector<long long> training_rows, validation_rows;
+  for (long long r = 0; r < static_cast<long long>(X.rows()); ++r)
+    (held_out_mask[static_cast<size_t>(r)] ? validation_rows : training_rows).push_back(r);
+  net.held_out_row_count_ = static_cast<long>(validation_rows.size());
+  const std::vector<int> hidden = options.hidden_for(n);
 
-  const auto t0 = std::chrono::steady_clock::now();
-  torch::set_num_threads(options.threads);
   // libtorch's products run in the OpenBLAS gipdyn links, whose default thread
   // count is the machine's: the trained weights would then differ in the last
   // digits from one machine to another, against the rule that a seed gives
   // the same model everywhere.
   use_single_threaded_blas();
-  const std::vector<int> hidden = options.hidden_for(n);
-  torch::nn::Sequential model;
-  int width = 3 * n;
-  for (int h : hidden) {
-    model->push_back(torch::nn::Linear(width, h));
-    model->push_back(torch::nn::Sigmoid());
-    width = h;
-  }
-  model->push_back(torch::nn::Linear(width, n));
-  draw_initial_weights(model, options.seed);
-  model->to(torch::kDouble);
-
-  // Row-major copies so that a batch is a contiguous block of rows.
-  using RowMajor = Eigen::Matrix<double, Eigen::Dynamic, Eigen::Dynamic, Eigen::RowMajor>;
-  const RowMajor xr = Xs, yr = Ys;
-  const auto rows = static_cast<int64_t>(X.rows());
-  const torch::Tensor x_all = torch::from_blob(const_cast<double*>(xr.data()), {rows, 3 * n}, torch::kDouble).clone();
-  const torch::Tensor y_all = torch::from_blob(const_cast<double*>(yr.data()), {rows, n}, torch::kDouble).clone();
-  const std::vector<bool> held_out_mask = options.held_out_rows(rows);
-  std::vector<int64_t> training_rows, validation_rows;
-  for (int64_t r = 0; r < rows; ++r) (held_out_mask[static_cast<size_t>(r)] ? validation_rows : training_rows).push_back(r);
-  const auto held_out = static_cast<int64_t>(validation_rows.size());
-  const int64_t N = rows - held_out;
-  net.held_out_row_count_ = static_cast<long>(held_out);
-  auto select = [](const torch::Tensor& t, std::vector<int64_t>& indices) {
-    return t.index_select(0, torch::from_blob(indices.data(), {static_cast<int64_t>(indices.size())}, torch::kLong));
+  struct Context {
+    NeuralNetwork* net;
+    const ProgressCallback* progress;
+    std::chrono::steady_clock::time_point t0;
+  } context{&net, &progress, std::chrono::steady_clock::now()};
+  GipdynNetworkJob job{};
+  job.x = xr.data();
+  job.y = yr.data();
+  job.rows = static_cast<long long>(X.rows());
+  job.inputs = 3 * n;
+  job.outputs = n;
+  job.training_rows = training_rows.data();
+  job.training_count = static_cast<long long>(training_rows.size());
+  job.validation_rows = validation_rows.data();
+  job.validation_count = static_cast<long long>(validation_rows.size());
+  job.hidden = hidden.data();
+  job.hidden_layers = static_cast<int>(hidden.size());
+  job.seed = options.seed;
+  job.learning_rate = options.learning_rate;
+  job.epochs = options.epochs;
+  job.batch_size = options.batch_size;
+  job.patience = options.patience;
+  job.threads = options.threads;
+  job.epoch_done = [](void* c, int epoch, double training_loss) {
+    const auto* ctx = static_cast<const Context*>(c);
+    if (!*ctx->progress) return;
+    ProgressEvent e;
+    e.iteration = epoch;
+    e.objective = training_loss;
+    e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - ctx->t0).count();
+    (*ctx->progress)(e);
   };
-  const torch::Tensor xt = select(x_all, training_rows), yt = select(y_all, training_rows);
-  const torch::Tensor xv = held_out > 0 ? select(x_all, validation_rows) : torch::Tensor();
-  const torch::Tensor yv = held_out > 0 ? select(y_all, validation_rows) : torch::Tensor();
-
-  torch::optim::Adam adam(model->parameters(), torch::optim::AdamOptions(options.learning_rate));
-  std::mt19937_64 rng(options.seed);
-  std::vector<int64_t> order(static_cast<size_t>(N));
-  std::iota(order.begin(), order.end(), 0);
-  std::vector<torch::Tensor> kept;  // the parameters of the epoch with the lowest held-out loss
-  double best = std::numeric_limits<double>::infinity();
-  for (int epoch = 1; epoch <= options.epochs; ++epoch) {
-    std::shuffle(order.begin(), order.end(), rng);
-    const torch::Tensor perm = torch::from_blob(order.data(), {N}, torch::kLong).clone();
-    double total = 0.0;
-    for (int64_t start = 0; start < N; start += options.batch_size) {
-      const int64_t stop = std::min<int64_t>(N, start + options.batch_size);
-      const torch::Tensor idx = perm.slice(0, start, stop);
-      adam.zero_grad();
-      const torch::Tensor loss = torch::mse_loss(model->forward(xt.index_select(0, idx)), yt.index_select(0, idx));
-      loss.backward();
-      adam.step();
-      total += loss.item<double>() * static_cast<double>(stop - start);
-    }
-    const double training_loss = total / static_cast<double>(N);
-    net.epochs_run_ = epoch;
-    bool stop = false;
-    if (held_out == 0) {
-      net.final_loss_ = training_loss;
-      net.kept_epoch_ = epoch;
-    } else {
-      torch::NoGradGuard no_grad;
-      const double validation = torch::mse_loss(model->forward(xv), yv).item<double>();
-      if (validation < best) {  // NaN never improves: a diverged run keeps its last good epoch
-        best = validation;
-        net.final_loss_ = training_loss;
-        net.validation_loss_ = validation;
-        net.kept_epoch_ = epoch;
-        kept.clear();
-        for (const auto& p : model->parameters()) kept.push_back(p.detach().clone());
-      }
-      stop = epoch - net.kept_epoch_ >= options.patience;
-    }
-    if (progress) {
-      ProgressEvent e;
-      e.iteration = epoch;
-      e.objective = training_loss;
-      e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - t0).count();
-      progress(e);
-    }
-    if (stop) break;
-  }
-  if (held_out > 0) {
-    if (kept.empty()) {  // no epoch gave a finite held-out loss
-      net.final_loss_ = std::numeric_limits<double>::quiet_NaN();
-    } else {
-      torch::NoGradGuard no_grad;
-      const auto parameters = model->parameters();
-      for (size_t k = 0; k < parameters.size(); ++k) parameters[k].copy_(kept[k]);
-    }
-  }
-
-  for (const auto& module : model->children()) {
-    if (auto* linear = module->as<torch::nn::Linear>()) {
-      const torch::Tensor w = linear->weight.detach().contiguous();
-      const torch::Tensor b = linear->bias.detach().contiguous();
-      net.weights_.push_back(Eigen::Map<const RowMajor>(w.data_ptr<double>(), w.size(0), w.size(1)));
-      net.biases_.push_back(Eigen::Map<const Eigen::VectorXd>(b.data_ptr<double>(), b.size(0)));
-    }
-  }
+  job.epoch_context = &context;
+  job.layer = [](void* c, const double* W, int rows, int cols, const double* b) {
+    NeuralNetwork& net = *static_cast<Context*>(c)->net;
+    net.weights_.push_back(Eigen::Map<const RowMajor>(W, rows, cols));
+    net.biases_.push_back(Eigen::Map<const Eigen::VectorXd>(b, rows));
+  };
+  job.layer_context = &context;
+  GipdynNetworkOutcome outcome{};
+  if (plugin.train(&job, &outcome) != 0) throw Error(std::string("nn: training failed: ") + outcome.error);
+  net.epochs_run_ = outcome.epochs_run;
+  net.kept_epoch_ = outcome.kept_epoch;
+  net.final_loss_ = outcome.training_loss;
+  net.validation_loss_ = outcome.validation_loss;
   return net;
-#endif
 }
 
 Eigen::MatrixXd NeuralNetwork::predict(const Eigen::Ref<const Eigen::MatrixXd>& X) const {

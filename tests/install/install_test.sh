@@ -24,6 +24,29 @@ if grep -rl '#include "gipdyn/\(.*/\)\?detail/' "$work/prefix/include/gipdyn" | 
   echo "install_test: an installed header includes a detail/ header" >&2
   exit 1
 fi
+# The nn estimator's libtorch plugin is installed, the installed command starts
+# without libtorch, and it trains a network with the plugin installed beside it,
+# not the build tree's (the dynamic loader's log names the file it opened).
+if [ -f "$build/libgipdyn_torch.so" ]; then
+  plugin=$(find "$work/prefix" -name libgipdyn_torch.so)
+  if [ -z "$plugin" ]; then
+    echo "install_test: libgipdyn_torch.so was not installed" >&2
+    exit 1
+  fi
+  if ldd "$work/prefix/bin/gipdyn" | grep -q libtorch; then
+    echo "install_test: the installed gipdyn links libtorch; only its plugin should" >&2
+    exit 1
+  fi
+  "$work/prefix/bin/gipdyn" simulate --robot scara --samples 200 --seed 3 --out "$work/nn.csv" --quiet
+  LD_DEBUG=files "$work/prefix/bin/gipdyn" train --data "$work/nn.csv" --joints RRPR --model nn --nn-epochs 2 \
+    --out "$work/nn.gipdyn" --quiet 2> "$work/nn-loading.log"
+  test -s "$work/nn.gipdyn"
+  if ! grep -q "file=$plugin " "$work/nn-loading.log"; then
+    echo "install_test: the installed gipdyn did not open the installed plugin $plugin:" >&2
+    grep "libgipdyn_torch" "$work/nn-loading.log" >&2 || true
+    exit 1
+  fi
+fi
 cmake -S "$here/consumer" -B "$work/consumer" -DCMAKE_BUILD_TYPE=Release -DCMAKE_PREFIX_PATH="$work/prefix" > "$work/configure.log"
 cmake --build "$work/consumer" -j"$(nproc)" > "$work/build.log"
 "$work/consumer/consumer"
