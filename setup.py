@@ -6,8 +6,9 @@ CMake for the `_core` extension and packages python/gipdyn with it.
 GIPDYN_PREBUILT_CORE=PATH packages the `_core` extension at PATH, built by the
 project's own CMake build, instead of compiling the library a second time (five
 minutes on two cores). The CMake configuration still runs and must offer the
-`_core` target (CMake's file API lists the targets). The packaging test
-(tests/python_wheel_test.sh) uses it.
+`_core` target (CMake's file API lists the targets). The nn estimator's
+libtorch plugin beside it (libgipdyn_torch.so) is packaged too. The packaging
+test (tests/python_wheel_test.sh) uses it.
 """
 import glob
 import json
@@ -55,6 +56,10 @@ class CMakeBuild(build_ext):
                 sys.exit("setup.py: the CMake configuration has no _core target; build it in python/CMakeLists.txt")
             os.makedirs(package_dir, exist_ok=True)
             shutil.copy2(prebuilt, self.get_ext_fullpath(ext.name))
+            # The nn estimator's libtorch plugin, which the build put beside _core.
+            plugin = os.path.join(os.path.dirname(prebuilt), "libgipdyn_torch.so")
+            if os.path.exists(plugin):
+                shutil.copy2(plugin, package_dir)
             return
         subprocess.check_call(["cmake", "--build", build_dir, "--target", "_core", "-j", str(os.cpu_count() or 2)])
 

@@ -21,3 +21,19 @@ m = gipdyn.InverseDynamicsGP(joints="RRPR", max_iter=5).fit(d["X"], d["tau"])
 assert m.predict(d["X"]).shape == (100, 4)
 print("wheel OK:", gipdyn.__file__)
 PY
+# Where the build has the nn estimator's libtorch plugin, the wheel carries it
+# and trains a network with its own copy (the dynamic loader's log names the file).
+if [ -f "$(dirname "$core")/libgipdyn_torch.so" ]; then
+  test -f "$work/site/gipdyn/libgipdyn_torch.so"
+  LD_DEBUG=files PYTHONPATH="$work/site" /usr/bin/python3 - 2> "$work/loading.log" <<'PY'
+import gipdyn
+d = gipdyn.simulate("scara", samples=100, seed=1, dt=0.1)
+gipdyn.InverseDynamics(joints="RRPR", model="nn").fit(d["X"], d["tau"])
+PY
+  if ! grep -q "file=$work/site/gipdyn/libgipdyn_torch.so " "$work/loading.log"; then
+    echo "python_wheel_test: the wheel's gipdyn did not open its own libgipdyn_torch.so:" >&2
+    grep "libgipdyn_torch" "$work/loading.log" >&2 || true
+    exit 1
+  fi
+  echo "wheel's nn plugin OK"
+fi

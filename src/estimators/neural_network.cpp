@@ -23,8 +23,9 @@ namespace gipdyn {
 namespace {
 
 // The libtorch plugin, opened once per process the first time it is needed:
-// GIPDYN_TORCH_PLUGIN where set, else the first found of the one installed
-// beside this code, the build tree's and the one at the configured prefix.
+// GIPDYN_TORCH_PLUGIN where set, else the first found of the one beside this
+// code (the Python package), the one installed with it, the build tree's and
+// the one at the configured prefix.
 struct NetworkPlugin {
   GipdynTrainNetwork train = nullptr;
   std::string error;  // why there is none
@@ -53,9 +54,12 @@ const NetworkPlugin& network_plugin() {
         object = "/proc/self/exe";
       std::error_code ec;
       const std::filesystem::path resolved = std::filesystem::canonical(object, ec);
-      if (!ec)
+      if (!ec) {
+        // The Python package carries it beside its extension module.
+        candidates.push_back((resolved.parent_path() / GIPDYN_TORCH_PLUGIN_NAME).string());
         candidates.push_back((resolved.parent_path().parent_path() / GIPDYN_INSTALL_LIBDIR / "gipdyn" /
                               GIPDYN_TORCH_PLUGIN_NAME).string());
+      }
       candidates.push_back(GIPDYN_TORCH_PLUGIN_BUILD);
       candidates.push_back(GIPDYN_TORCH_PLUGIN_INSTALLED);
     }
