@@ -956,3 +956,19 @@ def test_exit_codes(tmp_path, gipdyn_bin, case, args, code, says):
     else:
         lines = r.stderr.strip().splitlines()
         assert len(lines) == 1 and lines[0].startswith("gipdyn: error: ") and says in lines[0], (case, r.stderr)
+
+
+def test_commands_start_without_libtorch_and_a_missing_plugin_is_named(gipdyn_bin, tmp_path):
+    # libtorch is opened only to train a network: loading it cost every command about a second.
+    env = dict(os.environ, LD_DEBUG="files")
+    r = subprocess.run([gipdyn_bin, "--version"], capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode == 0
+    loaded = [line for line in r.stderr.splitlines() if "file=" in line]
+    assert loaded and not [line for line in loaded if "libtorch" in line or "gipdyn_torch" in line], loaded
+    write_dataset(tmp_path / "train.csv", 60, seed=1)
+    env = dict(os.environ, GIPDYN_TORCH_PLUGIN=str(tmp_path / "missing.so"))
+    r = subprocess.run([gipdyn_bin, "train", "--data", str(tmp_path / "train.csv"), "--joints", "RR", "--model", "nn",
+                        "--out", str(tmp_path / "nn.gipdyn")], capture_output=True, text=True, timeout=60, env=env)
+    assert r.returncode != 0 and not (tmp_path / "nn.gipdyn").exists()
+    errors = [line for line in r.stderr.splitlines() if "error" in line]
+    assert len(errors) == 1 and "missing.so (missing)" in errors[0] and "GIPDYN_TORCH_PLUGIN" in errors[0], r.stderr
