@@ -4,12 +4,12 @@
 #include <lapacke.h>
 
 #include <algorithm>
-#include <atomic>
 #include <cmath>
 #include <sstream>
-#include <thread>
 #include <utility>
 #include <vector>
+
+#include "gipdyn/parallel_tasks.hpp"
 
 namespace gipdyn {
 
@@ -20,31 +20,13 @@ namespace {
 constexpr lapack_int kTile = 384;
 constexpr lapack_int kTiledFrom = 2048;
 
-// Runs task(t) for every t in [0, count) on up to `threads` threads. The
-// tasks are independent, so which thread runs one does not change its result.
-template <class Task>
-void run_tasks(int count, int threads, const Task& task) {
-  threads = std::min(threads, count);
-  if (threads <= 1) {
-    for (int t = 0; t < count; ++t) task(t);
-    return;
-  }
-  std::atomic<int> next{0};
-  auto worker = [&] {
-    for (int t = next++; t < count; t = next++) task(t);
-  };
-  std::vector<std::thread> pool;
-  for (int i = 1; i < threads; ++i) pool.emplace_back(worker);
-  worker();
-  for (auto& th : pool) th.join();
-}
-
 // Right-looking Cholesky of the lower triangle of the n x n column-major A,
 // tile by tile: each step factorises a diagonal tile (LAPACK), solves the
-// tiles below it, then updates the trailing tiles, the tiles of a phase on
-// the machine's threads. Every tile's arithmetic is the same BLAS call
-// whichever thread runs it (BLAS runs on one thread: detail/blas_threads.hpp),
-// so the factor does not depend on the core count. Returns LAPACK's info.
+// tiles below it, then updates the trailing tiles, the tiles of a phase run
+// by run_tasks on `threads` threads (0: one per core). Every tile's arithmetic
+// is the same BLAS call whichever thread runs it (BLAS runs on one thread:
+// detail/blas_threads.hpp), so the factor does not depend on the core count.
+// Returns LAPACK's info.
 lapack_int tiled_potrf_lower(double* A, lapack_int n, lapack_int lda, int threads) {
   const lapack_int tiles = (n + kTile - 1) / kTile;
   auto tile = [&](lapack_int i, lapack_int j) { return A + i * kTile + j * kTile * lda; };
@@ -53,8 +35,8 @@ lapack_int tiled_potrf_lower(double* A, lapack_int n, lapack_int lda, int thread
   for (lapack_int k = 0; k < tiles; ++k) {
     const lapack_int info = LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', side(k), tile(k, k), lda);
     if (info != 0) return info + k * kTile;
-    const lapack_int below = tiles - k - 1;
-    run_tasks(static_cast<int>(below), threads, [&](int t) {
+    const int below = static_cast<int>(tiles - k - 1);
+    run_tasks(below, worker_threads(threads, below), [&](int t) {
       const lapack_int i = k + 1 + t;
       cblas_dtrsm(CblasColMajor, CblasRight, CblasLower, CblasTrans, CblasNonUnit, side(i), side(k), 1.0,
                   tile(k, k), lda, tile(i, k), lda);
@@ -62,7 +44,8 @@ lapack_int tiled_potrf_lower(double* A, lapack_int n, lapack_int lda, int thread
     trailing.clear();
     for (lapack_int j = k + 1; j < tiles; ++j)
       for (lapack_int i = j; i < tiles; ++i) trailing.emplace_back(i, j);
-    run_tasks(static_cast<int>(trailing.size()), threads, [&](int t) {
+    const int updates = static_cast<int>(trailing.size());
+    run_tasks(updates, worker_threads(threads, updates), [&](int t) {
       const auto [i, j] = trailing[static_cast<size_t>(t)];
       if (i == j)
         cblas_dsyrk(CblasColMajor, CblasLower, CblasNoTrans, side(i), side(k), -1.0, tile(i, k), lda, 1.0,
@@ -80,7 +63,6 @@ lapack_int tiled_potrf_lower(double* A, lapack_int n, lapack_int lda, int thread
 bool cholesky_in_place(Eigen::MatrixXd& K, int threads) {
   const lapack_int n = static_cast<lapack_int>(K.rows());
   if (n < kTiledFrom) return LAPACKE_dpotrf_work(LAPACK_COL_MAJOR, 'L', n, K.data(), n) == 0;
-  if (threads <= 0) threads = static_cast<int>(std::max(1u, std::thread::hardware_concurrency()));
   return tiled_potrf_lower(K.data(), n, n, threads) == 0;
 }
 

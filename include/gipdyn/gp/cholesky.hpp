@@ -33,9 +33,8 @@ struct CholeskyResult {
 // potrf.
 bool cholesky_in_place(Eigen::MatrixXd& K, int threads = 0);
 
-// Factorises the symmetric matrix whose lower triangle is in K into K = L L^T
-// in place (lower triangle), by cholesky_in_place. If LAPACK's potrf fails, rebuild(K) restores the
-// lower triangle and the factorisation is retried with growing jitter.
+// cholesky_in_place, with jitter: where the factorisation fails, rebuild(K)
+// restores the lower triangle and it is retried with growing jitter.
 CholeskyResult cholesky_with_jitter(Eigen::MatrixXd& K, const std::function<void(Eigen::MatrixXd&)>& rebuild,
                                     const JitterPolicy& policy = {});
 
