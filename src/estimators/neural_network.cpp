@@ -63,22 +63,25 @@ const NetworkPlugin& network_plugin() {
       candidates.push_back(GIPDYN_TORCH_PLUGIN_BUILD);
       candidates.push_back(GIPDYN_TORCH_PLUGIN_INSTALLED);
     }
-    std::string tried;
+    std::string tried;  // each path tried, and why it was passed over
+    auto pass_over = [&](const std::string& path, const std::string& why) {
+      tried += (tried.empty() ? "" : ", ") + path + " (" + why + ")";
+    };
     for (const std::string& path : candidates) {
       if (!std::filesystem::exists(path)) {
-        tried += (tried.empty() ? "" : ", ") + path + " (missing)";
+        pass_over(path, "missing");
         continue;
       }
       void* handle = dlopen(path.c_str(), RTLD_NOW | RTLD_LOCAL);
       if (!handle) {
         const char* why = dlerror();
-        tried += (tried.empty() ? "" : ", ") + path + " (" + (why ? why : "cannot be opened") + ")";
+        pass_over(path, why ? why : "cannot be opened");
         continue;
       }
       auto abi = reinterpret_cast<GipdynNetworkPluginAbi>(dlsym(handle, "gipdyn_network_plugin_abi"));
       auto train = reinterpret_cast<GipdynTrainNetwork>(dlsym(handle, "gipdyn_train_network"));
       if (!abi || !train || abi() != GIPDYN_NETWORK_PLUGIN_ABI) {
-        tried += (tried.empty() ? "" : ", ") + path + " (from another version of gipdyn)";
+        pass_over(path, "from another version of gipdyn");
         continue;  // the handle stays open: unloading libtorch is not safe
       }
       p.train = train;
@@ -212,13 +215,12 @@ NeuralNetwork NeuralNetwork::train(const Eigen::MatrixXd& X, const Eigen::Matrix
     e.seconds = std::chrono::duration<double>(std::chrono::steady_clock::now() - ctx->t0).count();
     (*ctx->progress)(e);
   };
-  job.epoch_context = &context;
   job.layer = [](void* c, const double* W, int rows, int cols, const double* b) {
     NeuralNetwork& net = *static_cast<Context*>(c)->net;
     net.weights_.push_back(Eigen::Map<const RowMajor>(W, rows, cols));
     net.biases_.push_back(Eigen::Map<const Eigen::VectorXd>(b, rows));
   };
-  job.layer_context = &context;
+  job.context = &context;
   GipdynNetworkOutcome outcome{};
   if (plugin.train(&job, &outcome) != 0) throw Error(std::string("nn: training failed: ") + outcome.error);
   net.epochs_run_ = outcome.epochs_run;

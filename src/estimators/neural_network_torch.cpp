@@ -104,7 +104,7 @@ void train(const GipdynNetworkJob& job, GipdynNetworkOutcome& outcome) {
       }
       stop = epoch - outcome.kept_epoch >= job.patience;
     }
-    if (job.epoch_done) job.epoch_done(job.epoch_context, epoch, training_loss);
+    if (job.epoch_done) job.epoch_done(job.context, epoch, training_loss);
     if (stop) break;
   }
   if (held_out > 0) {
@@ -120,7 +120,7 @@ void train(const GipdynNetworkJob& job, GipdynNetworkOutcome& outcome) {
     if (auto* linear = module->as<torch::nn::Linear>()) {
       const torch::Tensor w = linear->weight.detach().contiguous();
       const torch::Tensor b = linear->bias.detach().contiguous();
-      job.layer(job.layer_context, w.data_ptr<double>(), static_cast<int>(w.size(0)), static_cast<int>(w.size(1)),
+      job.layer(job.context, w.data_ptr<double>(), static_cast<int>(w.size(0)), static_cast<int>(w.size(1)),
                 b.data_ptr<double>());
     }
   }

@@ -12,7 +12,7 @@
 extern "C" {
 
 // Raised whenever the structs below change: a plugin of another version is refused.
-#define GIPDYN_NETWORK_PLUGIN_ABI 1
+#define GIPDYN_NETWORK_PLUGIN_ABI 2
 
 struct GipdynNetworkJob {
   // Standardised training data, row-major: rows x inputs and rows x outputs.
@@ -35,13 +35,12 @@ struct GipdynNetworkJob {
   int batch_size;
   int patience;  // with validation rows: epochs without a lower held-out loss before stopping
   int threads;
-  // Called after every epoch (may be null).
+  // The caller's callbacks, each given `context`. epoch_done: after every
+  // epoch (may be null). layer: once per layer of the kept network, input
+  // layer first; W is rows x cols row-major, b has rows entries.
+  void* context;
   void (*epoch_done)(void* context, int epoch, double training_loss);
-  void* epoch_context;
-  // Called once per layer of the kept network, input layer first: W is
-  // rows x cols row-major, b has rows entries.
   void (*layer)(void* context, const double* W, int rows, int cols, const double* b);
-  void* layer_context;
 };
 
 struct GipdynNetworkOutcome {
