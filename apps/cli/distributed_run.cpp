@@ -1,7 +1,9 @@
 #include "distributed_run.hpp"
 
 #include <iostream>
+#include <string>
 
+#include "exit_codes.hpp"
 #include "gipdyn/error.hpp"
 
 #ifdef GIPDYN_HAVE_MPI
@@ -43,10 +45,9 @@ void DistributedRun::fail(std::exception_ptr error) const {
   } catch (const ExitQuietly&) {
     throw;
   } catch (const std::exception& e) {
-    std::cerr << "gipdyn: error: MPI process " << state_->session.rank() << ": " << e.what()
-              << "; stopping every process\n";
+    print_error("MPI process " + std::to_string(state_->session.rank()) + ": " + e.what() + "; stopping every process");
   } catch (...) {
-    std::cerr << "gipdyn: error: MPI process " << state_->session.rank() << " failed; stopping every process\n";
+    print_error("MPI process " + std::to_string(state_->session.rank()) + " failed; stopping every process");
   }
   MPI_Abort(MPI_COMM_WORLD, 1);
   throw ExitQuietly();  // not reached

@@ -1,6 +1,8 @@
 #pragma once
 // The exit status of every command, as scripts and shells expect it
-// (docs/reference/cli.md, "Exit codes").
+// (docs/reference/cli.md, "Exit codes"), and the error line that goes with it.
+#include <iostream>
+#include <string>
 
 namespace gipdyn::cli {
 
@@ -14,5 +16,10 @@ inline constexpr int kExitFailure = 1;
 // that is not of its type, a required option missing, a file an option names
 // that does not exist.
 inline constexpr int kExitUsage = 2;
+
+// Writes "gipdyn: error: MESSAGE" and its newline in one write: under mpiexec,
+// whose own messages share the terminal, a line written in pieces came out
+// split by them.
+inline void print_error(const std::string& message) { std::cerr << ("gipdyn: error: " + message + "\n") << std::flush; }
 
 }  // namespace gipdyn::cli

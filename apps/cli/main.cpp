@@ -175,18 +175,18 @@ int main(int argc, char** argv) {
     return gipdyn::cli::kExitSuccess;
   }
   if (const std::string error = command_error(app, argc, argv); !error.empty()) {
-    std::cerr << "gipdyn: error: " << error << "\n";
+    gipdyn::cli::print_error(error);
     return gipdyn::cli::kExitUsage;
   }
   if (const std::string error = renamed_option_error(argc, argv); !error.empty()) {
-    std::cerr << "gipdyn: error: " << error << "\n";
+    gipdyn::cli::print_error(error);
     return gipdyn::cli::kExitUsage;
   }
   try {
     app.parse(argc, argv);
   } catch (const CLI::ParseError& e) {
     if (e.get_exit_code() == 0) return app.exit(e);  // --help, --version
-    std::cerr << "gipdyn: error: " << e.what() << " (" << command_help(argc, argv) << ")\n";
+    gipdyn::cli::print_error(std::string(e.what()) + " (" + command_help(argc, argv) + ")");
     return gipdyn::cli::kExitUsage;
   }
   std::string command;
@@ -199,13 +199,13 @@ int main(int argc, char** argv) {
   } catch (const gipdyn::cli::ExitQuietly&) {
     return kExitFailure;  // another MPI process reported the error
   } catch (const gipdyn::Error& e) {
-    std::cerr << "gipdyn: error: " << gipdyn::rename_fields(e.what(), gipdyn::cli::cli_field_names()) << "\n";
+    gipdyn::cli::print_error(gipdyn::rename_fields(e.what(), gipdyn::cli::cli_field_names()));
     return kExitFailure;
   } catch (const std::bad_alloc&) {
-    std::cerr << "gipdyn: error: out of memory; " << out_of_memory_advice(command) << "\n";
+    gipdyn::cli::print_error("out of memory; " + out_of_memory_advice(command));
     return kExitFailure;
   } catch (const std::exception& e) {
-    std::cerr << "gipdyn: error: " << e.what() << "\n";
+    gipdyn::cli::print_error(e.what());
     return kExitFailure;
   }
   return kExitFailure;
