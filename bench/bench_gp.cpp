@@ -445,11 +445,14 @@ void BM_LipQueryWeightSpace(benchmark::State& state) {
   const LagrangianKernel k = lip_kernel(p, state.range(2) != 0);
   const LagrangianWeightSpaceMean mean(k, p.X, Eigen::VectorXd::Constant(p.X.rows() * n, 1e-3));
   LagrangianWeightSpaceMean::Workspace w(mean);
-  const Eigen::VectorXd x = p.X.row(0).transpose();
+  // A new q every query, as in a control loop (a query at the previous q reuses its functions of q).
+  const Eigen::MatrixXd states = p.X.topRows(std::min<Eigen::Index>(p.X.rows(), 64)).transpose();
   Eigen::VectorXd tau(n);
+  Eigen::Index r = 0;
   for (auto _ : state) {
-    mean.mean(x.data(), w, tau.data());
+    mean.mean(states.col(r).data(), w, tau.data());
     benchmark::DoNotOptimize(tau.data());
+    r = (r + 1) % states.cols();
   }
   state.SetLabel(label(static_cast<int>(state.range(0))) + " " +
                  std::to_string(static_cast<long>(LagrangianWeightSpaceMean::kinetic_basis_size(p.joints))) +

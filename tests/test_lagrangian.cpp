@@ -466,9 +466,8 @@ TEST(LagrangianEstimator, SerialChainInertiaIgnoresEarlierJointsAndIsSaved) {
 }
 
 // The choice of space follows the cost of a query: a 6R arm's serial-chain
-// weights multiply about a third of the full kernel's basis products and its
-// kernel blocks cost more, so its weight space pays from far fewer rows
-// (bench/RESULTS.md: 46 us against 259 us).
+// weights are a fourteenth of the full kernel's and its kernel blocks cost more,
+// so its weight space pays from far fewer rows (bench/RESULTS.md, BM_LipQuery*).
 TEST(LagrangianWeightSpaceMean, SerialChainPaysFromFewerRows) {
   const JointTypes arm = JointTypes::parse("RRRRRR");
   const LagrangianKernel chain(arm, false, true), full(arm, false, false);

@@ -75,6 +75,65 @@ void multiply_per_joint(const std::vector<Eigen::MatrixXd>& G, Matrix& A) {
   }
 }
 
+// One joint's step of a contraction: in holds `columns` columns of D-row
+// blocks (outer of them, the joint's basis index fastest); column j of out
+// gets each block times the basis values b, and column columns + j, for the
+// first value_columns columns, times their derivatives db. out: outer x
+// (columns + value_columns).
+template <int D>
+void contract_blocks(const double* in, Eigen::Index outer, Eigen::Index columns, Eigen::Index value_columns,
+                     const double* b, const double* db, double* out) {
+  for (Eigen::Index j = 0; j < columns; ++j) {
+    const double* block = in + j * outer * D;
+    double* value = out + j * outer;
+    if (j < value_columns) {
+      double* derivative = out + (columns + j) * outer;
+      for (Eigen::Index o = 0; o < outer; ++o, block += D) {
+        double v = 0.0, g = 0.0;
+        for (int i = 0; i < D; ++i) v += b[i] * block[i], g += db[i] * block[i];
+        value[o] = v, derivative[o] = g;
+      }
+    } else {
+      for (Eigen::Index o = 0; o < outer; ++o, block += D) {
+        double v = 0.0;
+        for (int i = 0; i < D; ++i) v += b[i] * block[i];
+        value[o] = v;
+      }
+    }
+  }
+}
+
+// What LagrangianWeightSpaceMean::contract() does with `columns` columns of
+// weights over joints first_joint..n - 1 of these basis sizes: its
+// multiply-adds, and its largest intermediate (after joint m, the rows of the
+// joints past m times a column per weight column for the value and each
+// derivative so far).
+struct ContractionCost {
+  double multiply_adds = 0.0;
+  Eigen::Index largest = 1;
+};
+ContractionCost contraction_cost(const std::vector<int>& size, int first_joint, Eigen::Index columns) {
+  ContractionCost cost;
+  Eigen::Index rows = 1, width = columns;
+  for (size_t m = static_cast<size_t>(first_joint); m < size.size(); ++m) rows *= size[m];
+  for (size_t m = static_cast<size_t>(first_joint); m < size.size(); ++m) {
+    cost.multiply_adds += static_cast<double>(rows) * static_cast<double>(width + columns);
+    rows /= size[m], width += columns;
+    cost.largest = std::max(cost.largest, rows * width);
+  }
+  return cost;
+}
+
+// The kinetic weights' blocks a query contracts: (first joint, columns) of
+// each. All pairs' weights over every joint; on a serial chain, h_ab's for one
+// a at a time over joints a + 1..n - 1 (LagrangianWeightSpaceMean::term_weights_).
+std::vector<std::pair<int, Eigen::Index>> kinetic_terms(bool serial_chain, int n) {
+  if (!serial_chain) return {{0, n * (n + 1) / 2}};
+  std::vector<std::pair<int, Eigen::Index>> terms;
+  for (int a = 0; a < n; ++a) terms.emplace_back(a + 1, n - a);
+  return terms;
+}
+
 }  // namespace
 
 double LagrangianWeightSpaceMean::kinetic_basis_size(const JointTypes& joints) {
@@ -88,36 +147,33 @@ bool LagrangianWeightSpaceMean::worthwhile(const LagrangianKernel& kernel, Eigen
   const int n = joints.size();
   const double pairs = n * (n + 1) / 2.0, N = static_cast<double>(rows);
   const double F = kinetic_basis_size(joints);
-  // Basis products a query multiplies with the weights: all F of every h_ab,
-  // or on a serial chain only the rows of each term that can be non-zero (F /
-  // the term's stride, for its n - a pairs).
-  double multiplied = F * pairs;
-  if (kernel.serial_chain()) {
-    multiplied = 0.0;
-    double stride = 1.0;
-    for (int a = 0; a < n; ++a) {
-      stride *= kinetic_size(joints.is_revolute(a));
-      multiplied += F / stride * (n - a);
-    }
+  if (F > 4e6) return false;  // (the constructor refuses it)
+  std::vector<int> kinetic, potential;
+  for (int m = 0; m < n; ++m) {
+    kinetic.push_back(kinetic_size(joints.is_revolute(m)));
+    potential.push_back(potential_size(joints.is_revolute(m)));
   }
-  // A weight-space query builds the F x (n + 1) basis products (about two
-  // passes) and multiplies them with the weights, about 0.1 ns per
-  // multiply-add; a kernel-space one builds an n x n block per training row,
-  // about 40 ns per n^2 (60 on a serial chain, whose blocks are sums of n
+  double multiply_adds = contraction_cost(potential, 0, 1).multiply_adds;
+  for (const auto& [first, columns] : kinetic_terms(kernel.serial_chain(), n))
+    multiply_adds += contraction_cost(kinetic, first, columns).multiply_adds;
+  // A weight-space query contracts the weights with the basis, about 0.25 ns
+  // per multiply-add; a kernel-space one builds an n x n block per training
+  // row, about 40 ns per n^2 (60 on a serial chain, whose blocks are sums of n
   // terms) (BM_LipQuery* in bench/RESULTS.md). Weight space must win by 2x,
   // and building it (N F (3 pairs + 2 (n + 1)) operations) must take seconds at most.
-  const double weight_space_ns = 0.1 * (n + 1.0) * (multiplied + 2.0 * F);
+  const double weight_space_ns = 0.25 * multiply_adds;
   const double kernel_space_ns = (kernel.serial_chain() ? 60.0 : 40.0) * N * n * n;
   const double build_operations = N * F * (3.0 * pairs + 2.0 * (n + 1.0));
   return 2.0 * weight_space_ns < kernel_space_ns && build_operations < 3e10;
 }
 
 LagrangianWeightSpaceMean::Workspace::Workspace(const LagrangianWeightSpaceMean& mean)
-    : kinetic_features(mean.kinetic_count_, mean.n_ + 1),
-      potential_features(mean.potential_count_, mean.n_ + 1),
-      coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1),
-      term_features(mean.term_stride_.empty() ? 0 : mean.kinetic_count_ / mean.term_stride_[0], mean.n_ + 1),
-      q(mean.n_) {}
+    : coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1), potential(1, mean.n_ + 1), q(mean.n_) {
+  Eigen::Index largest = contraction_cost(mean.potential_size_, 0, 1).largest;
+  for (const auto& [first, columns] : kinetic_terms(!mean.term_stride_.empty(), mean.n_))
+    largest = std::max(largest, contraction_cost(mean.kinetic_size_, first, columns).largest);
+  for (Eigen::VectorXd& buffer : contraction) buffer.resize(largest);
+}
 
 void LagrangianWeightSpaceMean::features(const double* q, bool kinetic, Eigen::MatrixXd& out) const {
   const int n = n_;
@@ -172,9 +228,9 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
   // the operator of the header applied to the basis; summed with alpha, three
   // vectors per row: the basis products, their rate along qd and their
   // gradient along alpha_r.
-  Workspace w(*this);
+  Eigen::MatrixXd kinetic_features(kinetic_count_, n + 1), potential_features(potential_count_, n + 1);
   kinetic_weights_.setZero(kinetic_count_, P);
-  potential_weights_.setZero(potential_count_);
+  potential_weights_.setZero(potential_count_, 1);
   if (kernel.has_friction()) friction_weights_.setZero(4, n);
   // Rows in blocks, so that the sum is one matrix product a block (not a
   // rank-3 update of the whole F x pairs matrix a row).
@@ -187,18 +243,18 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
       const Eigen::VectorXd x = X.row(r).transpose();
       const auto q = x.head(n), qd = x.segment(n, n), qdd = x.segment(2 * n, n);
       const auto a = alpha.segment(r * n, n);
-      features(q.data(), true, w.kinetic_features);
-      along.col(3 * b) = w.kinetic_features.col(0);
-      along.col(3 * b + 1).noalias() = w.kinetic_features.rightCols(n) * qd;
-      along.col(3 * b + 2).noalias() = w.kinetic_features.rightCols(n) * a;
+      features(q.data(), true, kinetic_features);
+      along.col(3 * b) = kinetic_features.col(0);
+      along.col(3 * b + 1).noalias() = kinetic_features.rightCols(n) * qd;
+      along.col(3 * b + 2).noalias() = kinetic_features.rightCols(n) * a;
       for (Eigen::Index p = 0; p < P; ++p) {
         const auto [i, j] = pairs_[static_cast<size_t>(p)];
         pair_coefficients(3 * b, p) = a(i) * qdd(j) + a(j) * qdd(i);
         pair_coefficients(3 * b + 1, p) = a(i) * qd(j) + a(j) * qd(i);
         pair_coefficients(3 * b + 2, p) = -qd(i) * qd(j);
       }
-      features(q.data(), false, w.potential_features);
-      potential_weights_.noalias() += w.potential_features.rightCols(n) * a;
+      features(q.data(), false, potential_features);
+      potential_weights_.noalias() += potential_features.rightCols(n) * a;
       for (int m = 0; m < n && kernel.has_friction(); ++m) {
         const Eigen::Vector4d f = kernel.friction_features_at(m, qd(m));
         for (int k = 0; k < 4; ++k) friction_weights_(k, m) += a(m) * f(k);
@@ -253,25 +309,53 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
   }
 }
 
+void LagrangianWeightSpaceMean::contract(const double* q, bool kinetic, const Eigen::MatrixXd& weights, int first_joint,
+                                         Workspace& w, Eigen::Ref<Eigen::MatrixXd> out) const {
+  // sum_k W_k phi_k(q) with phi_k the products of one basis function per
+  // joint: joint by joint, the fastest index first, each step summing d rows
+  // into one, with the basis values for the value and every derivative so far,
+  // and with the derivatives for the value's new derivative. O(F c) for F rows
+  // and c columns, where building the F products and their n gradients and
+  // multiplying them with the weights costs O(F n c).
+  const std::vector<int>& size = kinetic ? kinetic_size_ : potential_size_;
+  const Eigen::Index c = weights.cols();
+  const double* in = weights.data();
+  Eigen::Index rows = weights.rows(), columns = c;
+  int next = 0;
+  for (int m = first_joint; m < n_; ++m) {
+    double value[kMaxBasis] = {}, derivative[kMaxBasis] = {};
+    joint_basis(kernel_.joints().is_revolute(m), kinetic, q[m], value, derivative);
+    double* step = w.contraction[static_cast<size_t>(next)].data();
+    const int d = size[static_cast<size_t>(m)];
+    const Eigen::Index outer = rows / d;
+    switch (d) {
+      case 2: contract_blocks<2>(in, outer, columns, c, value, derivative, step); break;
+      case 3: contract_blocks<3>(in, outer, columns, c, value, derivative, step); break;
+      default: contract_blocks<kMaxBasis>(in, outer, columns, c, value, derivative, step); break;
+    }
+    in = step, rows = outer, columns += c, next ^= 1;
+  }
+  // One row left: the value's columns, then each derivative's, joint first_joint's first.
+  out.setZero();
+  out.col(0) = Eigen::Map<const Eigen::VectorXd>(in, c);
+  for (int m = first_joint; m < n_; ++m)
+    out.col(m + 1) = Eigen::Map<const Eigen::VectorXd>(in + (m - first_joint + 1) * c, c);
+}
+
 void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_out) const {
   const int n = n_;
   const Eigen::Map<const Eigen::VectorXd> qd(x + n, n), qdd(x + 2 * n, n);
   Eigen::Map<Eigen::VectorXd> tau(tau_out, n);
   const Eigen::Map<const Eigen::VectorXd> q(x, n);
   if (!w.cached_q || w.q != q) {  // (a NaN never equals: computed again)
-    features(x, true, w.kinetic_features);
     // Each h_ab and its gradient in q at this state.
     if (term_stride_.empty()) {
-      w.coefficients.noalias() = kinetic_weights_.transpose() * w.kinetic_features;
-    } else {
-      for (int a = 0, column = 0; a < n; column += n - a, ++a) {
-        const Eigen::Index stride = term_stride_[static_cast<size_t>(a)], rows = kinetic_count_ / stride;
-        for (Eigen::Index r = 0; r < rows; ++r) w.term_features.row(r) = w.kinetic_features.row(r * stride);
-        w.coefficients.middleRows(column, n - a).noalias() =
-            term_weights_[static_cast<size_t>(a)].transpose() * w.term_features.topRows(rows);
-      }
+      contract(x, true, kinetic_weights_, 0, w, w.coefficients);
+    } else {  // (the order of kinetic_terms(), without its allocation)
+      for (int a = 0, row = 0; a < n; row += n - a, ++a)
+        contract(x, true, term_weights_[static_cast<size_t>(a)], a + 1, w, w.coefficients.middleRows(row, n - a));
     }
-    features(x, false, w.potential_features);
+    contract(x, false, potential_weights_, 0, w, w.potential);
     w.q = q;
     w.cached_q = true;
   }
@@ -287,7 +371,7 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
     const double velocities = qd(a) * qd(b);
     for (int i = 0; i < n; ++i) tau(i) -= velocities * row(i + 1);
   }
-  for (int i = 0; i < n; ++i) tau(i) += w.potential_features.col(i + 1).dot(potential_weights_);
+  tau += w.potential.row(0).tail(n).transpose();
   for (int m = 0; m < n && friction_weights_.size() > 0; ++m) {
     const Eigen::Vector4d f = kernel_.friction_features_at(m, qd(m));
     for (int k = 0; k < 4; ++k) tau(m) += friction_weights_(k, m) * f(k);

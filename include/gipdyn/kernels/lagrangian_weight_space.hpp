@@ -14,12 +14,14 @@
 //           - qd_a qd_b dh_ab/dq_i + dV/dq_i  (+ friction_i(qd_i)).
 //
 // The posterior mean of those weights, cov(weights, tau(X)) alpha, is computed
-// once (O(N F n^2)); a query then evaluates the basis products and their
-// gradients at q, in O(F n^3) with F products per coefficient (the product over
-// joints of 5 for a revolute joint, 3 for a prismatic one: 375 for a SCARA,
-// 15625 for a 6R arm), instead of one n x n kernel block per training row. F
-// grows as 5^n, so this pays for short chains or many rows: worthwhile() decides.
+// once (O(N F n^2)); a query then contracts them with the basis at q, joint by
+// joint, for each h_ab and its gradient, in O(F n^2) with F products per
+// coefficient (the product over joints of 5 for a revolute joint, 3 for a
+// prismatic one: 375 for a SCARA, 15625 for a 6R arm), instead of one n x n
+// kernel block per training row. F grows as 5^n, so this pays for short chains
+// or many rows: worthwhile() decides.
 #include <Eigen/Dense>
+#include <array>
 #include <utility>
 #include <vector>
 
@@ -47,9 +49,10 @@ class LagrangianWeightSpaceMean {
 
    private:
     friend class LagrangianWeightSpaceMean;
-    Eigen::MatrixXd kinetic_features, potential_features, coefficients;
-    Eigen::MatrixXd term_features;  // on a serial chain: one term's rows of kinetic_features
-    // The q whose coefficients and potential features these are (cached_q false: none yet). The rigid-body
+    Eigen::MatrixXd coefficients;  // each h_ab (a row, pairs_'s order): value, then gradient in q
+    Eigen::MatrixXd potential;     // V: value, then gradient in q
+    std::array<Eigen::VectorXd, 2> contraction;  // the steps of contract(), in turn
+    // The q whose coefficients and potential these are (cached_q false: none yet). The rigid-body
     // terms of a state are n + 2 queries at one q, and everything that costs is a function of q alone.
     Eigen::VectorXd q;
     bool cached_q = false;
@@ -57,7 +60,7 @@ class LagrangianWeightSpaceMean {
 
   int num_joints() const { return n_; }
   // sum_r K(x, x_r) alpha_r at the state x (3n entries) into tau (n entries). A query at the workspace's
-  // previous q reuses its functions of q: O(n^3) instead of O(F n^3).
+  // previous q reuses its functions of q: O(n^3) instead of O(F n^2).
   void mean(const double* x, Workspace& workspace, double* tau) const;
   // The same for every row of X (rows x 3n), rows x n.
   Eigen::MatrixXd mean(const Eigen::Ref<const Eigen::MatrixXd>& X) const;
@@ -66,6 +69,12 @@ class LagrangianWeightSpaceMean {
   // Value (column 0) and gradient in q (columns 1..n) of every product of one
   // basis function per joint, joint 0's index varying fastest.
   void features(const double* q, bool kinetic, Eigen::MatrixXd& out) const;
+  // The weights' (rows indexed like the kinetic or potential basis products
+  // of joints first_joint..n - 1, first_joint's fastest; a column each)
+  // value and gradient in q at q: out, columns x (n + 1), zero in the columns
+  // of the joints before first_joint.
+  void contract(const double* q, bool kinetic, const Eigen::MatrixXd& weights, int first_joint, Workspace& w,
+                Eigen::Ref<Eigen::MatrixXd> out) const;
 
   LagrangianKernel kernel_;
   int n_ = 0;
@@ -78,7 +87,7 @@ class LagrangianWeightSpaceMean {
   // holds those rows of the columns (a, b >= a), so a query multiplies only them.
   std::vector<Eigen::Index> term_stride_;
   std::vector<Eigen::MatrixXd> term_weights_;
-  Eigen::VectorXd potential_weights_;       // potential_count_
+  Eigen::MatrixXd potential_weights_;       // potential_count_ x 1
   Eigen::MatrixXd friction_weights_;        // 4 x n, or empty without friction
 };
 
