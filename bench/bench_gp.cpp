@@ -218,15 +218,21 @@ void BM_PotrfPotri(benchmark::State& state) {
 // cholesky_in_place's tiles on 1 and 2 threads (gp/cholesky.hpp). The
 // matrix is a random one, A A^T / N + I: the factorisation's cost does not
 // depend on the kernel.
-void BM_Cholesky(benchmark::State& state) {
-  use_single_threaded_blas();
-  const int N = static_cast<int>(state.range(0)), threads = static_cast<int>(state.range(1));
+Eigen::MatrixXd random_covariance(int N) {
   std::mt19937_64 rng(1);
   std::normal_distribution<double> normal;
   Eigen::MatrixXd A(N, 256);
   for (Eigen::Index k = 0; k < A.size(); ++k) A.data()[k] = normal(rng);
-  Eigen::MatrixXd K0 = A * A.transpose() / 256.0, K;
-  K0.diagonal().array() += 1.0;
+  Eigen::MatrixXd K = A * A.transpose() / 256.0;
+  K.diagonal().array() += 1.0;
+  return K;
+}
+
+void BM_Cholesky(benchmark::State& state) {
+  use_single_threaded_blas();
+  const int N = static_cast<int>(state.range(0)), threads = static_cast<int>(state.range(1));
+  const Eigen::MatrixXd K0 = random_covariance(N);
+  Eigen::MatrixXd K;
   for (auto _ : state) {
     state.PauseTiming();
     K = K0;
@@ -237,6 +243,25 @@ void BM_Cholesky(benchmark::State& state) {
     benchmark::DoNotOptimize(K.data());
   }
   state.SetLabel(threads < 0 ? "LAPACK potrf" : "tiles on " + std::to_string(threads) + " thread(s)");
+}
+
+// The inverse from the factor, (L L^T)^{-1}: LAPACK's potri (threads -1) or
+// cholesky_inverse_in_place's tiles on 1 and 2 threads.
+void BM_CholeskyInverse(benchmark::State& state) {
+  use_single_threaded_blas();
+  const int N = static_cast<int>(state.range(0)), threads = static_cast<int>(state.range(1));
+  Eigen::MatrixXd L0 = random_covariance(N), L;
+  if (!cholesky_in_place(L0, 1)) state.SkipWithError("not positive definite");
+  for (auto _ : state) {
+    state.PauseTiming();
+    L = L0;
+    state.ResumeTiming();
+    const bool ok = threads < 0 ? LAPACKE_dpotri_work(LAPACK_COL_MAJOR, 'L', N, L.data(), N) == 0
+                                : cholesky_inverse_in_place(L, threads);
+    if (!ok) state.SkipWithError("singular");
+    benchmark::DoNotOptimize(L.data());
+  }
+  state.SetLabel(threads < 0 ? "LAPACK potri" : "tiles on " + std::to_string(threads) + " thread(s)");
 }
 
 const InverseDynamicsModel& quick_model(int robot, int N, const std::string& kernel = "gip") {
@@ -534,7 +559,12 @@ BENCHMARK(BM_NllGradientGipEnvelopeFriction)->Apply(sizes);
 BENCHMARK(BM_NllWeights)->Apply(sizes);
 BENCHMARK(BM_PotrfPotri)->Apply(sizes);
 BENCHMARK(BM_Cholesky)
-    ->ArgsProduct({{2048, 4096, 8192, 12000}, {-1, 1, 2}})
+    ->ArgsProduct({{1024, 1800, 2048, 4096, 8192, 12000}, {-1, 1, 2}})
+    ->Unit(benchmark::kMillisecond)
+    ->MeasureProcessCPUTime()
+    ->UseRealTime();
+BENCHMARK(BM_CholeskyInverse)
+    ->ArgsProduct({{1024, 1800, 2048, 4096, 8192}, {-1, 1, 2}})
     ->Unit(benchmark::kMillisecond)
     ->MeasureProcessCPUTime()
     ->UseRealTime();

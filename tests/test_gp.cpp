@@ -163,14 +163,21 @@ TEST(Cholesky, FailsWithAClearMessageBeyondTheBound) {
 // is the same bit for bit on 1, 2 and 3 threads, equals LAPACK's potrf up to
 // rounding (an independent factorisation of the same matrix), leaves the
 // upper triangle alone, and an indefinite matrix is refused.
-TEST(Cholesky, LargeMatricesGetTheSameFactorOnAnyNumberOfThreads) {
-  const Eigen::Index n = 2500;  // past the tiled threshold, and not a whole number of tiles
+// A A^T / 200 + shift I with a deterministic n x 200 A: positive definite,
+// its condition number set by the shift.
+Eigen::MatrixXd low_rank_plus_shift(Eigen::Index n, double shift) {
   const Eigen::MatrixXd A = Eigen::MatrixXd::NullaryExpr(n, 200, [](Eigen::Index i, Eigen::Index j) {
     const double k = static_cast<double>(i * 200 + j + 1);
     return std::sin(0.37 * k) + 0.1 * std::cos(2.9 * k);
   });
   Eigen::MatrixXd S = A * A.transpose() / 200.0;
-  S.diagonal().array() += 1e-3;
+  S.diagonal().array() += shift;
+  return S;
+}
+
+TEST(Cholesky, LargeMatricesGetTheSameFactorOnAnyNumberOfThreads) {
+  const Eigen::Index n = 2500;  // past the tiled threshold, and not a whole number of tiles
+  const Eigen::MatrixXd S = low_rank_plus_shift(n, 1e-3);
   std::vector<Eigen::MatrixXd> factors;
   for (int threads : {1, 2, 3}) {
     Eigen::MatrixXd K = S;
@@ -190,6 +197,39 @@ TEST(Cholesky, LargeMatricesGetTheSameFactorOnAnyNumberOfThreads) {
   Eigen::MatrixXd indefinite = S;
   indefinite(n - 10, n - 10) = -1.0;  // in the last tile: every earlier step succeeds
   EXPECT_FALSE(cholesky_in_place(indefinite, 2));
+}
+
+// The tiled inverse (L^{-1}, then L^{-T} L^{-1}) against LAPACK's potri, the
+// same bits on any thread count, the upper triangle untouched; a singular
+// factor refused.
+TEST(Cholesky, LargeMatricesGetTheSameInverseOnAnyNumberOfThreads) {
+  const Eigen::Index n = 2500;  // past the tiled threshold, and not a whole number of tiles
+  // Well conditioned: the two inverses' rounding stays far below the bound.
+  const Eigen::MatrixXd S = low_rank_plus_shift(n, 1.0);
+  Eigen::MatrixXd L = S;
+  ASSERT_TRUE(cholesky_in_place(L, 1));
+  L.triangularView<Eigen::StrictlyUpper>().setConstant(7.0);  // must stay as it is
+  std::vector<Eigen::MatrixXd> inverses;
+  for (int threads : {1, 2, 3}) {
+    Eigen::MatrixXd K = L;
+    ASSERT_TRUE(cholesky_inverse_in_place(K, threads));
+    EXPECT_TRUE((K.triangularView<Eigen::StrictlyUpper>().toDenseMatrix().array() ==
+                 L.triangularView<Eigen::StrictlyUpper>().toDenseMatrix().array())
+                    .all());
+    inverses.push_back(K.triangularView<Eigen::Lower>());
+  }
+  EXPECT_EQ(inverses[0], inverses[1]);
+  EXPECT_EQ(inverses[0], inverses[2]);
+  Eigen::MatrixXd lapack = L;
+  ASSERT_EQ(LAPACKE_dpotri(LAPACK_COL_MAJOR, 'L', static_cast<lapack_int>(n), lapack.data(), static_cast<lapack_int>(n)), 0);
+  const Eigen::MatrixXd reference = lapack.triangularView<Eigen::Lower>();
+  EXPECT_LT((inverses[0] - reference).cwiseAbs().maxCoeff(), 1e-12 * reference.cwiseAbs().maxCoeff());
+  const Eigen::MatrixXd inverse = inverses[0].selfadjointView<Eigen::Lower>();
+  EXPECT_LT((inverse * S - Eigen::MatrixXd::Identity(n, n)).cwiseAbs().maxCoeff(), 1e-10);
+
+  Eigen::MatrixXd singular = L;
+  singular(n - 10, n - 10) = 0.0;  // in the last tile: every earlier step succeeds
+  EXPECT_FALSE(cholesky_inverse_in_place(singular, 2));
 }
 
 TEST(ExactGp, NllReportsFailureInsteadOfThrowing) {

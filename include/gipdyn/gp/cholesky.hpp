@@ -27,7 +27,7 @@ struct CholeskyResult {
 
 // Factorises the symmetric matrix whose lower triangle is in K into K = L L^T
 // in place (lower triangle); false where it is not positive definite. From
-// 2048 rows on, tile by tile on `threads` threads (0: the machine's), each
+// 1536 rows on, tile by tile on `threads` threads (0: the machine's), each
 // tile by the same single-threaded BLAS call whichever thread runs it, so the
 // factor is the same for every thread count; smaller matrices are one LAPACK
 // potrf.
@@ -49,7 +49,10 @@ CholeskyResult factorize_with_jitter(double mean_diagonal, const std::function<b
 // Solves (L L^T) x = b in place, L from cholesky_with_jitter.
 void cholesky_solve(const Eigen::MatrixXd& L, Eigen::Ref<Eigen::MatrixXd> b);
 
-// Replaces the Cholesky factor (lower) by the lower triangle of (L L^T)^{-1} (LAPACK potri).
-bool cholesky_inverse_in_place(Eigen::MatrixXd& L);
+// Replaces the Cholesky factor (lower) by the lower triangle of (L L^T)^{-1}:
+// false where L is singular. As cholesky_in_place, from 1536 rows on tile by
+// tile on `threads` threads (0: the machine's), the same bits for every thread
+// count (L^{-1}, then L^{-T} L^{-1}); smaller matrices are one LAPACK potri.
+bool cholesky_inverse_in_place(Eigen::MatrixXd& L, int threads = 0);
 
 }  // namespace gipdyn
