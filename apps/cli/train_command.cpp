@@ -228,7 +228,7 @@ void print_outcome(const TrainArgs& a, const TrainPlan& plan, const FitResult& r
         joints_text += buf;
       }
       std::printf("note: the teacher %s fits the logged rows of joint %s ten times better or more than its "
-                  "student: there it is likely the more accurate model, with a slower query (%s; "
+                  "student: there it is likely the more accurate model (%s; "
                   "docs/training.md)\n",
                   o.teacher->name.c_str(), joints_text.c_str(),
                   teacher_written ? ("written to " + a.teacher_out).c_str()
@@ -388,8 +388,8 @@ Command add_train(CLI::App& app) {
   app.add_option("--teacher-out", a->teacher_out,
                  "Where a teacher teaches (--teacher; auto by default): also write the teacher's model (e.g. lip) "
                  "to this file, whatever became of the taught one. train notes the joints on which the teacher "
-                 "fits the log ten times better than its student: there it is likely the more accurate model, "
-                 "with a slower query (docs/training.md)")
+                 "fits the log ten times better than its student: there it is likely the more accurate model "
+                 "(docs/training.md)")
       ->group(kTeacherOptions);
   a->estimator.add_to(app, true);
   app.add_option("--out", a->out, "Model file to write")->required();

@@ -552,7 +552,7 @@ class InverseDynamicsGP(_JointTorqueRegressor):
     teaching_check_ : dict or None
         The teacher's and the taught model's nMSE on (X, Y), "passed", a
         "warning" and "teacher_far_ahead" (joints the teacher fits ten times
-        better; there it may be the more accurate model, with a slower query).
+        better; there it may be the more accurate model).
     teacher_report_, label_noise_std_, teaching_failure_
         The teacher's fit report, its residual per joint (the taught model's
         noise floor), and why a teacher or student failed.

