@@ -170,7 +170,7 @@ bool LagrangianWeightSpaceMean::worthwhile(const LagrangianKernel& kernel, Eigen
 LagrangianWeightSpaceMean::Workspace::Workspace(const LagrangianWeightSpaceMean& mean)
     : coefficients(static_cast<Eigen::Index>(mean.pairs_.size()), mean.n_ + 1), potential(1, mean.n_ + 1), q(mean.n_) {
   Eigen::Index largest = contraction_cost(mean.potential_size_, 0, 1).largest;
-  for (const auto& [first, columns] : kinetic_terms(!mean.term_stride_.empty(), mean.n_))
+  for (const auto& [first, columns] : kinetic_terms(!mean.term_weights_.empty(), mean.n_))
     largest = std::max(largest, contraction_cost(mean.kinetic_size_, first, columns).largest);
   for (Eigen::VectorXd& buffer : contraction) buffer.resize(largest);
 }
@@ -297,7 +297,6 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
       const Eigen::Index rows = kinetic_count_ / stride;
       Eigen::MatrixXd weights(rows, n - a);
       for (Eigen::Index r = 0; r < rows; ++r) weights.row(r) = kinetic_weights_.block(r * stride, column, 1, n - a);
-      term_stride_.push_back(stride);
       term_weights_.push_back(std::move(weights));
     }
     kinetic_weights_.resize(0, 0);  // the other rows are zeros
@@ -349,7 +348,7 @@ void LagrangianWeightSpaceMean::mean(const double* x, Workspace& w, double* tau_
   const Eigen::Map<const Eigen::VectorXd> q(x, n);
   if (!w.cached_q || w.q != q) {  // (a NaN never equals: computed again)
     // Each h_ab and its gradient in q at this state.
-    if (term_stride_.empty()) {
+    if (term_weights_.empty()) {
       contract(x, true, kinetic_weights_, 0, w, w.coefficients);
     } else {  // (the order of kinetic_terms(), without its allocation)
       for (int a = 0, row = 0; a < n; row += n - a, ++a)

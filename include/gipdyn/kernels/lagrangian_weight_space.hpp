@@ -83,9 +83,9 @@ class LagrangianWeightSpaceMean {
   std::vector<std::pair<int, int>> pairs_;  // (a, b), a <= b, in the columns' order
   Eigen::MatrixXd kinetic_weights_;         // kinetic_count_ x pairs: posterior mean of each h_ab's weights
   // On a serial chain h_ab's weights vanish unless joints 0..a take their
-  // constant basis function: the rows r * term_stride_[a]. term_weights_[a]
-  // holds those rows of the columns (a, b >= a), so a query multiplies only them.
-  std::vector<Eigen::Index> term_stride_;
+  // constant basis function: the rows r * (the product of joints 0..a's basis
+  // sizes). term_weights_[a] holds those rows of the columns (a, b >= a), so a
+  // query contracts only them; empty off a serial chain.
   std::vector<Eigen::MatrixXd> term_weights_;
   Eigen::MatrixXd potential_weights_;       // potential_count_ x 1
   Eigen::MatrixXd friction_weights_;        // 4 x n, or empty without friction
