@@ -204,9 +204,16 @@ void symmetric_term(const Eigen::MatrixXd& nu, const Eigen::Ref<const Eigen::Vec
 }
 
 // d <W, S(x, y)> / d nu_ab (entries of nu taken as independent) added to G, times s.
-void add_symmetric_term_gradient(const Eigen::MatrixXd& W, const Eigen::VectorXd& x, const Eigen::VectorXd& y,
-                                 double s, Eigen::MatrixXd& G) {
-  G.noalias() += (2.0 * s) * (W.diagonal() * x.cwiseProduct(y).transpose() + W.cwiseProduct(y * x.transpose()));
+// Loops on references, not expressions: W is a block of the caller's matrix
+// and x, y map a state, so Eigen would copy them into heap temporaries on
+// every pair of the gradient's O(N^2) loop.
+void add_symmetric_term_gradient(const Eigen::Ref<const Eigen::MatrixXd>& W, const Eigen::Ref<const Eigen::VectorXd>& x,
+                                 const Eigen::Ref<const Eigen::VectorXd>& y, double s, Eigen::MatrixXd& G) {
+  const Eigen::Index n = W.rows();
+  for (Eigen::Index b = 0; b < n; ++b) {
+    const double xy = 2.0 * s * x(b) * y(b), sx = 2.0 * s * x(b);
+    for (Eigen::Index a = 0; a < n; ++a) G(a, b) += W(a, a) * xy + W(a, b) * y(a) * sx;
+  }
 }
 
 // Splits [0, rows) into chunks that depend on the rows only, and runs them on
