@@ -165,6 +165,71 @@ TEST(Minimize, AClosedGateEndsTheRunWithItsBestPoint) {
   }
 }
 
+// Rosenbrock scaled by s: the same valley, s times as deep.
+Objective scaled_rosenbrock(double s) {
+  return [s](const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
+    const bool ok = rosenbrock(x, f, g);
+    f *= s;
+    g *= s;
+    return ok;
+  };
+}
+
+// The plateau rule stops a run, for either minimiser, at the first
+// evaluation e > W at which the best objective after e is less than
+// plateau_decrease below the best after e - W (W = plateau_evaluations), and
+// calls it converged; it never stops a run that falls faster.
+TEST(Minimize, APlateauEndsTheRunAtTheFirstWindowThatGainsTooLittle) {
+  constexpr int kWindow = 20;
+  constexpr double kDecrease = 0.1;
+  for (OptimizerKind kind : {OptimizerKind::Lbfgs, OptimizerKind::Adam}) {
+    // 1e-3: the start is 0.0242 above the minimum, less than the plateau's
+    // decrease, so evaluation 21 ends the run. 10: the run falls by more than
+    // that per window for a while, and may end by another rule.
+    for (double scale : {1e-3, 10.0}) {
+      SCOPED_TRACE(to_string(kind) + " at scale " + std::to_string(scale));
+      OptimizerOptions o;
+      o.kind = kind;
+      o.max_iterations = 3000;
+      o.gradient_tolerance = 0.0;
+      o.f_relative_tolerance = 0.0;
+      o.adam_learning_rate = 0.05;
+      o.adam_patience = 3000;
+      o.plateau_evaluations = kWindow;
+      o.plateau_decrease = kDecrease;
+      std::vector<double> best_after;  // the best objective after evaluations 1, 2, ...
+      const ProgressCallback record = [&](const ProgressEvent& e) {
+        ASSERT_EQ(e.iteration, static_cast<int>(best_after.size()) + 1);
+        best_after.push_back(best_after.empty() ? e.objective : std::min(best_after.back(), e.objective));
+      };
+      const OptimizerResult r = minimize(scaled_rosenbrock(scale), Eigen::Vector2d(-1.2, 1.0), o, record);
+      ASSERT_EQ(static_cast<int>(best_after.size()), r.evaluations);
+      int first_plateau = 0;
+      for (int e = kWindow + 1; e <= r.evaluations && first_plateau == 0; ++e)
+        if (best_after[static_cast<size_t>(e - kWindow - 1)] - best_after[static_cast<size_t>(e - 1)] < kDecrease)
+          first_plateau = e;
+      const bool on_plateau = r.message.find("fell by less than 0.1 over the last 20 evaluations") != std::string::npos;
+      // Ended by the rule exactly where it first applies, or by another rule before it ever did.
+      EXPECT_EQ(r.evaluations, on_plateau ? first_plateau : r.evaluations) << r.message;
+      EXPECT_EQ(first_plateau, on_plateau ? r.evaluations : 0) << r.message;
+      EXPECT_EQ(r.status, OptimizerResult::Status::Converged) << r.message;
+      if (scale < 1.0) {
+        EXPECT_TRUE(on_plateau) << r.message;
+        EXPECT_EQ(r.evaluations, kWindow + 1);
+      } else {
+        EXPECT_GT(r.evaluations, 2 * kWindow) << r.message;
+      }
+      EXPECT_EQ(r.f, best_after.back());
+    }
+  }
+  OptimizerOptions bad;
+  bad.plateau_evaluations = -1;
+  EXPECT_THROW(bad.validate(), Error);
+  bad.plateau_evaluations = kWindow;
+  bad.plateau_decrease = std::nan("");
+  EXPECT_THROW(bad.validate(), Error);
+}
+
 TEST(Minimize, ReportsFailureWhenNoPointCanBeEvaluated) {
   const Objective broken = [](const Eigen::VectorXd&, double&, Eigen::VectorXd&) { return false; };
   for (OptimizerKind kind : {OptimizerKind::Lbfgs, OptimizerKind::Adam}) {

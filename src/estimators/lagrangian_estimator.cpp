@@ -20,6 +20,10 @@
 namespace gipdyn {
 namespace {
 
+// The plateau rule of LIP's searches (LagrangianEstimator::fit).
+constexpr int kLipPlateauEvaluations = 20;
+constexpr double kLipPlateauDecrease = 0.1;
+
 // Sample-major stacking: entry r n + i is Y(r, i).
 Eigen::VectorXd stack_rows(const Eigen::MatrixXd& Y) {
   const Eigen::MatrixXd Yt = Y.transpose();
@@ -322,6 +326,15 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   opt.upper_bounds.tail(n) = (10.0 * joint_variance).array().log();
   kernel.restrict_log_params(X, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
   opt.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xh.rows()) * n;
+  // LIP's many coupled hyperparameters leave its NLL long flat valleys, along
+  // which L-BFGS creeps for many evaluations toward the gradient tolerance
+  // while the likelihood no longer moves. Unless the caller set a plateau
+  // rule, a search ends once 20 evaluations have gained less than 0.1 nat: a
+  // likelihood ratio of 1.1, hyperparameters the data cannot tell apart.
+  if (opt.plateau_evaluations == 0) {
+    opt.plateau_evaluations = kLipPlateauEvaluations;
+    opt.plateau_decrease = kLipPlateauDecrease;
+  }
 
   FitOutcome out;
   JointReport shared;

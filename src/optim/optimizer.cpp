@@ -48,6 +48,9 @@ void OptimizerOptions::validate() const {
   if (max_iterations < 1) throw Error("OptimizerOptions::max_iterations must be at least 1");
   if (!(f_relative_tolerance >= 0.0)) throw Error("OptimizerOptions::f_relative_tolerance must be >= 0");
   if (!(gradient_tolerance >= 0.0)) throw Error("OptimizerOptions::gradient_tolerance must be >= 0");
+  if (plateau_evaluations < 0) throw Error("OptimizerOptions::plateau_evaluations must be >= 0 (0: off)");
+  if (!(plateau_decrease >= 0.0 && std::isfinite(plateau_decrease)))
+    throw Error("OptimizerOptions::plateau_decrease must be finite and >= 0");
   if (lbfgs_memory < 1) throw Error("OptimizerOptions::lbfgs_memory must be at least 1");
   if (!(adam_learning_rate > 0.0)) throw Error("OptimizerOptions::adam_learning_rate must be > 0");
   if (!(adam_beta1 >= 0.0 && adam_beta1 < 1.0 && adam_beta2 >= 0.0 && adam_beta2 < 1.0))
@@ -87,6 +90,8 @@ struct Tracker {
   bool at_cap = false;  // L-BFGS asked for an evaluation beyond OptimizerOptions::max_iterations
   bool gradient_small = false;  // an evaluated point met OptimizerOptions::gradient_tolerance
   bool gate_closed = false;     // the caller's gate ended the run
+  bool on_plateau = false;      // OptimizerOptions::plateau_decrease: the best objective stopped falling
+  std::vector<double> best_history{};  // best_f after each evaluation, while the plateau rule is on
 
   // Whether another evaluation is allowed: below the cap and through the gate
   // (asked once per evaluation; once closed it stays closed).
@@ -100,11 +105,22 @@ struct Tracker {
                        : "stopped at the evaluation limit (" + std::to_string(options.max_iterations) + ")";
   }
 
+  // Failed evaluations count too: they are evaluations the plateau has cost.
+  void note_best_for_plateau() {
+    const int window = options.plateau_evaluations;
+    if (window == 0) return;
+    best_history.push_back(best_f);
+    const size_t k = best_history.size();
+    on_plateau = k > static_cast<size_t>(window) && std::isfinite(best_history[k - 1 - window]) &&
+                 best_history[k - 1 - window] - best_f < options.plateau_decrease;
+  }
+
   bool eval(const Eigen::VectorXd& x, double& f, Eigen::VectorXd& g) {
     ++evaluations;
     const bool ok = objective(x, f, g) && std::isfinite(f) && g.allFinite();
     if (!ok) {
       ++failures;
+      note_best_for_plateau();
       return false;
     }
     const double grad_norm = projected_gradient_norm(x, g, options);
@@ -115,6 +131,7 @@ struct Tracker {
       best_grad_norm = grad_norm;
       gradient_small = grad_norm <= options.gradient_tolerance;
     }
+    note_best_for_plateau();
     if (progress) {
       ProgressEvent e;
       e.iteration = evaluations;
@@ -140,6 +157,9 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
       [](unsigned dim, const double* x, double* grad, void* data) -> double {
         auto* tr = static_cast<Tracker*>(data);
         // NLopt may ask for one evaluation beyond its maxeval: the cap is ours to keep.
+        // NLopt notices a forced stop only at its next check, and may ask for
+        // more points before it: once on a plateau, none is evaluated.
+        if (tr->on_plateau) throw nlopt::forced_stop();
         if (!tr->may_evaluate()) {
           tr->at_cap = true;
           throw nlopt::forced_stop();
@@ -147,8 +167,8 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
         Eigen::VectorXd xv = Eigen::Map<const Eigen::VectorXd>(x, dim), g(dim);
         double f = 0.0;
         if (!tr->eval(xv, f, g)) throw nlopt::forced_stop();
-        // NLopt has no gradient test: a first-order optimum is ours to recognise.
-        if (tr->gradient_small) throw nlopt::forced_stop();
+        // NLopt has no gradient test: a first-order optimum is ours to recognise, and so is a plateau.
+        if (tr->gradient_small || tr->on_plateau) throw nlopt::forced_stop();
         if (grad) Eigen::Map<Eigen::VectorXd>(grad, dim) = g;
         return f;
       },
@@ -179,7 +199,7 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   // Our gradient test, our cap and the caller's gate stop NLopt from inside
   // the objective, and NLopt's L-BFGS reports such a stop as a failure rather
   // than as forced.
-  if (t.gradient_small) return nlopt::SUCCESS;
+  if (t.gradient_small || t.on_plateau) return nlopt::SUCCESS;
   return t.at_cap ? nlopt::MAXEVAL_REACHED : result;
 }
 
@@ -249,6 +269,11 @@ OptimizerResult stalled_or_rounding_limited(Tracker& t, const OptimizerOptions& 
   return r;
 }
 
+std::string plateau_message(const OptimizerOptions& o) {
+  return "converged (the objective fell by less than " + format_g(o.plateau_decrease) + " over the last " +
+         std::to_string(o.plateau_evaluations) + " evaluations)";
+}
+
 OptimizerResult run_lbfgs(Tracker& t, const Eigen::VectorXd& x0, const OptimizerOptions& o) {
   OptimizerResult r;
   // A line-search breakdown often recovers when L-BFGS restarts from the best
@@ -272,6 +297,7 @@ OptimizerResult run_lbfgs(Tracker& t, const Eigen::VectorXd& x0, const Optimizer
     if (res > 0 || res == nlopt::ROUNDOFF_LIMITED) {
       r.status = OptimizerResult::Status::Converged;
       r.message = t.gradient_small ? "converged (gradient below tolerance)"
+                  : t.on_plateau       ? plateau_message(o)
                   : res == nlopt::ROUNDOFF_LIMITED ? "converged to rounding precision"
                                                    : "converged (relative NLL change below tolerance)";
       return r;
@@ -301,6 +327,11 @@ OptimizerResult run_adam(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
     if (projected_gradient_norm(x, g, o) <= o.gradient_tolerance) {
       r.status = OptimizerResult::Status::Converged;
       r.message = "converged (gradient below tolerance)";
+      return r;
+    }
+    if (t.on_plateau) {
+      r.status = OptimizerResult::Status::Converged;
+      r.message = plateau_message(o);
       return r;
     }
     // The first step always counts: inf - tol * inf would be NaN and never compare true.

@@ -22,6 +22,13 @@ struct OptimizerOptions {
   int max_iterations = 1000;           // L-BFGS: objective evaluations; Adam: steps
   double f_relative_tolerance = 1e-9;  // stop when an iteration changes f by <= tol * |f|
   double gradient_tolerance = 1e-5;    // stop when the best point's projected max |grad| is <= it
+  // Converged on a plateau: stop when the best objective has fallen by less
+  // than plateau_decrease over the last plateau_evaluations evaluations. For a
+  // negative log likelihood the decrease is a log likelihood ratio, so a
+  // plateau of 0.1 is hyperparameters that the data tell apart by less than a
+  // factor e^0.1 = 1.1. 0 evaluations: off (the default).
+  int plateau_evaluations = 0;
+  double plateau_decrease = 0.0;
   // L-BFGS: correction pairs kept (NLopt's vector storage). About the number of
   // hyperparameters of a GIP kernel (38 for a SCARA), whose NLL is badly scaled
   // between them: NLopt's usual 10 hold too little curvature for it, and the
