@@ -59,8 +59,8 @@ void EstimatorArgs::add_to(CLI::App& app, bool with_robot, bool with_seed) {
       ->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--warm-start-rows", warm_start_rows,
-                 "GP: optimise first (every start and restart) on a constant-step subsample of this many rows, "
-                 "then on all rows; 0: off")
+                 "GP and lip: optimise first (every start and restart) on a constant-step subsample of this many "
+                 "rows, then the best on all rows; 0: off")
       ->capture_default_str()
       ->group(kGpOptions);
   app.add_option("--inducing", inducing,

@@ -17,6 +17,7 @@ const FieldNames& cli_field_names() {
       {"SearchSettings::threads", "--threads"},
       {"SearchSettings::start_screening_evaluations", "--start-screening"},
       {"GpOptions::warm_start_rows", "--warm-start-rows"},
+      {"LagrangianOptions::warm_start_rows", "--warm-start-rows"},
       {"SearchSettings::hyperparameter_rows", "--hyperparameter-rows"},
       {"SparseOptions::hyperparameter_objective", "--hyperparameter-objective"},
       {"SparseOptions::inducing_points", "--inducing"},

@@ -487,7 +487,8 @@ class InverseDynamicsGP(_JointTorqueRegressor):
         hyperparameter of standard deviation prior_width.
     prior_width : float, default 2.0
     warm_start_rows : int, default 0
-        Optimise first on a constant-step subsample of this many rows (0: off).
+        GP and lip: optimise first on a constant-step subsample of this many
+        rows, then the best on all rows (0: off).
     gradient_tolerance : float
         Converged when the projected NLL gradient per training row is below it.
     preset : {"default", "real"}, optional

@@ -60,6 +60,7 @@ const FieldNames& python_field_names() {
       {"SearchSettings::threads", "threads"},
       {"SearchSettings::start_screening_evaluations", "start_screening"},
       {"GpOptions::warm_start_rows", "warm_start_rows"},
+      {"LagrangianOptions::warm_start_rows", "warm_start_rows"},
       {"SearchSettings::hyperparameter_rows", "hyperparameter_rows"},
       {"SparseOptions::hyperparameter_objective", "hyperparameter_objective"},
       {"SparseOptions::inducing_points", "inducing"},

@@ -66,7 +66,6 @@ LagrangianOptions EstimatorOptions::lagrangian_options() const {
   const std::string lip = name + ": ";
   if (gp.mean != MeanKind::Zero) throw Error(lip + "GpOptions::mean must be zero (the energies have zero prior mean)");
   if (gp.prior.enabled) throw Error(lip + "GpOptions::prior is not supported; leave it off");
-  if (gp.warm_start_rows > 0) throw Error(lip + "GpOptions::warm_start_rows is not supported; leave it at 0");
   if (sparse.inducing_points > 0)
     throw Error(lip + "SparseOptions::inducing_points is not supported (exact GP only); leave it at 0");
   if (nll_backend) throw Error(lip + "TrainOptions::nll_backend is not supported (one process only); leave it unset");
@@ -74,6 +73,7 @@ LagrangianOptions EstimatorOptions::lagrangian_options() const {
   o.search = estimator_search(name, search);
   o.serial_chain = serial_chain;
   o.friction = estimator_spec(name).friction;
+  o.warm_start_rows = gp.warm_start_rows;
   return o;
 }
 

@@ -23,6 +23,8 @@ namespace {
 // The plateau rule of LIP's searches (LagrangianEstimator::fit).
 constexpr int kLipPlateauEvaluations = 20;
 constexpr double kLipPlateauDecrease = 0.1;
+// A warm start's least torque values per hyperparameter (LagrangianOptions::warm_start_rows).
+constexpr long kWarmStartValuesPerHyperparameter = 10;
 
 // Sample-major stacking: entry r n + i is Y(r, i).
 Eigen::VectorXd stack_rows(const Eigen::MatrixXd& Y) {
@@ -264,7 +266,12 @@ LagrangianEstimator::LagrangianEstimator(LagrangianKernel kernel, Eigen::VectorX
     weight_space_ = std::make_shared<const LagrangianWeightSpaceMean>(kernel_, X_, alpha_);
 }
 
-void LagrangianOptions::validate() const { search.validate(); }
+void LagrangianOptions::validate() const {
+  search.validate();
+  if (warm_start_rows < 0) throw Error("LagrangianOptions::warm_start_rows must be >= 0 (0: no warm start)");
+  if (warm_start_rows > 0 && warm_start_rows < static_cast<int>(kMinTrainingRows))
+    throw Error("LagrangianOptions::warm_start_rows must be 0 or at least " + std::to_string(kMinTrainingRows));
+}
 
 LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& X, const Eigen::MatrixXd& Y,
                                                          const JointTypes& joints, const LagrangianOptions& options,
@@ -348,33 +355,61 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   // (SearchSettings::start_screening_evaluations) pays here: the starts that
   // reach the noise-explained optima show it early, while the good ones spend
   // most of their evaluations on the last few nats.
-  const int num_starts = static_cast<int>(start_points.size());
-  // The starts share one weight-space likelihood: its features depend on the states alone.
-  const auto weight_space = search_space.weight_space
-                                ? std::make_shared<const LagrangianWeightSpaceNll>(kernel, Xh, yh)
-                                : std::shared_ptr<const LagrangianWeightSpaceNll>();
-  SearchOptions search;
-  search.optimizer = opt;
-  search.screening_evaluations = o.start_screening_or_default();
-  search.threads = sharing_threads(o.threads, num_starts);
-  search.bytes_per_start = search_space.evaluation_bytes;
+  // A warm start searches first on a constant-step subsample of the
+  // hyperparameter rows; the search on the rows themselves then continues
+  // from the subsample's best optimum alone. The subsample must pin the
+  // hyperparameters down (LagrangianOptions::warm_start_rows): with too few
+  // torques per hyperparameter its optimum lies in another basin.
+  const bool warm = options.warm_start_rows > 0 && Xh.rows() >= 2 * static_cast<Eigen::Index>(options.warm_start_rows) &&
+                    static_cast<long>(options.warm_start_rows) * n >= kWarmStartValuesPerHyperparameter * (P + n);
+  const std::vector<Eigen::Index> warm_rows =
+      warm ? constant_step_indices(Xh.rows(), options.warm_start_rows) : std::vector<Eigen::Index>();
+  const Eigen::MatrixXd Xw = warm ? Eigen::MatrixXd(Xh(warm_rows, Eigen::all)) : Eigen::MatrixXd();
+  const Eigen::VectorXd yw = warm ? Eigen::VectorXd(stack_rows(Yh(warm_rows, Eigen::all)) / scale) : Eigen::VectorXd();
   const std::string name = estimator_name(EstimatorFamily::Lagrangian, &EstimatorSpec::friction, friction);
-  const SearchResult found = search_hyperparameters(
-      start_points, [&](int) { return lip_objective(kernel, Xh, yh, o.jitter, weight_space); }, search,
-      [&](int r) -> ProgressCallback {
-        if (!progress) return {};
-        return [&, r](const ProgressEvent& optimizer_event) {
-          ProgressEvent e = optimizer_event;
-          e.estimator = name;
-          e.restart = r;
-          e.rows = static_cast<long>(Xh.rows());
-          e.seconds = seconds();
-          progress(e);
-        };
-      });
+  // The search from `from` on the states Xs with torques ys; weight_space:
+  // its weight-space likelihood, where it has one.
+  std::shared_ptr<const LagrangianWeightSpaceNll> weight_space;
+  auto search_on = [&](const Eigen::MatrixXd& Xs, const Eigen::VectorXd& ys, const std::vector<Eigen::VectorXd>& from) {
+    const LikelihoodSpace space = likelihood_space(structure, Xs.rows());
+    // The starts share one weight-space likelihood: its features depend on the states alone.
+    weight_space = space.weight_space ? std::make_shared<const LagrangianWeightSpaceNll>(kernel, Xs, ys)
+                                      : std::shared_ptr<const LagrangianWeightSpaceNll>();
+    SearchOptions search;
+    search.optimizer = opt;
+    search.optimizer.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xs.rows()) * n;
+    search.screening_evaluations = o.start_screening_or_default();
+    search.threads = sharing_threads(o.threads, static_cast<int>(from.size()));
+    search.bytes_per_start = space.evaluation_bytes;
+    return search_hyperparameters(
+        from, [&](int) { return lip_objective(kernel, Xs, ys, o.jitter, weight_space); }, search,
+        [&](int r) -> ProgressCallback {
+          if (!progress) return {};
+          return [&, r](const ProgressEvent& optimizer_event) {
+            ProgressEvent e = optimizer_event;
+            e.estimator = name;
+            e.restart = r;
+            e.rows = static_cast<long>(Xs.rows());
+            e.seconds = seconds();
+            progress(e);
+          };
+        });
+  };
+  SearchResult found = search_on(warm ? Xw : Xh, warm ? yw : yh, start_points);
+  if (warm) {
+    shared.warm_start_evaluations = found.evaluations;
+    shared.restart_nlls = found.best.objectives;
+    const int screening = found.screening_evaluations;
+    if (found.best.found()) {
+      found = search_on(Xh, yh, {found.best.kept.x});
+      found.screening_evaluations = screening;
+    } else {
+      found.evaluations = 0;
+    }
+  }
   const BestOfStarts& starts = found.best;
   shared.evaluations = found.evaluations;
-  shared.restart_nlls = starts.objectives;
+  if (!warm) shared.restart_nlls = starts.objectives;
   const OptimizerResult& kept = starts.kept;
   shared.status = kept.status;
   shared.message = kept.message;

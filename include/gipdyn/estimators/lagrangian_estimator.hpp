@@ -36,6 +36,15 @@ struct LagrangianOptions {
   // Each joint's smooth friction and offset beside the energies
   // (LagrangianKernel): the estimator "lip+friction".
   bool friction = false;
+  // Warm start: with at least twice this many hyperparameter rows, every
+  // start first searches on a constant-step subsample of this many of them
+  // (each evaluation about (rows/N)^2 of the cost), and the best subsample
+  // optimum then continues on all of them. Only where the subsample holds at
+  // least 10 torque values (rows x joints) per hyperparameter: fewer leave
+  // its optimum in another basin of the NLL than the one the search on all
+  // rows finds, and the search then runs on all rows from the start. 0:
+  // search on all of them from the start.
+  int warm_start_rows = 0;
 
   // Throws gipdyn::Error naming the bad field.
   void validate() const;
