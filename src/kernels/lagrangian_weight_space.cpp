@@ -134,12 +134,24 @@ std::vector<std::pair<int, Eigen::Index>> kinetic_terms(bool serial_chain, int n
   return terms;
 }
 
+// Basis functions per joint of the kinetic or the potential energy's weights.
+std::vector<int> basis_sizes(const JointTypes& joints, bool kinetic) {
+  std::vector<int> sizes;
+  for (int m = 0; m < joints.size(); ++m)
+    sizes.push_back(kinetic ? kinetic_size(joints.is_revolute(m)) : potential_size(joints.is_revolute(m)));
+  return sizes;
+}
+
+double product(const std::vector<int>& sizes) {
+  double count = 1.0;
+  for (int size : sizes) count *= size;
+  return count;
+}
+
 }  // namespace
 
 double LagrangianWeightSpaceMean::kinetic_basis_size(const JointTypes& joints) {
-  double count = 1.0;
-  for (int m = 0; m < joints.size(); ++m) count *= kinetic_size(joints.is_revolute(m));
-  return count;
+  return product(basis_sizes(joints, true));
 }
 
 bool LagrangianWeightSpaceMean::worthwhile(const LagrangianKernel& kernel, Eigen::Index rows) {
@@ -148,11 +160,7 @@ bool LagrangianWeightSpaceMean::worthwhile(const LagrangianKernel& kernel, Eigen
   const double pairs = n * (n + 1) / 2.0, N = static_cast<double>(rows);
   const double F = kinetic_basis_size(joints);
   if (F > 4e6) return false;  // (the constructor refuses it)
-  std::vector<int> kinetic, potential;
-  for (int m = 0; m < n; ++m) {
-    kinetic.push_back(kinetic_size(joints.is_revolute(m)));
-    potential.push_back(potential_size(joints.is_revolute(m)));
-  }
+  const std::vector<int> kinetic = basis_sizes(joints, true), potential = basis_sizes(joints, false);
   double multiply_adds = contraction_cost(potential, 0, 1).multiply_adds;
   for (const auto& [first, columns] : kinetic_terms(kernel.serial_chain(), n))
     multiply_adds += contraction_cost(kinetic, first, columns).multiply_adds;
@@ -212,14 +220,10 @@ LagrangianWeightSpaceMean::LagrangianWeightSpaceMean(const LagrangianKernel& ker
   if (basis > 4e6)
     throw Error("LagrangianWeightSpaceMean: " + std::to_string(basis) + " basis functions per coefficient for joints " +
                 kernel.joints().str() + "; use the kernel-space mean");
-  kinetic_count_ = potential_count_ = 1;
-  for (int m = 0; m < n; ++m) {
-    const bool revolute = kernel.joints().is_revolute(m);
-    kinetic_size_.push_back(kinetic_size(revolute));
-    potential_size_.push_back(potential_size(revolute));
-    kinetic_count_ *= kinetic_size_.back();
-    potential_count_ *= potential_size_.back();
-  }
+  kinetic_size_ = basis_sizes(kernel.joints(), true);
+  potential_size_ = basis_sizes(kernel.joints(), false);
+  kinetic_count_ = static_cast<Eigen::Index>(product(kinetic_size_));
+  potential_count_ = static_cast<Eigen::Index>(product(potential_size_));
   for (int a = 0; a < n; ++a)
     for (int b = a; b < n; ++b) pairs_.emplace_back(a, b);
   const Eigen::Index P = static_cast<Eigen::Index>(pairs_.size());
