@@ -332,7 +332,6 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   opt.lower_bounds.tail(n) = (o.min_noise_fraction * joint_variance).array().log();
   opt.upper_bounds.tail(n) = (10.0 * joint_variance).array().log();
   kernel.restrict_log_params(X, opt.lower_bounds.head(P), opt.upper_bounds.head(P));
-  opt.gradient_tolerance = o.gradient_tolerance_per_row * static_cast<double>(Xh.rows()) * n;
   // LIP's many coupled hyperparameters leave its NLL long flat valleys, along
   // which L-BFGS creeps for many evaluations toward the gradient tolerance
   // while the likelihood no longer moves. Unless the caller set a plateau

@@ -156,10 +156,10 @@ nlopt::result lbfgs_once(Tracker& t, const Eigen::VectorXd& x0, const OptimizerO
   opt.set_min_objective(
       [](unsigned dim, const double* x, double* grad, void* data) -> double {
         auto* tr = static_cast<Tracker*>(data);
-        // NLopt may ask for one evaluation beyond its maxeval: the cap is ours to keep.
         // NLopt notices a forced stop only at its next check, and may ask for
         // more points before it: once on a plateau, none is evaluated.
         if (tr->on_plateau) throw nlopt::forced_stop();
+        // NLopt may ask for one evaluation beyond its maxeval: the cap is ours to keep.
         if (!tr->may_evaluate()) {
           tr->at_cap = true;
           throw nlopt::forced_stop();
