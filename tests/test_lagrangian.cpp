@@ -199,7 +199,7 @@ TEST_P(LagrangianKernelTest, GradientMatchesFiniteDifferences) {
   }
 }
 
-TEST_P(LagrangianKernelTest, GramIsSymmetricPositiveSemidefiniteAndMatchesItsLowerTriangle) {
+TEST_P(LagrangianKernelTest, GramIsSymmetricPositiveSemidefiniteAndMatchesItsLowerTriangleAndEachPairsBlock) {
   std::mt19937_64 rng(6);
   const LagrangianKernel k = random_kernel(GetParam(), rng);
   const int n = k.joints().size();
@@ -207,6 +207,16 @@ TEST_P(LagrangianKernelTest, GramIsSymmetricPositiveSemidefiniteAndMatchesItsLow
   Eigen::MatrixXd X(N, 3 * n);
   for (int r = 0; r < N; ++r) X.row(r) = random_state(n, rng).transpose();
   const Eigen::MatrixXd K = k.torque_covariance(X, X);
+  // The Gram reads each state's cosines and sines computed once; a single
+  // pair's block (checked against the Lagrange operator above) computes its own.
+  Eigen::MatrixXd block(n, n);
+  for (int r = 0; r < N; r += 7)
+    for (int s = 0; s < N; s += 3) {
+      const Eigen::VectorXd x1 = X.row(r).transpose(), x2 = X.row(s).transpose();
+      k.torque_block(x1.data(), x2.data(), block);
+      EXPECT_LT((K.block(r * n, s * n, n, n) - block).cwiseAbs().maxCoeff(), 1e-12 * (1.0 + block.cwiseAbs().maxCoeff()))
+          << r << ", " << s;
+    }
   EXPECT_LT((K - K.transpose()).cwiseAbs().maxCoeff(), 1e-10 * K.cwiseAbs().maxCoeff());
   Eigen::MatrixXd L;
   k.torque_gram_lower(X, L);

@@ -98,80 +98,94 @@ void value_products(const std::vector<Jet>& jets, std::vector<double>& prefix, s
   for (size_t m = n; m-- > 0;) suffix[m] = suffix[m + 1] * jets[m][0];
 }
 
-// The linear function of the position quantities of the product of `jets`, in
-// O(n^2): products over all joints but one or two from prefix and suffix products.
-// The jets before `first` are unit jets (a serial chain's kinetic terms), whose
-// derivative entries are zero: the loops skip them.
-double contract_position(const std::vector<Jet>& jets, const PositionCoefficients& c, std::vector<double>& prefix,
-                         std::vector<double>& suffix, int first) {
+// Scratch of position_sensitivities: the adjoints after each joint.
+struct SensitivityScratch {
+  std::vector<double> after_done, after_start;
+  Eigen::MatrixXd after_pending1, after_pending2;  // column k: after joint k, rows j > k
+  Eigen::VectorXd pending1, pending2;
+  explicit SensitivityScratch(int n)
+      : after_done(static_cast<size_t>(n)), after_start(static_cast<size_t>(n)), after_pending1(n, n),
+        after_pending2(n, n), pending1(n), pending2(n) {}
+};
+
+// The partial derivatives d[m] = d value / d jets[m] (m >= first) of the
+// linear function of the position quantities of the product of `jets`,
+//   value = cP P + cg.g + cg'.g' + <cH, H>,
+// which is linear in each jet. The value is a sum over assignments of one jet
+// entry per joint (entry 0 for all joints but at most two), so it is computed
+// by a sweep over the joints whose state after joint k is: `done`, the terms
+// already complete; `start`, the product of entries 0 (no term begun); and
+// for each later joint j, `pending1[j]` (an earlier joint i took entry 1 and
+// j must take entry 2: cH(i, j)) and `pending2[j]` (i took entry 2: cH(j, i)).
+// A joint's step is linear in its jet, so its derivative is the state before
+// the step contracted with the adjoint after it: one backward sweep for the
+// adjoints and one forward sweep for the states give every joint's
+// derivative in O(n^2), where differentiating joint by joint takes O(n^3).
+// Jets before `first`: unit jets, whose derivatives are not wanted.
+void position_sensitivities(const std::vector<Jet>& jets, const PositionCoefficients& c, int first,
+                            SensitivityScratch& s, std::vector<Jet>& d) {
   const int n = static_cast<int>(jets.size());
-  value_products(jets, prefix, suffix);
-  double value = c.cP * prefix[static_cast<size_t>(n)];
-  for (int i = first; i < n; ++i) {
-    const Jet& ji = jets[static_cast<size_t>(i)];
-    const double all_but_i = prefix[static_cast<size_t>(i)] * suffix[static_cast<size_t>(i) + 1];
-    value += (c.cg(i) * ji[1] + c.cgp(i) * ji[2] + c.cH(i, i) * ji[3]) * all_but_i;
-    double between = 1.0;  // product of jets strictly between i and j
-    for (int j = i + 1; j < n; ++j) {
-      const Jet& jj = jets[static_cast<size_t>(j)];
-      const double all_but_ij = prefix[static_cast<size_t>(i)] * between * suffix[static_cast<size_t>(j) + 1];
-      value += (c.cH(i, j) * ji[1] * jj[2] + c.cH(j, i) * jj[1] * ji[2]) * all_but_ij;
-      between *= jj[0];
+  if (first >= n) return;
+  // Backward: the adjoint after joint n - 1 reads `done` alone.
+  double a_done = 1.0, a_start = 0.0;
+  for (int k = n - 1; k >= first; --k) {
+    const size_t uk = static_cast<size_t>(k);
+    s.after_done[uk] = a_done;
+    s.after_start[uk] = a_start;
+    const Jet& J = jets[uk];
+    // The adjoint before joint k is the one after joint k - 1.
+    double pending_share = 0.0;
+    for (int j = k + 1; j < n; ++j)
+      pending_share += s.after_pending1(j, k) * c.cH(k, j) * J[1] + s.after_pending2(j, k) * c.cH(j, k) * J[2];
+    const double before_start = a_start * J[0] + a_done * (c.cg(k) * J[1] + c.cgp(k) * J[2] + c.cH(k, k) * J[3]) +
+                                pending_share;
+    if (k > first) {
+      for (int j = k + 1; j < n; ++j) {
+        s.after_pending1(j, k - 1) = s.after_pending1(j, k) * J[0];
+        s.after_pending2(j, k - 1) = s.after_pending2(j, k) * J[0];
+      }
+      s.after_pending1(k, k - 1) = a_done * J[2];
+      s.after_pending2(k, k - 1) = a_done * J[1];
     }
+    a_done *= J[0];
+    a_start = before_start;
   }
-  return value;
+  // Forward: the state before joint `first` (unit jets before it).
+  double done = c.cP, start = 1.0;
+  s.pending1.tail(n - first).setZero();
+  s.pending2.tail(n - first).setZero();
+  for (int k = first; k < n; ++k) {
+    const size_t uk = static_cast<size_t>(k);
+    const double ad = s.after_done[uk];
+    double d0 = ad * done + s.after_start[uk] * start, d1 = 0.0, d2 = 0.0;
+    for (int j = k + 1; j < n; ++j) {
+      d0 += s.after_pending1(j, k) * s.pending1(j) + s.after_pending2(j, k) * s.pending2(j);
+      d1 += s.after_pending1(j, k) * c.cH(k, j);
+      d2 += s.after_pending2(j, k) * c.cH(j, k);
+    }
+    Jet& dk = d[uk];
+    dk[0] = d0;
+    dk[1] = ad * (start * c.cg(k) + s.pending2(k)) + start * d1;
+    dk[2] = ad * (start * c.cgp(k) + s.pending1(k)) + start * d2;
+    dk[3] = ad * start * c.cH(k, k);
+    const Jet& J = jets[uk];
+    done = done * J[0] + start * (c.cg(k) * J[1] + c.cgp(k) * J[2] + c.cH(k, k) * J[3]) + s.pending1(k) * J[2] +
+           s.pending2(k) * J[1];
+    for (int j = k + 1; j < n; ++j) {
+      s.pending1(j) = s.pending1(j) * J[0] + start * c.cH(k, j) * J[1];
+      s.pending2(j) = s.pending2(j) * J[0] + start * c.cH(j, k) * J[2];
+    }
+    start *= J[0];
+  }
 }
 
-// Entries 1-3 of the derivative of contract_position with respect to jets[m]:
-// the terms in which jet m's derivative entries appear, multiplied and summed
-// in contract_position's order, so that each equals contract_position with
-// jets[m] a unit jet (the terms without them are exact zeros there), in O(n^2)
-// instead of three O(n^2) contractions with most terms zero. prefix and
-// suffix: value_products of the jets; their entries up to m and from m + 1,
-// the only ones read, do not involve jet m. Jets before `first`: unit jets.
-void derivative_sensitivities(const std::vector<Jet>& jets, const PositionCoefficients& c, int m,
-                              const std::vector<double>& prefix, const std::vector<double>& suffix, int first, Jet& d) {
-  const int n = static_cast<int>(jets.size());
-  const size_t um = static_cast<size_t>(m);
-  double d1 = 0.0, d2 = 0.0;
-  for (int i = first; i < m; ++i) {  // the pairs (i, m)
-    const Jet& ji = jets[static_cast<size_t>(i)];
-    double between = 1.0;
-    for (int k = i + 1; k < m; ++k) between *= jets[static_cast<size_t>(k)][0];
-    const double all_but_im = prefix[static_cast<size_t>(i)] * between * suffix[um + 1];
-    d1 += (c.cH(m, i) * ji[2]) * all_but_im;
-    d2 += (c.cH(i, m) * ji[1]) * all_but_im;
-  }
-  const double all_but_m = prefix[um] * suffix[um + 1];
-  d1 += c.cg(m) * all_but_m;
-  d2 += c.cgp(m) * all_but_m;
-  double between = 1.0;
-  for (int j = m + 1; j < n; ++j) {  // the pairs (m, j)
-    const Jet& jj = jets[static_cast<size_t>(j)];
-    const double all_but_mj = prefix[um] * between * suffix[static_cast<size_t>(j) + 1];
-    d1 += (c.cH(m, j) * jj[2]) * all_but_mj;
-    d2 += (c.cH(j, m) * jj[1]) * all_but_mj;
-    between *= jj[0];
-  }
-  d[1] = d1;
-  d[2] = d2;
-  d[3] = c.cH(m, m) * all_but_m;
-}
-
-// The position quantities themselves (P, g, g', H) of the product of `jets`;
-// those of the unit jets before `first` are zero.
+// The position quantities themselves (P, g, g', H) of the product of `jets`.
 void position_quantities(const std::vector<Jet>& jets, double& P, Eigen::VectorXd& g, Eigen::VectorXd& gp,
-                         Eigen::MatrixXd& H, std::vector<double>& prefix, std::vector<double>& suffix, int first = 0) {
+                         Eigen::MatrixXd& H, std::vector<double>& prefix, std::vector<double>& suffix) {
   const int n = static_cast<int>(jets.size());
   value_products(jets, prefix, suffix);
   P = prefix[static_cast<size_t>(n)];
-  if (first > 0) {
-    g.head(first).setZero();
-    gp.head(first).setZero();
-    H.topRows(first).setZero();
-    H.leftCols(first).setZero();
-  }
-  for (int i = first; i < n; ++i) {
+  for (int i = 0; i < n; ++i) {
     const Jet& ji = jets[static_cast<size_t>(i)];
     const double all_but_i = prefix[static_cast<size_t>(i)] * suffix[static_cast<size_t>(i) + 1];
     g(i) = ji[1] * all_but_i;
@@ -188,31 +202,50 @@ void position_quantities(const std::vector<Jet>& jets, double& P, Eigen::VectorX
   }
 }
 
-// S(x, y) of the notation above.
-void symmetric_term(const Eigen::MatrixXd& nu, const Eigen::Ref<const Eigen::VectorXd>& x,
-                    const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::MatrixXd& S) {
+// The position quantities (P, g, g', H) of a product of jets over joints
+// m + 1.. made those of the product with jet J of joint m in front: in O(n^2)
+// scalings, where position_quantities recomputes them with prefix and
+// suffix products. Entries before m stay zero.
+void prepend_factor(const Jet& J, int m, double& P, Eigen::VectorXd& g, Eigen::VectorXd& gp, Eigen::MatrixXd& H) {
+  const int n = static_cast<int>(g.size());
+  for (int j = m + 1; j < n; ++j) {
+    for (int i = m + 1; i < n; ++i) H(i, j) *= J[0];
+    H(m, j) = J[1] * gp(j);
+    H(j, m) = J[2] * g(j);
+    g(j) *= J[0];
+    gp(j) *= J[0];
+  }
+  H(m, m) = J[3] * P;
+  g(m) = J[1] * P;
+  gp(m) = J[2] * P;
+  P *= J[0];
+}
+
+// S(x, y) of the notation above, added to K.
+void add_symmetric_term(const Eigen::MatrixXd& nu, const Eigen::Ref<const Eigen::VectorXd>& x,
+                        const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::Ref<Eigen::MatrixXd> K) {
   // Loops, not expressions: Eigen would evaluate the outer product into a
   // heap temporary, and single queries must not allocate.
   const Eigen::Index n = nu.rows();
   for (Eigen::Index j = 0; j < n; ++j)
-    for (Eigen::Index i = 0; i < n; ++i) S(i, j) = 2.0 * nu(i, j) * y(i) * x(j);
+    for (Eigen::Index i = 0; i < n; ++i) K(i, j) += 2.0 * nu(i, j) * y(i) * x(j);
   for (Eigen::Index i = 0; i < n; ++i) {
     double d = 0.0;
     for (Eigen::Index j = 0; j < n; ++j) d += nu(i, j) * x(j) * y(j);
-    S(i, i) += 2.0 * d;
+    K(i, i) += 2.0 * d;
   }
 }
 
-// d <W, S(x, y)> / d nu_ab (entries of nu taken as independent) added to G, times s.
+// G = d <W, S(x, y)> / d nu_ab, the entries of nu taken as independent.
 // Loops on references, not expressions: W is a block of the caller's matrix
 // and x, y map a state, so Eigen would copy them into heap temporaries on
 // every pair of the gradient's O(N^2) loop.
-void add_symmetric_term_gradient(const Eigen::Ref<const Eigen::MatrixXd>& W, const Eigen::Ref<const Eigen::VectorXd>& x,
-                                 const Eigen::Ref<const Eigen::VectorXd>& y, double s, Eigen::MatrixXd& G) {
+void symmetric_term_gradient(const Eigen::Ref<const Eigen::MatrixXd>& W, const Eigen::Ref<const Eigen::VectorXd>& x,
+                             const Eigen::Ref<const Eigen::VectorXd>& y, Eigen::MatrixXd& G) {
   const Eigen::Index n = W.rows();
   for (Eigen::Index b = 0; b < n; ++b) {
-    const double xy = 2.0 * s * x(b) * y(b), sx = 2.0 * s * x(b);
-    for (Eigen::Index a = 0; a < n; ++a) G(a, b) += W(a, a) * xy + W(a, b) * y(a) * sx;
+    const double xy = 2.0 * x(b) * y(b), sx = 2.0 * x(b);
+    for (Eigen::Index a = 0; a < n; ++a) G(a, b) = W(a, a) * xy + W(a, b) * y(a) * sx;
   }
 }
 
@@ -248,11 +281,11 @@ void parallel_chunks(Eigen::Index rows, Body&& body) {
 
 // Scratch for one pair of states.
 struct LagrangianKernel::PairTerms {
+  // Whether the states carry their joints' cosines and sines after qdd
+  // (with_trigonometry), so that a pair reads them instead of computing them.
+  bool trigonometry_appended = false;
   std::vector<AnglePair> angles;
   std::vector<Jet> kinetic, potential;
-  // The kinetic term being evaluated: its jets (kinetic, with unit jets for
-  // the joints its coefficients do not depend on).
-  std::vector<Jet> term_jets;
   double P = 0.0, PV = 0.0;
   Eigen::VectorXd g, gp, gV, gpV;
   // Velocity products of the notation above: e = qd1 o qd2, v5 = qdd1 o qd2,
@@ -260,7 +293,7 @@ struct LagrangianKernel::PairTerms {
   // h6 = H' qd1, h8 = H qd2, P1 = qd1.g, P1p = qd2.g', Q = qd1' H qd2.
   Eigen::VectorXd e, v5, v7, b, a5, c7, h6, h8;
   double P1 = 0.0, P1p = 0.0, Q = 0.0;
-  Eigen::MatrixXd H, HV, S;
+  Eigen::MatrixXd H, HV;
   // The velocity weights times each term's P, P1p, P1 and Q: the four S terms
   // of all kinetic terms are linear in nu, so they add up to four S terms.
   Eigen::MatrixXd nuP, nuP1p, nuP1, nuQ;
@@ -270,12 +303,18 @@ struct LagrangianKernel::PairTerms {
   Eigen::MatrixXd MP, MP1p, MP1, MQ;
   Eigen::VectorXd Wgp, Wh6, Wtg, Wth8, u, w;
   PositionCoefficients kin, pot;
+  // position_sensitivities' scratch and its derivatives, one jet per joint.
+  SensitivityScratch sensitivity;
+  std::vector<Jet> jet_derivatives;
+  // Per joint: the sum over the kinetic terms of their sensitivities to its jet.
+  std::vector<Jet> kinetic_sensitivity;
   explicit PairTerms(int n)
       : angles(static_cast<size_t>(n)), kinetic(static_cast<size_t>(n)), potential(static_cast<size_t>(n)),
-        term_jets(static_cast<size_t>(n)), g(n), gp(n), gV(n), gpV(n), e(n), v5(n), v7(n), b(n), a5(n), c7(n),
-        h6(n), h8(n), H(n, n), HV(n, n), S(n, n), nuP(n, n), nuP1p(n, n), nuP1(n, n), nuQ(n, n),
+        g(n), gp(n), gV(n), gpV(n), e(n), v5(n), v7(n), b(n), a5(n), c7(n),
+        h6(n), h8(n), H(n, n), HV(n, n), nuP(n, n), nuP1p(n, n), nuP1(n, n), nuQ(n, n),
         prefix(static_cast<size_t>(n) + 1), suffix(static_cast<size_t>(n) + 1), MP(n, n), MP1p(n, n), MP1(n, n),
-        MQ(n, n), Wgp(n), Wh6(n), Wtg(n), Wth8(n), u(n), w(n) {
+        MQ(n, n), Wgp(n), Wh6(n), Wtg(n), Wth8(n), u(n), w(n), sensitivity(n),
+        jet_derivatives(static_cast<size_t>(n)), kinetic_sensitivity(static_cast<size_t>(n)) {
     kin.reset(n);
     pot.reset(n);
   }
@@ -346,11 +385,16 @@ void LagrangianKernel::set_log_params(const Eigen::Ref<const Eigen::VectorXd>& l
 
 int LagrangianKernel::first_kinetic_joint(int term) const { return serial_chain_ ? term + 1 : 0; }
 
-void LagrangianKernel::position_jets(const double* q1, const double* q2, PairTerms& t) const {
-  for (int m = 0; m < n_; ++m) {
+void LagrangianKernel::position_jets(const double* x1, const double* x2, PairTerms& t) const {
+  const int n = n_;
+  for (int m = 0; m < n; ++m) {
     const bool rev = joints_.is_revolute(m);
     const double* kp = params_.data() + kinetic_offset_[static_cast<size_t>(m)];
-    const AnglePair& a = t.angles[static_cast<size_t>(m)] = angle_pair(rev, q1[m], q2[m]);
+    AnglePair& a = t.angles[static_cast<size_t>(m)];
+    if (rev && t.trigonometry_appended)
+      a = {x1[m], x2[m], x1[3 * n + m], x1[4 * n + m], x2[3 * n + m], x2[4 * n + m]};
+    else
+      a = angle_pair(rev, x1[m], x2[m]);
     t.kinetic[static_cast<size_t>(m)] = jet_product(factor_jet(rev, kp, a), factor_jet(rev, kp + factor_size(m), a));
     t.potential[static_cast<size_t>(m)] = factor_jet(rev, params_.data() + potential_joint_[static_cast<size_t>(m)], a);
   }
@@ -397,9 +441,16 @@ void LagrangianKernel::velocity_products(const double* x1, const double* x2, Pai
 void LagrangianKernel::kinetic_term_quantities(const double* x1, const double* x2, int term, PairTerms& t) const {
   const int n = n_;
   const int first = first_kinetic_joint(term);
-  for (int m = 0; m < n; ++m)
-    t.term_jets[static_cast<size_t>(m)] = m < first ? Jet{1.0, 0.0, 0.0, 0.0} : t.kinetic[static_cast<size_t>(m)];
-  position_quantities(t.term_jets, t.P, t.g, t.gp, t.H, t.prefix, t.suffix, first);
+  if (!serial_chain_) {
+    position_quantities(t.kinetic, t.P, t.g, t.gp, t.H, t.prefix, t.suffix);
+  } else if (first == n) {  // the last term's position kernel is the constant 1
+    t.P = 1.0;
+    t.g.setZero();
+    t.gp.setZero();
+    t.H.setZero();
+  } else {  // the term after this one was the last visited
+    prepend_factor(t.kinetic[static_cast<size_t>(first)], first, t.P, t.g, t.gp, t.H);
+  }
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qd2(x2 + n, n);
   term_product(term, t.e, t.b);
   term_product(term, t.v5, t.a5);
@@ -428,7 +479,7 @@ void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTe
   velocity_products(x1, x2, t);
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
   K.setZero();
-  for (int term = 0; term < num_kinetic_terms(); ++term) {
+  for (int term = num_kinetic_terms(); term-- > 0;) {
     kinetic_term_quantities(x1, x2, term, t);
     write_term_weights(term, t.P, t.nuP);
     write_term_weights(term, t.P1p, t.nuP1p);
@@ -443,14 +494,10 @@ void LagrangianKernel::assemble_block(const double* x1, const double* x2, PairTe
         K(i, j) += -2.0 * qd2(i) * (t.a5(i) * t.gp(j) + t.b(i) * t.h6(j)) -
                    2.0 * qd1(j) * (t.g(i) * t.c7(j) + t.h8(i) * t.b(j)) + U * t.H(i, j);
   }
-  symmetric_term(t.nuP, qdd1, qdd2, t.S);
-  K += t.S;
-  symmetric_term(t.nuP1p, qdd1, qd2, t.S);
-  K += t.S;
-  symmetric_term(t.nuP1, qd1, qdd2, t.S);
-  K += t.S;
-  symmetric_term(t.nuQ, qd1, qd2, t.S);
-  K += t.S;
+  add_symmetric_term(t.nuP, qdd1, qdd2, K);
+  add_symmetric_term(t.nuP1p, qdd1, qd2, K);
+  add_symmetric_term(t.nuP1, qd1, qdd2, K);
+  add_symmetric_term(t.nuQ, qd1, qd2, K);
   position_quantities(t.potential, t.PV, t.gV, t.gpV, t.HV, t.prefix, t.suffix);
   K += t.HV;
   if (has_friction())
@@ -525,14 +572,27 @@ void LagrangianKernel::torque_block(const double* x1, const double* x2, PairScra
   assemble_block(x1, x2, *scratch.terms_, block);
 }
 
+Eigen::MatrixXd LagrangianKernel::with_trigonometry(const Eigen::MatrixXd& X) const {
+  const int n = n_;
+  // Rows of X in contiguous memory: states are read one at a time.
+  Eigen::MatrixXd A(5 * n, X.rows());
+  A.topRows(3 * n) = X.leftCols(3 * n).transpose();
+  for (Eigen::Index r = 0; r < X.rows(); ++r)
+    for (int m = 0; m < n; ++m) {
+      A(3 * n + m, r) = std::cos(X(r, m));
+      A(4 * n + m, r) = std::sin(X(r, m));
+    }
+  return A;
+}
+
 void LagrangianKernel::fill_blocks(const Eigen::MatrixXd& X1, const Eigen::MatrixXd& X2, bool lower_only,
                                    Eigen::MatrixXd& K) const {
   const int n = n_;
   K.resize(X1.rows() * n, X2.rows() * n);
-  // Rows of X in contiguous memory: states are read one at a time.
-  const Eigen::MatrixXd A = X1.transpose(), B = X2.transpose();
+  const Eigen::MatrixXd A = with_trigonometry(X1), B = with_trigonometry(X2);
   parallel_chunks(X1.rows(), [&](Eigen::Index r0, Eigen::Index r1, int) {
     PairTerms t(n);
+    t.trigonometry_appended = true;
     Eigen::MatrixXd block(n, n);
     for (Eigen::Index r = r0; r < r1; ++r)
       for (Eigen::Index s = 0; s < (lower_only ? r + 1 : X2.rows()); ++s) {
@@ -559,29 +619,15 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
   velocity_products(x1, x2, t);
   const Eigen::Map<const Eigen::VectorXd> qd1(x1 + n, n), qdd1(x1 + 2 * n, n), qd2(x2 + n, n), qdd2(x2 + 2 * n, n);
   auto dot = [](const Jet& a, const Jet& b) { return a[0] * b[0] + a[1] * b[1] + a[2] * b[2] + a[3] * b[3]; };
-  // The contraction is linear in each joint's jet: its partial derivatives are
-  // the contraction with that jet replaced by a unit jet. Jets before `first` are unit jets.
-  auto jet_sensitivity = [&](std::vector<Jet>& jets, const PositionCoefficients& c, int m, int first) {
-    const Jet saved = jets[static_cast<size_t>(m)];
-    Jet d{};
-    jets[static_cast<size_t>(m)] = {1.0, 0.0, 0.0, 0.0};
-    d[0] = contract_position(jets, c, t.prefix, t.suffix, first);  // leaves value_products of these jets
-    jets[static_cast<size_t>(m)] = saved;
-    derivative_sensitivities(jets, c, m, t.prefix, t.suffix, first, d);
-    return d;
-  };
   // d<W, S(x, y)>/d nu_ab with the entries of nu independent, for the four S terms:
   // every term's share of them is a sum over its entries of nu.
-  t.MP.setZero();
-  t.MP1p.setZero();
-  t.MP1.setZero();
-  t.MQ.setZero();
-  add_symmetric_term_gradient(W, qdd1, qdd2, 1.0, t.MP);
-  add_symmetric_term_gradient(W, qdd1, qd2, 1.0, t.MP1p);
-  add_symmetric_term_gradient(W, qd1, qdd2, 1.0, t.MP1);
-  add_symmetric_term_gradient(W, qd1, qd2, 1.0, t.MQ);
+  std::fill(t.kinetic_sensitivity.begin(), t.kinetic_sensitivity.end(), Jet{});
+  symmetric_term_gradient(W, qdd1, qdd2, t.MP);
+  symmetric_term_gradient(W, qdd1, qd2, t.MP1p);
+  symmetric_term_gradient(W, qd1, qdd2, t.MP1);
+  symmetric_term_gradient(W, qd1, qd2, t.MQ);
 
-  for (int term = 0; term < num_kinetic_terms(); ++term) {
+  for (int term = num_kinetic_terms(); term-- > 0;) {
     kinetic_term_quantities(x1, x2, term, t);
     const int first = first_kinetic_joint(term), lo = term_support(term);
     // W and W' times this term's vectors, on the rows the term can touch.
@@ -631,27 +677,35 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
     for (int j = first; j < n; ++j)
       for (int i = first; i < n; ++i)
         kin.cH(i, j) = sQ * qd1(i) * qd2(j) - 2.0 * qd1(i) * t.u(j) - 2.0 * t.w(i) * qd2(j) + U * W(i, j);
-    for (int m = first; m < n; ++m) {
-      const bool rev = joints_.is_revolute(m);
-      const int fs = factor_size(m);
-      const AnglePair& a = t.angles[static_cast<size_t>(m)];  // set by position_jets
-      const Jet dk = jet_sensitivity(t.term_jets, kin, m, first);
-      const int ko = kinetic_offset_[static_cast<size_t>(m)];
-      const Jet f1 = factor_jet(rev, params_.data() + ko, a);
-      const Jet f2 = factor_jet(rev, params_.data() + ko + fs, a);
-      for (int p = 0; p < fs; ++p) {
-        grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, a), f2));
-        grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, a)));
-      }
+    position_sensitivities(t.kinetic, kin, first, t.sensitivity, t.jet_derivatives);
+    for (int m = first; m < n; ++m)
+      for (int e = 0; e < 4; ++e)
+        t.kinetic_sensitivity[static_cast<size_t>(m)][e] += t.jet_derivatives[static_cast<size_t>(m)][e];
+  }
+  // <W, K> is linear in each joint's kinetic jet, which all terms share: the
+  // jet's derivatives with respect to its factors' parameters are taken once,
+  // against the sum of the terms' sensitivities.
+  for (int m = 0; m < n; ++m) {
+    const bool rev = joints_.is_revolute(m);
+    const int fs = factor_size(m);
+    const AnglePair& a = t.angles[static_cast<size_t>(m)];  // set by position_jets
+    const Jet& dk = t.kinetic_sensitivity[static_cast<size_t>(m)];
+    const int ko = kinetic_offset_[static_cast<size_t>(m)];
+    const Jet f1 = factor_jet(rev, params_.data() + ko, a);
+    const Jet f2 = factor_jet(rev, params_.data() + ko + fs, a);
+    for (int p = 0; p < fs; ++p) {
+      grad(ko + p) += dot(dk, jet_product(factor_jet_derivative(rev, params_.data() + ko, p, a), f2));
+      grad(ko + fs + p) += dot(dk, jet_product(f1, factor_jet_derivative(rev, params_.data() + ko + fs, p, a)));
     }
   }
 
   PositionCoefficients& pot = t.pot;
   pot.cH = W;
+  position_sensitivities(t.potential, pot, 0, t.sensitivity, t.jet_derivatives);
   for (int m = 0; m < n; ++m) {
     const bool rev = joints_.is_revolute(m);
     const AnglePair& a = t.angles[static_cast<size_t>(m)];
-    const Jet dv = jet_sensitivity(t.potential, pot, m, 0);
+    const Jet& dv = t.jet_derivatives[static_cast<size_t>(m)];
     const int po = potential_joint_[static_cast<size_t>(m)];
     for (int p = 0; p < factor_size(m); ++p) grad(po + p) += dot(dv, factor_jet_derivative(rev, params_.data() + po, p, a));
     if (has_friction()) add_friction_gradient(m, qd1(m), qd2(m), W(m, m), grad);
@@ -661,10 +715,11 @@ void LagrangianKernel::add_pair_gradient(const double* x1, const double* x2, con
 void LagrangianKernel::add_gradient(const Eigen::MatrixXd& X, const Eigen::MatrixXd& W_lower,
                                     Eigen::Ref<Eigen::VectorXd> grad) const {
   const int n = n_;
-  const Eigen::MatrixXd A = X.transpose();
+  const Eigen::MatrixXd A = with_trigonometry(X);
   std::vector<Eigen::VectorXd> partial(kMaxChunks, Eigen::VectorXd::Zero(num_params()));
   parallel_chunks(X.rows(), [&](Eigen::Index r0, Eigen::Index r1, int thread) {
     PairTerms t(n);
+    t.trigonometry_appended = true;
     Eigen::VectorXd& g = partial[static_cast<size_t>(thread)];
     Eigen::MatrixXd Wd(n, n);
     for (Eigen::Index r = r0; r < r1; ++r) {
@@ -689,7 +744,7 @@ Eigen::RowVectorXd LagrangianKernel::kinetic_torque_covariance(const double* x, 
     xs = X.row(s).transpose();
     position_jets(x, xs.data(), t);
     velocity_products(x, xs.data(), t);
-    for (int term = 0; term < num_kinetic_terms(); ++term) {
+    for (int term = num_kinetic_terms(); term-- > 0;) {
       // The term's nu (qdd2 o qd) is c7, its nu e is b, and qd2.g' is P1p.
       kinetic_term_quantities(x, xs.data(), term, t);
       out.segment(s * n, n) +=

@@ -128,11 +128,16 @@ class LagrangianKernel {
 
  private:
   // Per-joint jets of the position kernels for one pair of states.
-  void position_jets(const double* q1, const double* q2, PairTerms& t) const;
+  void position_jets(const double* x1, const double* x2, PairTerms& t) const;
+  // The states of X as columns (q, qd, qdd), each followed by its joints'
+  // cosines and then sines: an O(N^2) loop over pairs computes them once per state.
+  Eigen::MatrixXd with_trigonometry(const Eigen::MatrixXd& X) const;
   // The kinetic energy is a sum of terms, each with one position kernel: on a
   // serial chain term c holds the coefficients h_cb (b >= c), otherwise one
   // term holds them all. This sets a term's position quantities and velocity
-  // products for a pair whose jets position_jets has set.
+  // products for a pair whose jets position_jets has set. On a chain each
+  // term's position kernel is the next one's times one factor, so the terms
+  // are visited from the last to the first, each right after the one above it.
   int num_kinetic_terms() const { return serial_chain_ ? n_ : 1; }
   void kinetic_term_quantities(const double* x1, const double* x2, int term, PairTerms& t) const;
   // The pair's velocity products that every term reads (e, v5, v7).
