@@ -792,10 +792,11 @@ def test_lagrangian_gp_serial_chain_is_the_default_and_can_be_turned_off(scara):
     assert gipdyn.LagrangianGP().estimator_options().serial_chain
     assert not gipdyn.LagrangianGP(serial_chain=False).estimator_options().serial_chain
     assert not gipdyn.InverseDynamicsGP(serial_chain=False).estimator_options().serial_chain
-    # Unset, each estimator's own: the library's screening for lip, every start to its end for rbf.
+    # Unset, each estimator's own from the library's table: a screening for lip, every start to its end for rbf.
     assert gipdyn.LagrangianGP().estimator_options().search.start_screening_evaluations is None
     lip, rbf = (gipdyn._core.estimator_search(name, gipdyn.EstimatorOptions().search) for name in ("lip", "rbf"))
-    assert lip.start_screening_evaluations == gipdyn.SearchSettings().start_screening_or_default() > 0
+    table = {row["name"]: row for row in gipdyn._core.estimator_table()}
+    assert lip.start_screening_evaluations == table["lip"]["start_screening"] > 0
     assert rbf.start_screening_evaluations == 0 and rbf.restarts > 0
     assert gipdyn.LagrangianGP(start_screening=0).estimator_options().search.start_screening_evaluations == 0
     assert gipdyn.InverseDynamicsGP(start_screening=5).estimator_options().search.start_screening_evaluations == 5
