@@ -2,6 +2,7 @@
 // evaluation of the GIP formula of docs/method.md, and the unfused composition.
 #include <gtest/gtest.h>
 
+#include <algorithm>
 #include <cmath>
 
 #include "gipdyn/detail/factor_pair_product.hpp"
@@ -521,6 +522,38 @@ TEST(GipKernel, InitializationStartsFactorsApartAndNearTargetScale) {
   k.diagonal(Z, d);
   EXPECT_GT(d.mean(), 0.5);
   EXPECT_LT(d.mean(), 8.0);
+}
+
+// From 1536 rows on, the Gram build's and the fused gradient pass's columns run
+// in tasks on every core: the same values as the unfused composite kernel, and
+// the same bits on every run (each task writes its own columns and keeps its
+// own share of the gradient, added in task order).
+TEST(GipKernel, ColumnTasksOnEveryCoreMatchTheCompositeAndRepeatBitForBit) {
+  const JointTypes joints = JointTypes::parse("RRPR");
+  const FeatureMap fm(joints);
+  const Eigen::Index N = 1600;
+  const Eigen::MatrixXd Z = fm.compute(random_inputs(joints, N, 19));
+  GipKernel k(fm, 0);
+  k.set_log_params(random_vector(k.num_params(), -1.0, 0.3, 20));
+  const std::unique_ptr<Kernel> composite = k.to_composite();
+  KernelScratch scratch, composite_scratch;
+  Eigen::MatrixXd G(N, N), K;
+  k.gram_lower(Z, G, scratch);
+  composite->cross(Z, Z, K);
+  double worst = 0.0;
+  for (Eigen::Index c = 0; c < N; ++c)
+    for (Eigen::Index r = c; r < N; ++r) worst = std::max(worst, std::abs(G(r, c) - K(r, c)));
+  EXPECT_LT(worst, 1e-12 * K.cwiseAbs().maxCoeff()) << "Gram's lower triangle against the composite's cross()";
+
+  const Eigen::VectorXd alpha = random_vector(N, -1.0, 1.0, 21);
+  Eigen::MatrixXd Kinv = test::random_matrix(N, N, -1.0, 1.0, 22);
+  Kinv = (Kinv + Kinv.transpose()).eval();
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(k.num_params()), again = g, ref = g;
+  k.contract_nll(Z, alpha, Kinv, g, scratch);
+  k.contract_nll(Z, alpha, Kinv, again, scratch);
+  EXPECT_TRUE((g.array() == again.array()).all()) << "a second run gave other bits";
+  composite->contract(Z, alpha * alpha.transpose() - Kinv, ref, composite_scratch);
+  EXPECT_LT((g - ref).norm() / ref.norm(), 1e-10);
 }
 
 TEST(KernelFactory, RejectsUnknownNames) {

@@ -2,11 +2,13 @@
 
 #include <algorithm>
 #include <cmath>
+#include <vector>
 
 #include "gipdyn/detail/factor_pair_product.hpp"
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/composite_kernels.hpp"
 #include "gipdyn/kernels/linear_kernel.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 
 namespace gipdyn {
 namespace {
@@ -16,6 +18,36 @@ constexpr Eigen::Index kChunk = 256;  // rows per block in the fused loops: keep
 #define GIPDYN_PREDICT_CHUNK 1024
 #endif
 constexpr Eigen::Index kPredictChunk = GIPDYN_PREDICT_CHUNK;  // rows per block of dot_rows
+
+// From this many rows on, the Gram build and the fused gradient pass run in tasks on every core, as the
+// factorisation's tiles do (gp/cholesky.hpp); below it, an evaluation is too short for threads to pay, and
+// GP joints already share the cores. Each task writes only its own columns (or rows) and keeps its own share
+// of the gradient, and the shares are added in task order: the tasks depend on the rows alone, so the result
+// does not depend on how many threads run them.
+constexpr Eigen::Index kParallelFromRows = 1536;
+constexpr Eigen::Index kColumnsPerTask = 32;       // of the Gram build and the gradient pass's blocks
+constexpr Eigen::Index kProductRowsPerTask = 512;  // of the acceleration weights' product
+
+// Columns per task for a matrix of `rows` rows and `columns` columns: all of them below kParallelFromRows rows.
+Eigen::Index columns_per_task(Eigen::Index rows, Eigen::Index columns) {
+  return rows >= kParallelFromRows ? kColumnsPerTask : std::max<Eigen::Index>(columns, 1);
+}
+
+int column_tasks(Eigen::Index rows, Eigen::Index columns) {
+  const Eigen::Index per_task = columns_per_task(rows, columns);
+  return static_cast<int>((columns + per_task - 1) / per_task);
+}
+
+// Runs body(task, begin, end) on every task's columns [begin, end) of `columns`.
+template <class Body>
+void for_column_tasks(Eigen::Index rows, Eigen::Index columns, Body&& body) {
+  const Eigen::Index per_task = columns_per_task(rows, columns);
+  const int tasks = column_tasks(rows, columns);
+  run_tasks(tasks, tasks > 1 ? worker_threads(0, tasks) : 1, [&](int t) {
+    const Eigen::Index begin = static_cast<Eigen::Index>(t) * per_task;
+    body(t, begin, std::min(columns, begin + per_task));
+  });
+}
 
 // The sums over i < m of r_i, r_i u_i and r_i v_i, with r_i = a_i b_i c_i, in one
 // pass (u, v may be null). Eight independent partial sums per quantity let the
@@ -202,8 +234,10 @@ void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::Matrix
 void GipKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& /*scratch*/) const {
   acceleration_factor_lower(Z, K);
   const Eigen::Index N = Z.rows();
-  for (Eigen::Index j = 0; j < N; ++j)
-    apply_position_and_friction([&](int c) { return Z(j, c); }, Z, j, N - j, K.col(j).segment(j, N - j).array());
+  for_column_tasks(N, N, [&](int, Eigen::Index column_begin, Eigen::Index column_end) {
+    for (Eigen::Index j = column_begin; j < column_end; ++j)
+      apply_position_and_friction([&](int c) { return Z(j, c); }, Z, j, N - j, K.col(j).segment(j, N - j).array());
+  });
 }
 
 void GipKernel::cross(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, Eigen::MatrixXd& K) const {
@@ -338,7 +372,8 @@ void GipKernel::gradient_matrix(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd
 // computed block by block (over the lower triangle when K is symmetric, W and K
 // being symmetric then), so the only large buffer is the acceleration factor,
 // which is overwritten by W o R_acc; its weight gradients are then one product:
-// diag(Za1^T (W o R_acc) Za2).
+// diag(Za1^T (W o R_acc) Za2), by blocks of rows on every core from
+// kParallelFromRows rows on.
 template <class WeightColumn>
 void GipKernel::fused_contract(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd& Z2, bool symmetric,
                                WeightColumn&& weight_column, Eigen::Ref<Eigen::VectorXd> grad,
@@ -359,67 +394,85 @@ void GipKernel::fused_contract(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd&
 
   // Per block: F (P + 1 columns), prefix products with a leading column of ones
   // (P + 2), suffix products with a trailing one (P + 2), wraw. R_f = Pre(f) o Suf(f + 2).
-  Eigen::MatrixXd& B = scratch.b;
-  B.resize(kChunk, 3 * (P + 1) + 3);
-  auto F = [&](int f) { return B.col(f); };
-  auto Pre = [&](int f) { return B.col(P + 1 + f); };
-  auto Suf = [&](int f) { return B.col(2 * (P + 1) + 1 + f); };
-  auto wraw = B.col(3 * (P + 1) + 2);
-  Pre(0).setOnes();
-  Suf(P + 1).setOnes();
-  Eigen::VectorXd g = Eigen::VectorXd::Zero(num_params());
+  // Each task of columns has its own block and its own share of the gradient;
+  // the columns of A it overwrites are its own.
+  std::vector<Eigen::VectorXd> shares(static_cast<size_t>(column_tasks(N1, N2)));
+  for_column_tasks(N1, N2, [&](int task, Eigen::Index column_begin, Eigen::Index column_end) {
+    Eigen::MatrixXd B(kChunk, 3 * (P + 1) + 3);
+    auto F = [&](int f) { return B.col(f); };
+    auto Pre = [&](int f) { return B.col(P + 1 + f); };
+    auto Suf = [&](int f) { return B.col(2 * (P + 1) + 1 + f); };
+    auto wraw = B.col(3 * (P + 1) + 2);
+    Pre(0).setOnes();
+    Suf(P + 1).setOnes();
+    Eigen::VectorXd g = Eigen::VectorXd::Zero(num_params());
 
-  for (Eigen::Index j = 0; j < N2; ++j) {
-    for (Eigen::Index i0 = symmetric ? j : 0; i0 < N1; i0 += kChunk) {
-      const Eigen::Index m = std::min(kChunk, N1 - i0);
-      const bool has_diag = symmetric && i0 == j;
-      // Over the full matrix: a symmetric one's lower-triangle block counts twice, less its diagonal.
-      auto wsum = [&](double sum, double first) { return symmetric ? 2.0 * sum - (has_diag ? first : 0.0) : sum; };
-      weight_column(j, i0, m, wraw.head(m));
-      for (int f = 0; f < P; ++f) {
-        const Factor& fac = position_factors_[static_cast<size_t>(f)];
-        const int c0 = fac.columns[0];
-        auto Ff = F(f).head(m).array();
-        Ff = w(fac.offset) + (w(fac.offset + 1) * Z2(j, c0)) * Z1.col(c0).segment(i0, m).array();
-        if (fac.columns.size() == 2) {
-          const int c1 = fac.columns[1];
-          Ff += (w(fac.offset + 2) * Z2(j, c1)) * Z1.col(c1).segment(i0, m).array();
+    for (Eigen::Index j = column_begin; j < column_end; ++j) {
+      for (Eigen::Index i0 = symmetric ? j : 0; i0 < N1; i0 += kChunk) {
+        const Eigen::Index m = std::min(kChunk, N1 - i0);
+        const bool has_diag = symmetric && i0 == j;
+        // Over the full matrix: a symmetric one's lower-triangle block counts twice, less its diagonal.
+        auto wsum = [&](double sum, double first) { return symmetric ? 2.0 * sum - (has_diag ? first : 0.0) : sum; };
+        weight_column(j, i0, m, wraw.head(m));
+        for (int f = 0; f < P; ++f) {
+          const Factor& fac = position_factors_[static_cast<size_t>(f)];
+          const int c0 = fac.columns[0];
+          auto Ff = F(f).head(m).array();
+          Ff = w(fac.offset) + (w(fac.offset + 1) * Z2(j, c0)) * Z1.col(c0).segment(i0, m).array();
+          if (fac.columns.size() == 2) {
+            const int c1 = fac.columns[1];
+            Ff += (w(fac.offset + 2) * Z2(j, c1)) * Z1.col(c1).segment(i0, m).array();
+          }
+        }
+        F(P).head(m) = A.col(j).segment(i0, m);
+        for (int f = 0; f < P; ++f) Pre(f + 1).head(m).array() = Pre(f).head(m).array() * F(f).head(m).array();
+        for (int f = P; f >= 1; --f) Suf(f).head(m).array() = F(f).head(m).array() * Suf(f + 1).head(m).array();
+
+        for (int f = 0; f < P; ++f) {
+          const Factor& fac = position_factors_[static_cast<size_t>(f)];
+          const double* u = Z1.col(fac.columns[0]).data() + i0;
+          const double* v = fac.columns.size() == 2 ? Z1.col(fac.columns[1]).data() + i0 : nullptr;
+          const FactorSums t = factor_sums(wraw.data(), Pre(f).data(), Suf(f + 1).data(), u, v, m);
+          g(fac.offset) += w(fac.offset) * wsum(t.r, t.r0);
+          g(fac.offset + 1) += w(fac.offset + 1) * Z2(j, fac.columns[0]) * wsum(t.ru, t.ru0);
+          if (v) g(fac.offset + 2) += w(fac.offset + 2) * Z2(j, fac.columns[1]) * wsum(t.rv, t.rv0);
+        }
+        auto r_acc = A.col(j).segment(i0, m).array();
+        r_acc = wraw.head(m).array() * Pre(P).head(m).array();  // W o R_acc
+        g(acceleration_.offset) += w(acceleration_.offset) * wsum(r_acc.sum(), r_acc(0));
+        if (has_friction()) {
+          const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
+          const FactorSums t = factor_sums(wraw.data(), Pre(0).data(), Suf(P + 1).data(), Z1.col(cv).data() + i0,
+                                           Z1.col(cc).data() + i0, m);
+          g(friction_offset_) += w(friction_offset_) * Z2(j, cv) * wsum(t.ru, t.ru0);
+          g(friction_offset_ + 1) += w(friction_offset_ + 1) * Z2(j, cc) * wsum(t.rv, t.rv0);
         }
       }
-      F(P).head(m) = A.col(j).segment(i0, m);
-      for (int f = 0; f < P; ++f) Pre(f + 1).head(m).array() = Pre(f).head(m).array() * F(f).head(m).array();
-      for (int f = P; f >= 1; --f) Suf(f).head(m).array() = F(f).head(m).array() * Suf(f + 1).head(m).array();
-
-      for (int f = 0; f < P; ++f) {
-        const Factor& fac = position_factors_[static_cast<size_t>(f)];
-        const double* u = Z1.col(fac.columns[0]).data() + i0;
-        const double* v = fac.columns.size() == 2 ? Z1.col(fac.columns[1]).data() + i0 : nullptr;
-        const FactorSums t = factor_sums(wraw.data(), Pre(f).data(), Suf(f + 1).data(), u, v, m);
-        g(fac.offset) += w(fac.offset) * wsum(t.r, t.r0);
-        g(fac.offset + 1) += w(fac.offset + 1) * Z2(j, fac.columns[0]) * wsum(t.ru, t.ru0);
-        if (v) g(fac.offset + 2) += w(fac.offset + 2) * Z2(j, fac.columns[1]) * wsum(t.rv, t.rv0);
-      }
-      auto r_acc = A.col(j).segment(i0, m).array();
-      r_acc = wraw.head(m).array() * Pre(P).head(m).array();  // W o R_acc
-      g(acceleration_.offset) += w(acceleration_.offset) * wsum(r_acc.sum(), r_acc(0));
-      if (has_friction()) {
-        const int cv = features_.friction_qd(friction_joint_), cc = features_.friction_sign(friction_joint_);
-        const FactorSums t = factor_sums(wraw.data(), Pre(0).data(), Suf(P + 1).data(), Z1.col(cv).data() + i0,
-                                         Z1.col(cc).data() + i0, m);
-        g(friction_offset_) += w(friction_offset_) * Z2(j, cv) * wsum(t.ru, t.ru0);
-        g(friction_offset_ + 1) += w(friction_offset_ + 1) * Z2(j, cc) * wsum(t.rv, t.rv0);
-      }
     }
-  }
+    shares[static_cast<size_t>(task)] = std::move(g);
+  });
+  Eigen::VectorXd g = Eigen::VectorXd::Zero(num_params());
+  for (const Eigen::VectorXd& share : shares) g += share;
+  // M = A Za2, A symmetric (its lower triangle stored) or not, one block of
+  // rows per task: each block's sum runs the same whatever the threads.
   const auto Za1 = Z1.middleCols(acc_first_column_, na);
   const auto Za2 = Z2.middleCols(acc_first_column_, na);
   Eigen::MatrixXd& M = scratch.d;
   M.resize(N1, na);
-  if (symmetric) {
-    M.noalias() = A.selfadjointView<Eigen::Lower>() * Za2;  // dsymm
-  } else {
-    M.noalias() = A * Za2;
-  }
+  const Eigen::Index rows_per_task = N1 >= kParallelFromRows ? kProductRowsPerTask : std::max<Eigen::Index>(N1, 1);
+  const int row_tasks = static_cast<int>((N1 + rows_per_task - 1) / rows_per_task);
+  run_tasks(row_tasks, N1 >= kParallelFromRows ? worker_threads(0, row_tasks) : 1, [&](int t) {
+    const Eigen::Index r0 = static_cast<Eigen::Index>(t) * rows_per_task, h = std::min(rows_per_task, N1 - r0);
+    auto Mt = M.middleRows(r0, h);
+    if (!symmetric) {
+      Mt.noalias() = A.middleRows(r0, h) * Za2;
+      return;
+    }
+    Mt.noalias() = A.block(r0, r0, h, h).selfadjointView<Eigen::Lower>() * Za2.middleRows(r0, h);  // dsymm
+    if (r0 > 0) Mt.noalias() += A.block(r0, 0, h, r0) * Za2.topRows(r0);
+    const Eigen::Index below = N1 - r0 - h;
+    if (below > 0) Mt.noalias() += A.block(r0 + h, r0, below, h).transpose() * Za2.bottomRows(below);
+  });
   for (Eigen::Index d = 0; d < na; ++d)
     g(acceleration_.offset + 1 + d) += w(acceleration_.offset + 1 + d) * Za1.col(d).dot(M.col(d));
   grad += g;
