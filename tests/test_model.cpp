@@ -1067,6 +1067,29 @@ TEST(ParallelTasks, RunEachTaskOnceAndRethrowTheFirstFailure) {
   EXPECT_EQ(gipdyn::worker_threads(8, 8, 10.0 * available), 1);
 }
 
+// Ranges cover their items once, in order; a single range runs on the
+// caller's thread, several each once with their own bounds.
+TEST(ParallelTasks, RangesCoverTheItemsOnceAndEachRunsWithItsBounds) {
+  using Bounds = std::vector<std::ptrdiff_t>;
+  EXPECT_EQ(gipdyn::equal_ranges(10, 4), (Bounds{0, 4, 8, 10}));
+  EXPECT_EQ(gipdyn::equal_ranges(8, 4), (Bounds{0, 4, 8}));
+  EXPECT_EQ(gipdyn::equal_ranges(3, 4), (Bounds{0, 3}));
+  EXPECT_EQ(gipdyn::equal_ranges(0, 4), (Bounds{0, 0}));
+  const Bounds bounds{0, 3, 4, 9, 20};
+  std::vector<int> covered(20, 0);
+  std::mutex mu;
+  gipdyn::run_range_tasks(bounds, [&](int t, std::ptrdiff_t begin, std::ptrdiff_t end) {
+    const std::lock_guard<std::mutex> lock(mu);
+    EXPECT_EQ(begin, bounds[static_cast<size_t>(t)]);
+    EXPECT_EQ(end, bounds[static_cast<size_t>(t) + 1]);
+    for (std::ptrdiff_t i = begin; i < end; ++i) ++covered[static_cast<size_t>(i)];
+  });
+  EXPECT_EQ(covered, std::vector<int>(20, 1));
+  std::thread::id runner;
+  gipdyn::run_range_tasks(Bounds{0, 5}, [&](int, std::ptrdiff_t, std::ptrdiff_t) { runner = std::this_thread::get_id(); });
+  EXPECT_EQ(runner, std::this_thread::get_id());
+}
+
 TEST(Memory, RefusesWhatTheMachineCannotHoldWithTheEstimate) {
   EXPECT_EQ(gipdyn::format_bytes(512), "512 B");
   EXPECT_EQ(gipdyn::format_bytes(1.5 * 1024 * 1024 * 1024), "1.5 GiB");

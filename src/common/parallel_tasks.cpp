@@ -45,4 +45,22 @@ void run_tasks(int tasks, int threads, const std::function<void(int)>& task) {
   if (failure) std::rethrow_exception(failure);
 }
 
+std::vector<std::ptrdiff_t> equal_ranges(std::ptrdiff_t count, std::ptrdiff_t per_range) {
+  count = std::max<std::ptrdiff_t>(count, 0);
+  per_range = std::max<std::ptrdiff_t>(per_range, 1);
+  std::vector<std::ptrdiff_t> bounds{0};
+  for (std::ptrdiff_t end = per_range; end < count; end += per_range) bounds.push_back(end);
+  bounds.push_back(count);
+  return bounds;
+}
+
+void run_range_tasks(const std::vector<std::ptrdiff_t>& bounds,
+                     const std::function<void(int, std::ptrdiff_t, std::ptrdiff_t)>& body) {
+  const int ranges = static_cast<int>(bounds.size()) - 1;
+  if (ranges < 1) return;
+  run_tasks(ranges, ranges > 1 ? worker_threads(0, ranges) : 1, [&](int t) {
+    body(t, bounds[static_cast<size_t>(t)], bounds[static_cast<size_t>(t) + 1]);
+  });
+}
+
 }  // namespace gipdyn

@@ -28,25 +28,10 @@ constexpr Eigen::Index kParallelFromRows = 1536;
 constexpr Eigen::Index kColumnsPerTask = 32;       // of the Gram build and the gradient pass's blocks
 constexpr Eigen::Index kProductRowsPerTask = 512;  // of the acceleration weights' product
 
-// Columns per task for a matrix of `rows` rows and `columns` columns: all of them below kParallelFromRows rows.
-Eigen::Index columns_per_task(Eigen::Index rows, Eigen::Index columns) {
-  return rows >= kParallelFromRows ? kColumnsPerTask : std::max<Eigen::Index>(columns, 1);
-}
-
-int column_tasks(Eigen::Index rows, Eigen::Index columns) {
-  const Eigen::Index per_task = columns_per_task(rows, columns);
-  return static_cast<int>((columns + per_task - 1) / per_task);
-}
-
-// Runs body(task, begin, end) on every task's columns [begin, end) of `columns`.
-template <class Body>
-void for_column_tasks(Eigen::Index rows, Eigen::Index columns, Body&& body) {
-  const Eigen::Index per_task = columns_per_task(rows, columns);
-  const int tasks = column_tasks(rows, columns);
-  run_tasks(tasks, tasks > 1 ? worker_threads(0, tasks) : 1, [&](int t) {
-    const Eigen::Index begin = static_cast<Eigen::Index>(t) * per_task;
-    body(t, begin, std::min(columns, begin + per_task));
-  });
+// The ranges of a matrix's `items` columns (or rows) that its tasks take, `per_task` at a time from
+// kParallelFromRows rows on, all in one task below it.
+std::vector<std::ptrdiff_t> task_ranges(Eigen::Index rows, Eigen::Index items, Eigen::Index per_task) {
+  return equal_ranges(items, rows >= kParallelFromRows ? per_task : items);
 }
 
 // The sums over i < m of r_i, r_i u_i and r_i v_i, with r_i = a_i b_i c_i, in one
@@ -234,7 +219,7 @@ void GipKernel::apply_position_and_friction(const Query& zq, const Eigen::Matrix
 void GipKernel::gram_lower(const Eigen::MatrixXd& Z, Eigen::MatrixXd& K, KernelScratch& /*scratch*/) const {
   acceleration_factor_lower(Z, K);
   const Eigen::Index N = Z.rows();
-  for_column_tasks(N, N, [&](int, Eigen::Index column_begin, Eigen::Index column_end) {
+  run_range_tasks(task_ranges(N, N, kColumnsPerTask), [&](int, Eigen::Index column_begin, Eigen::Index column_end) {
     for (Eigen::Index j = column_begin; j < column_end; ++j)
       apply_position_and_friction([&](int c) { return Z(j, c); }, Z, j, N - j, K.col(j).segment(j, N - j).array());
   });
@@ -396,8 +381,9 @@ void GipKernel::fused_contract(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd&
   // (P + 2), suffix products with a trailing one (P + 2), wraw. R_f = Pre(f) o Suf(f + 2).
   // Each task of columns has its own block and its own share of the gradient;
   // the columns of A it overwrites are its own.
-  std::vector<Eigen::VectorXd> shares(static_cast<size_t>(column_tasks(N1, N2)));
-  for_column_tasks(N1, N2, [&](int task, Eigen::Index column_begin, Eigen::Index column_end) {
+  const std::vector<std::ptrdiff_t> column_ranges = task_ranges(N1, N2, kColumnsPerTask);
+  std::vector<Eigen::VectorXd> shares(column_ranges.size() - 1);
+  run_range_tasks(column_ranges, [&](int task, Eigen::Index column_begin, Eigen::Index column_end) {
     Eigen::MatrixXd B(kChunk, 3 * (P + 1) + 3);
     auto F = [&](int f) { return B.col(f); };
     auto Pre = [&](int f) { return B.col(P + 1 + f); };
@@ -459,10 +445,8 @@ void GipKernel::fused_contract(const Eigen::MatrixXd& Z1, const Eigen::MatrixXd&
   const auto Za2 = Z2.middleCols(acc_first_column_, na);
   Eigen::MatrixXd& M = scratch.d;
   M.resize(N1, na);
-  const Eigen::Index rows_per_task = N1 >= kParallelFromRows ? kProductRowsPerTask : std::max<Eigen::Index>(N1, 1);
-  const int row_tasks = static_cast<int>((N1 + rows_per_task - 1) / rows_per_task);
-  run_tasks(row_tasks, N1 >= kParallelFromRows ? worker_threads(0, row_tasks) : 1, [&](int t) {
-    const Eigen::Index r0 = static_cast<Eigen::Index>(t) * rows_per_task, h = std::min(rows_per_task, N1 - r0);
+  run_range_tasks(task_ranges(N1, N1, kProductRowsPerTask), [&](int, Eigen::Index r0, Eigen::Index r1) {
+    const Eigen::Index h = r1 - r0;
     auto Mt = M.middleRows(r0, h);
     if (!symmetric) {
       Mt.noalias() = A.middleRows(r0, h) * Za2;

@@ -3,10 +3,10 @@
 #include <algorithm>
 #include <array>
 #include <cmath>
-#include <thread>
 
 #include "gipdyn/error.hpp"
 #include "gipdyn/kernels/friction_kernel.hpp"
+#include "gipdyn/parallel_tasks.hpp"
 
 // Notation (docs/method.md section 11). For one pair of states x1 = (q1, qd1,
 // qdd1), x2 = (q2, qd2, qdd2) and a position kernel p(q1, q2) = prod_m p_m:
@@ -249,32 +249,18 @@ void symmetric_term_gradient(const Eigen::Ref<const Eigen::MatrixXd>& W, const E
   }
 }
 
-// Splits [0, rows) into chunks that depend on the rows only, and runs them on
-// the machine's threads: body(begin, end, chunk). Callers that accumulate keep
-// one sum per chunk and add them in chunk order, so results do not depend on
-// the core count.
-constexpr int kMaxChunks = 8;
-template <class Body>
-void parallel_chunks(Eigen::Index rows, Body&& body) {
-  const int chunks = static_cast<int>(std::clamp<Eigen::Index>(rows / 16, 1, kMaxChunks));
-  // Row r of a lower triangle costs about r: balance the work, not the rows.
-  std::vector<Eigen::Index> bounds(static_cast<size_t>(chunks) + 1, rows);
+// The ranges of rows of a lower triangle that its tasks take (run_range_tasks):
+// they depend on the rows only, and row r costs about r, so they balance the
+// work, not the rows. Callers that accumulate keep one sum per range.
+constexpr int kMaxRanges = 8;
+std::vector<std::ptrdiff_t> lower_triangle_ranges(Eigen::Index rows) {
+  const int ranges = static_cast<int>(std::clamp<Eigen::Index>(rows / 16, 1, kMaxRanges));
+  std::vector<std::ptrdiff_t> bounds(static_cast<size_t>(ranges) + 1, rows);
   bounds[0] = 0;
-  for (int c = 1; c < chunks; ++c)
+  for (int c = 1; c < ranges; ++c)
     bounds[static_cast<size_t>(c)] =
-        static_cast<Eigen::Index>(static_cast<double>(rows) * std::sqrt(static_cast<double>(c) / chunks));
-  const int threads = std::min<int>(chunks, static_cast<int>(std::max(1u, std::thread::hardware_concurrency())));
-  auto worker = [&](int first) {
-    for (int c = first; c < chunks; c += threads)
-      body(bounds[static_cast<size_t>(c)], bounds[static_cast<size_t>(c) + 1], c);
-  };
-  if (threads <= 1) {
-    worker(0);
-    return;
-  }
-  std::vector<std::thread> pool;
-  for (int t = 0; t < threads; ++t) pool.emplace_back(worker, t);
-  for (auto& th : pool) th.join();
+        static_cast<Eigen::Index>(static_cast<double>(rows) * std::sqrt(static_cast<double>(c) / ranges));
+  return bounds;
 }
 
 }  // namespace
@@ -590,7 +576,7 @@ void LagrangianKernel::fill_blocks(const Eigen::MatrixXd& X1, const Eigen::Matri
   const int n = n_;
   K.resize(X1.rows() * n, X2.rows() * n);
   const Eigen::MatrixXd A = with_trigonometry(X1), B = with_trigonometry(X2);
-  parallel_chunks(X1.rows(), [&](Eigen::Index r0, Eigen::Index r1, int) {
+  run_range_tasks(lower_triangle_ranges(X1.rows()), [&](int, Eigen::Index r0, Eigen::Index r1) {
     PairTerms t(n);
     t.trigonometry_appended = true;
     Eigen::MatrixXd block(n, n);
@@ -716,11 +702,12 @@ void LagrangianKernel::add_gradient(const Eigen::MatrixXd& X, const Eigen::Matri
                                     Eigen::Ref<Eigen::VectorXd> grad) const {
   const int n = n_;
   const Eigen::MatrixXd A = with_trigonometry(X);
-  std::vector<Eigen::VectorXd> partial(kMaxChunks, Eigen::VectorXd::Zero(num_params()));
-  parallel_chunks(X.rows(), [&](Eigen::Index r0, Eigen::Index r1, int thread) {
+  const std::vector<std::ptrdiff_t> ranges = lower_triangle_ranges(X.rows());
+  std::vector<Eigen::VectorXd> partial(ranges.size() - 1, Eigen::VectorXd::Zero(num_params()));
+  run_range_tasks(ranges, [&](int range, Eigen::Index r0, Eigen::Index r1) {
     PairTerms t(n);
     t.trigonometry_appended = true;
-    Eigen::VectorXd& g = partial[static_cast<size_t>(thread)];
+    Eigen::VectorXd& g = partial[static_cast<size_t>(range)];
     Eigen::MatrixXd Wd(n, n);
     for (Eigen::Index r = r0; r < r1; ++r) {
       for (Eigen::Index s = 0; s < r; ++s) {  // the upper block (s, r) is the transpose: counted twice
