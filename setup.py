@@ -7,7 +7,7 @@ GIPDYN_PREBUILT_CORE=PATH packages the `_core` extension at PATH, built by the
 project's own CMake build, instead of compiling the library a second time (five
 minutes on two cores). The CMake configuration still runs and must offer the
 `_core` target (CMake's file API lists the targets). The nn estimator's
-libtorch plugin beside it (libgipdyn_torch.so) is packaged too. The packaging
+libtorch plugin beside it (the gipdyn_torch target's file) is packaged too. The packaging
 test (tests/python_wheel_test.sh) uses it.
 """
 import glob
@@ -27,12 +27,18 @@ class CMakeExtension(Extension):
 
 
 def configured_targets(build_dir):
-    """The target names of a configured build tree, from CMake's file API reply."""
+    """The targets of a configured build tree and their file names (None for a
+    target without a file), from CMake's file API reply."""
     reply = os.path.join(build_dir, ".cmake", "api", "v1", "reply")
     with open(max(glob.glob(os.path.join(reply, "index-*.json")))) as f:
         codemodel = json.load(f)["reply"]["codemodel-v2"]["jsonFile"]
     with open(os.path.join(reply, codemodel)) as f:
-        return {t["name"] for c in json.load(f)["configurations"] for t in c["targets"]}
+        targets = [t for c in json.load(f)["configurations"] for t in c["targets"]]
+    files = {}
+    for t in targets:
+        with open(os.path.join(reply, t["jsonFile"])) as f:
+            files[t["name"]] = json.load(f).get("nameOnDisk")
+    return files
 
 
 class CMakeBuild(build_ext):
@@ -52,14 +58,16 @@ class CMakeBuild(build_ext):
         ])
         prebuilt = os.environ.get("GIPDYN_PREBUILT_CORE")
         if prebuilt:
-            if "_core" not in configured_targets(build_dir):
+            targets = configured_targets(build_dir)
+            if "_core" not in targets:
                 sys.exit("setup.py: the CMake configuration has no _core target; build it in python/CMakeLists.txt")
             os.makedirs(package_dir, exist_ok=True)
             shutil.copy2(prebuilt, self.get_ext_fullpath(ext.name))
             # The nn estimator's libtorch plugin, which the build put beside _core.
-            plugin = os.path.join(os.path.dirname(prebuilt), "libgipdyn_torch.so")
-            if os.path.exists(plugin):
-                shutil.copy2(plugin, package_dir)
+            if targets.get("gipdyn_torch"):
+                plugin = os.path.join(os.path.dirname(prebuilt), targets["gipdyn_torch"])
+                if os.path.exists(plugin):
+                    shutil.copy2(plugin, package_dir)
             return
         subprocess.check_call(["cmake", "--build", build_dir, "--target", "_core", "-j", str(os.cpu_count() or 2)])
 

@@ -88,7 +88,7 @@ const NetworkPlugin& network_plugin() {
       return p;
     }
     p.error = "the nn estimator's libtorch plugin could not be loaded: " + tried +
-              "; reinstall gipdyn, or set GIPDYN_TORCH_PLUGIN to the path of libgipdyn_torch.so";
+              "; reinstall gipdyn, or set GIPDYN_TORCH_PLUGIN to the path of " GIPDYN_TORCH_PLUGIN_NAME;
 #endif
     return p;
   }();
