@@ -432,6 +432,47 @@ TEST(FactorPairProduct, EveryInstructionSetThisCpuRunsGivesThePlainLoopsBits) {
   EXPECT_GE(compared, 14);  // the baseline at least, with and without v, at every length
 }
 
+// The acceleration factors of every joint's row at once, in each ISA's copy:
+// the bits of the plain sum in order, for any number of outputs (groups of
+// eight and a remainder) and lengths that leave vector tails.
+TEST(AffineCombinations, EveryInstructionSetThisCpuRunsGivesThePlainSumsBits) {
+  using detail::VectorIsa;
+  int compared = 0;
+  for (const int columns : {1, 3, 6, 8, 11})
+    for (const int count : {0, 1, 6, 27})
+      for (const std::ptrdiff_t m : {0, 1, 3, 4, 13, 1001}) {
+        const std::ptrdiff_t stride = m + 5, w_stride = count + 2, out_stride = m + 3;
+        const Eigen::VectorXd a = random_vector(static_cast<int>(stride * std::max(count, 1)), -2.0, 2.0, 31),
+                              W = random_vector(static_cast<int>(w_stride * columns), -1.5, 1.5, 32),
+                              c = random_vector(columns, -1.0, 1.0, 33);
+        const Eigen::VectorXd untouched = random_vector(static_cast<int>(out_stride * columns), -1.0, 1.0, 34);
+        Eigen::VectorXd expected = untouched;
+        for (int j = 0; j < columns; ++j)
+          for (std::ptrdiff_t i = 0; i < m; ++i) {
+            double sum = c(j);
+            for (int d = 0; d < count; ++d) sum = sum + W(d + j * w_stride) * a(d * stride + i);
+            expected(j * out_stride + i) = sum;
+          }
+        for (const VectorIsa isa : {VectorIsa::kBaseline, VectorIsa::kAvx2, VectorIsa::kAvx512}) {
+          const bool runs = static_cast<int>(isa) <= static_cast<int>(detail::cpu_vector_isa());
+          Eigen::VectorXd out = untouched;
+          ASSERT_EQ(detail::set_affine_combinations(isa, out.data(), out_stride, columns, m, c.data(), a.data(), stride,
+                                                    W.data(), w_stride, count),
+                    runs);
+          ASSERT_TRUE(runs || out == untouched) << "an ISA the CPU lacks must leave the outputs untouched";
+          if (!runs) continue;
+          ASSERT_TRUE(out == expected) << detail::vector_isa_name(isa) << ", " << columns << " outputs, " << count
+                                       << " inputs, m = " << m;
+          ++compared;
+        }
+        Eigen::VectorXd dispatched = untouched;
+        detail::set_affine_combinations(dispatched.data(), out_stride, columns, m, c.data(), a.data(), stride,
+                                        W.data(), w_stride, count);
+        EXPECT_TRUE(dispatched == expected);
+      }
+  EXPECT_GE(compared, 5 * 4 * 6);  // the baseline at least, on every shape
+}
+
 class GipKernelTest : public ::testing::TestWithParam<const char*> {};
 
 TEST_P(GipKernelTest, ValueMatchesNaiveFormula) {

@@ -1,5 +1,7 @@
 #include "gipdyn/detail/factor_pair_product.hpp"
 
+#include <algorithm>
+
 namespace gipdyn::detail {
 namespace {
 
@@ -30,22 +32,81 @@ __attribute__((always_inline)) inline void factor_pair(double* col, const double
     factor_pair_loop<false>(col, u, v, m, p, q);
 }
 
-void baseline(double* col, const double* u, const double* v, std::ptrdiff_t m, const double* p, const double* q) {
-  factor_pair(col, u, v, m, p, q);
+// kColumns of set_affine_combinations' outputs, kRows rows at a time: the
+// sums stay in registers while the input columns stream by once for all
+// outputs, as in a BLAS kernel but without its packing, which costs more than
+// the product at so few columns.
+// Four doubles, in one AVX register or two SSE2 ones: GCC's vector extension,
+// whose element-wise + and * are the scalar ones, lane by lane.
+using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
+constexpr int kLanes = 4;
+
+template <int kColumns>
+__attribute__((always_inline)) inline void affine_group(double* __restrict out, std::ptrdiff_t out_stride,
+                                                        std::ptrdiff_t m, const double* c, const double* a,
+                                                        std::ptrdiff_t stride, const double* W,
+                                                        std::ptrdiff_t w_stride, int count) {
+  std::ptrdiff_t i0 = 0;
+  for (; i0 + kLanes <= m; i0 += kLanes) {
+    Lanes sum[kColumns];
+    for (int j = 0; j < kColumns; ++j) sum[j] = Lanes{} + c[j];
+    for (int d = 0; d < count; ++d) {
+      Lanes x;
+      __builtin_memcpy(&x, a + d * stride + i0, sizeof x);
+      for (int j = 0; j < kColumns; ++j) sum[j] = sum[j] + W[d + j * w_stride] * x;
+    }
+    for (int j = 0; j < kColumns; ++j) __builtin_memcpy(out + j * out_stride + i0, &sum[j], sizeof sum[j]);
+  }
+  for (; i0 < m; ++i0)
+    for (int j = 0; j < kColumns; ++j) {
+      double sum = c[j];
+      for (int d = 0; d < count; ++d) sum = sum + W[d + j * w_stride] * a[d * stride + i0];
+      out[j * out_stride + i0] = sum;
+    }
 }
 
+constexpr int kMaxGroup = 8;
+
+__attribute__((always_inline)) inline void affine_combinations(double* out, std::ptrdiff_t out_stride, int columns,
+                                                               std::ptrdiff_t m, const double* c, const double* a,
+                                                               std::ptrdiff_t stride, const double* W,
+                                                               std::ptrdiff_t w_stride, int count) {
+  for (int j0 = 0; j0 < columns; j0 += kMaxGroup) {
+    double* o = out + j0 * out_stride;
+    const double* cj = c + j0;
+    const double* Wj = W + j0 * w_stride;
+    switch (std::min(kMaxGroup, columns - j0)) {
+      case 1: affine_group<1>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      case 2: affine_group<2>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      case 3: affine_group<3>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      case 4: affine_group<4>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      case 5: affine_group<5>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      case 6: affine_group<6>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      case 7: affine_group<7>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+      default: affine_group<kMaxGroup>(o, out_stride, m, cj, a, stride, Wj, w_stride, count); break;
+    }
+  }
+}
+
+// Each ISA's copy of both loops.
+#define GIPDYN_LOOPS(ATTRIBUTE, SUFFIX)                                                                          \
+  ATTRIBUTE void factor_pair_##SUFFIX(double* col, const double* u, const double* v, std::ptrdiff_t m,           \
+                                      const double* p, const double* q) {                                       \
+    factor_pair(col, u, v, m, p, q);                                                                            \
+  }                                                                                                             \
+  ATTRIBUTE void affine_##SUFFIX(double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m,         \
+                                 const double* c, const double* a, std::ptrdiff_t stride, const double* W,       \
+                                 std::ptrdiff_t w_stride, int count) {                                          \
+    affine_combinations(out, out_stride, columns, m, c, a, stride, W, w_stride, count);                         \
+  }
+
+GIPDYN_LOOPS(, baseline)
 #if defined(__x86_64__) && defined(__GNUC__)
 #define GIPDYN_HAVE_WIDE_VECTORS 1
-__attribute__((target("avx2"))) void avx2(double* col, const double* u, const double* v, std::ptrdiff_t m,
-                                          const double* p, const double* q) {
-  factor_pair(col, u, v, m, p, q);
-}
-
-__attribute__((target("avx512f"))) void avx512(double* col, const double* u, const double* v, std::ptrdiff_t m,
-                                               const double* p, const double* q) {
-  factor_pair(col, u, v, m, p, q);
-}
+GIPDYN_LOOPS(__attribute__((target("avx2"))), avx2)
+GIPDYN_LOOPS(__attribute__((target("avx512f"))), avx512)
 #endif
+#undef GIPDYN_LOOPS
 
 VectorIsa detect() {
 #ifdef GIPDYN_HAVE_WIDE_VECTORS
@@ -56,15 +117,26 @@ VectorIsa detect() {
   return VectorIsa::kBaseline;
 }
 
-// The copy of the loop for an ISA, which the caller knows this CPU runs.
-void run(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m, const double* p,
-         const double* q) {
+// The copy of a loop for an ISA, which the caller knows this CPU runs.
+void run_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m, const double* p,
+                     const double* q) {
   switch (isa) {
 #ifdef GIPDYN_HAVE_WIDE_VECTORS
-    case VectorIsa::kAvx512: return avx512(col, u, v, m, p, q);
-    case VectorIsa::kAvx2: return avx2(col, u, v, m, p, q);
+    case VectorIsa::kAvx512: return factor_pair_avx512(col, u, v, m, p, q);
+    case VectorIsa::kAvx2: return factor_pair_avx2(col, u, v, m, p, q);
 #endif
-    default: return baseline(col, u, v, m, p, q);
+    default: return factor_pair_baseline(col, u, v, m, p, q);
+  }
+}
+
+void run_affine(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m, const double* c,
+                const double* a, std::ptrdiff_t stride, const double* W, std::ptrdiff_t w_stride, int count) {
+  switch (isa) {
+#ifdef GIPDYN_HAVE_WIDE_VECTORS
+    case VectorIsa::kAvx512: return affine_avx512(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+    case VectorIsa::kAvx2: return affine_avx2(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+#endif
+    default: return affine_baseline(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
   }
 }
 
@@ -87,13 +159,27 @@ const char* vector_isa_name(VectorIsa isa) {
 bool multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
                              const double p[3], const double q[3]) {
   if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
-  run(isa, col, u, v, m, p, q);
+  run_factor_pair(isa, col, u, v, m, p, q);
   return true;
 }
 
 void multiply_by_factor_pair(double* col, const double* u, const double* v, std::ptrdiff_t m, const double p[3],
                              const double q[3]) {
-  run(cpu_vector_isa(), col, u, v, m, p, q);
+  run_factor_pair(cpu_vector_isa(), col, u, v, m, p, q);
+}
+
+bool set_affine_combinations(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m,
+                             const double* c, const double* a, std::ptrdiff_t stride, const double* W,
+                             std::ptrdiff_t w_stride, int count) {
+  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
+  run_affine(isa, out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+  return true;
+}
+
+void set_affine_combinations(double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m, const double* c,
+                             const double* a, std::ptrdiff_t stride, const double* W, std::ptrdiff_t w_stride,
+                             int count) {
+  run_affine(cpu_vector_isa(), out, out_stride, columns, m, c, a, stride, W, w_stride, count);
 }
 
 }  // namespace gipdyn::detail

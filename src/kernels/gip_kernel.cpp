@@ -283,19 +283,24 @@ void GipKernel::dot_rows(const std::vector<const GipKernel*>& kernels,
   const int a0 = first.acc_first_column_;
   Eigen::MatrixXd& W = scratch.a;
   Eigen::MatrixXd& block = scratch.b;
+  Eigen::VectorXd& constants = scratch.v;  // not w, which row() keeps at another size
   if (W.rows() != na || W.cols() != J) W.resize(na, J);
+  if (constants.size() != J) constants.resize(J);
   if (block.rows() != kPredictChunk || block.cols() != J) block.resize(kPredictChunk, J);
   for (Eigen::Index j = 0; j < J; ++j) {
     const GipKernel& k = *kernels[static_cast<size_t>(j)];
     W.col(j) = k.weights_.segment(k.acceleration_.offset + 1, na).cwiseProduct(Eigen::Map<const Eigen::VectorXd>(z + a0, na));
+    constants(j) = k.weights_(k.acceleration_.offset);
   }
   out.setZero();
   for (Eigen::Index i0 = 0; i0 < N; i0 += kPredictChunk) {
     const Eigen::Index m = std::min(kPredictChunk, N - i0);
-    block.topRows(m).noalias() = Z.block(i0, a0, m, na) * W;
+    // Every joint's acceleration factor: constant + Z_acc W, in one pass over the columns.
+    detail::set_affine_combinations(block.data(), block.outerStride(), static_cast<int>(J), m, constants.data(),
+                                    Z.col(a0).data() + i0, Z.outerStride(), W.data(), W.outerStride(),
+                                    static_cast<int>(na));
     for (Eigen::Index j = 0; j < J; ++j) {
       const GipKernel& k = *kernels[static_cast<size_t>(j)];
-      block.col(j).head(m).array() += k.weights_(k.acceleration_.offset);
       k.apply_position_and_friction([z](int c) { return z[c]; }, Z, i0, m, block.col(j).head(m).array());
       out(j) += block.col(j).head(m).dot(alphas[static_cast<size_t>(j)]->segment(i0, m));
     }

@@ -1,5 +1,5 @@
 #pragma once
-// Internal, not a stable API: the GIP kernel's innermost loop in the widest
+// Internal, not a stable API: the GIP kernel's innermost loops in the widest
 // vector instructions of the CPU it runs on. The library and Eigen are compiled
 // for the baseline instruction set (eigen_abi.hpp says why); these loops touch
 // only raw arrays, so a copy of them compiled for AVX2 or AVX-512 shares no
@@ -25,5 +25,20 @@ void multiply_by_factor_pair(double* col, const double* u, const double* v, std:
 // untouched, where this CPU does not run that ISA.
 bool multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
                              const double p[3], const double q[3]);
+
+// out[i + j out_stride] = c[j] + W[j w_stride] a[i] + W[1 + j w_stride]
+// a[stride + i] + ... + W[count - 1 + j w_stride] a[(count - 1) stride + i]
+// for i < m and j < columns, added in that order: a product of count columns
+// of a column-major matrix a with a count x columns matrix W (column stride
+// w_stride), plus c, which is how a GIP kernel's row starts for every joint at
+// once (its acceleration factor). A BLAS product spends longer packing its
+// operands than multiplying at so few columns. Every ISA gives the same bits,
+// as above. out must not overlap the inputs.
+void set_affine_combinations(double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m, const double* c,
+                             const double* a, std::ptrdiff_t stride, const double* W, std::ptrdiff_t w_stride,
+                             int count);
+bool set_affine_combinations(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m,
+                             const double* c, const double* a, std::ptrdiff_t stride, const double* W,
+                             std::ptrdiff_t w_stride, int count);
 
 }  // namespace gipdyn::detail
