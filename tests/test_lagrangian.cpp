@@ -645,6 +645,41 @@ TEST(LagrangianEstimator, StartsRunSideBySideWithTheSequentialResult) {
   EXPECT_EQ(four.estimator->predict(test.X), one.estimator->predict(test.X));
 }
 
+// On a subsample, the search's last iteration is followed by the one long
+// step without iterations, conditioning on every row: a note says so and
+// what it factorises, so that a long log's fit does not fall silent.
+TEST(LagrangianEstimator, SaysWhenItConditionsOnEveryRowAfterASubsample) {
+  const SimulationResult train = small_scara(5, 40);
+  LagrangianOptions o;
+  o.search.optimizer.max_iterations = 3;
+  auto events_of = [&](int hyperparameter_rows) {
+    o.search.hyperparameter_rows = hyperparameter_rows;
+    std::mutex mu;
+    std::vector<ProgressEvent> events;
+    const auto fit = LagrangianEstimator::fit(train.X, train.tau, JointTypes::parse("RRPR"), o,
+                                              [&](const ProgressEvent& e) {
+                                                const std::lock_guard<std::mutex> lock(mu);
+                                                events.push_back(e);
+                                              });
+    EXPECT_TRUE(fit.report.ok()) << fit.report.message;
+    return events;
+  };
+  auto notes_in = [](const std::vector<ProgressEvent>& events) {
+    std::vector<std::string> notes;
+    for (const ProgressEvent& e : events)
+      if (e.iteration == 0 && !e.finished) notes.push_back(describe(e));
+    return notes;
+  };
+  const std::vector<ProgressEvent> subsampled = events_of(20);
+  const std::vector<std::string> notes = notes_in(subsampled);
+  ASSERT_EQ(notes.size(), 1u);
+  EXPECT_EQ(notes[0].rfind("lip conditioning on all 40 rows with the hyperparameters found (", 0), 0u) << notes[0];
+  const bool kernel_space = notes[0].find("one factorisation of a 160-square matrix") != std::string::npos;
+  EXPECT_TRUE(kernel_space || notes[0].find("in weight space") != std::string::npos) << notes[0];
+  EXPECT_EQ(subsampled.back().iteration, 0) << "the note comes after every iteration";
+  EXPECT_TRUE(notes_in(events_of(0)).empty()) << "without a subsample the search's fit is the final one";
+}
+
 // LIP learns every joint in one optimisation: its report and warnings speak
 // of that fit once, with each joint's own noise, not once per joint.
 TEST(LagrangianEstimator, ReportsItsOneCoupledFitOnce) {

@@ -26,6 +26,10 @@ struct ProgressEvent {
 // May be called from worker threads: the callback must be thread-safe.
 using ProgressCallback = std::function<void(const ProgressEvent&)>;
 
+// Sends a note (an event of iteration 0, which front ends print as it comes):
+// what a long step without iterations is doing. Nothing without a callback.
+void send_note(const ProgressCallback& progress, const std::string& estimator, const std::string& message);
+
 // One line describing the event, e.g. "gip joint 2 on 500 rows restart 1 iteration 40: NLL -1234.5 |grad| 0.012 (3.1 s)".
 std::string describe(const ProgressEvent& event);
 

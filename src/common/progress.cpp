@@ -42,4 +42,12 @@ std::string describe(const ProgressEvent& e) {
   return line;
 }
 
+void send_note(const ProgressCallback& progress, const std::string& estimator, const std::string& message) {
+  if (!progress) return;
+  ProgressEvent e;
+  e.estimator = estimator;
+  e.message = message;
+  progress(e);
+}
+
 }  // namespace gipdyn

@@ -3,6 +3,7 @@
 #include <algorithm>
 #include <chrono>
 #include <cmath>
+#include <cstdio>
 #include <limits>
 #include <vector>
 
@@ -425,6 +426,17 @@ LagrangianEstimator::FitOutcome LagrangianEstimator::fit(const Eigen::MatrixXd& 
   Evaluation final_fit;
   Eigen::VectorXd alpha;
   NllEvaluation weight_space_fit;
+  if (subsampled) {  // one step without iterations, the longest of a fit on a long log in kernel space
+    char at[32];
+    std::snprintf(at, sizeof at, "%.1f s", seconds());
+    send_note(progress, name,
+              "conditioning on all " + std::to_string(X.rows()) + " rows with the hyperparameters found (" +
+                  (final_space.weight_space
+                       ? std::string("in weight space")
+                       : "one factorisation of a " + std::to_string(static_cast<long>(X.rows()) * n) +
+                             "-square matrix") +
+                  ", " + at + ")");
+  }
   if (final_space.weight_space) {
     // Without a subsample the search's likelihood is the final fit's.
     const auto final_weight_space =

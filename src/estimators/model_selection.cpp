@@ -38,14 +38,6 @@ double mean_over_varying(const Eigen::VectorXd& nmse, const Eigen::VectorXd& var
   return count > 0 ? sum / count : 0.0;
 }
 
-void note(const ProgressCallback& progress, const std::string& estimator, const std::string& message) {
-  if (!progress) return;
-  ProgressEvent e;
-  e.estimator = estimator;
-  e.message = message;
-  progress(e);
-}
-
 // Per joint: `overall` (the choice by mean nMSE), unless the joint's lowest nMSE is below overall's on it divided
 // by `factor` (never where the joint's held-out torque is constant: no candidate can be told from another there);
 // then the first scored candidate, in the order of preference, within `tolerance` of that lowest nMSE. So a joint
@@ -229,7 +221,7 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
     c.name = names[k];
     if (scored_teacher && scored_teacher->name == c.name) {
       c = *scored_teacher;
-      note(progress, c.name, "scored as " + estimator_name(EstimatorFamily::Gp) + "'s teacher, fitted on the same rows");
+      send_note(progress, c.name, "scored as " + estimator_name(EstimatorFamily::Gp) + "'s teacher, fitted on the same rows");
     } else {
       const auto start = std::chrono::steady_clock::now();
       try {
@@ -237,7 +229,7 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
         check_estimator_options(o);
         const std::vector<Eigen::Index> fit = candidate_rows(c.name, s.fit_rows);
         c.fit_rows = static_cast<Eigen::Index>(fit.size());
-        note(progress, c.name,
+        send_note(progress, c.name,
              "candidate " + std::to_string(k + 1) + " of " + std::to_string(names.size()) + ": fitting on " +
                  std::to_string(c.fit_rows) + " of the first " + std::to_string(s.fit_rows) + " rows");
         const FitResult r = fit_estimator(o, X_fit(fit, Eigen::all), Y_fit(fit, Eigen::all), joints, progress);
@@ -264,9 +256,9 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
     if (c.ok) {
       char buf[96];
       std::snprintf(buf, sizeof buf, "held-out mean nMSE %.3g (%.1f s)", c.mean_nmse, c.seconds);
-      note(progress, c.name, buf);
+      send_note(progress, c.name, buf);
     } else {
-      note(progress, c.name, "no score: " + c.failure);
+      send_note(progress, c.name, "no score: " + c.failure);
     }
     s.candidates.push_back(std::move(c));
   }
@@ -300,7 +292,7 @@ SelectionResult fit_selected_estimator(const EstimatorOptions& base, const Selec
   for (const std::string& name : distinct) {
     const std::vector<Eigen::Index> refit = candidate_rows(name, rows);
     result.refit_rows = std::max(result.refit_rows, static_cast<Eigen::Index>(refit.size()));
-    note(progress, name,
+    send_note(progress, name,
          std::string(s.per_joint() ? "chosen for some joints" : "chosen") + "; fitting on " +
              std::to_string(refit.size()) + " of the log's " + std::to_string(rows) + " rows");
     fits.push_back(fit_estimator(candidate_options(name, base, teacher_settings), X(refit, Eigen::all),
