@@ -32,15 +32,15 @@ __attribute__((always_inline)) inline void factor_pair(double* col, const double
     factor_pair_loop<false>(col, u, v, m, p, q);
 }
 
-// kColumns of set_affine_combinations' outputs, kRows rows at a time: the
-// sums stay in registers while the input columns stream by once for all
-// outputs, as in a BLAS kernel but without its packing, which costs more than
-// the product at so few columns.
 // Four doubles, in one AVX register or two SSE2 ones: GCC's vector extension,
-// whose element-wise + and * are the scalar ones, lane by lane.
+// whose element-wise + and * are the scalar ones, lane by lane, so every copy
+// gives the scalar loop's bits.
 using Lanes = double __attribute__((vector_size(4 * sizeof(double))));
 constexpr int kLanes = 4;
 
+// kColumns of set_affine_combinations' outputs, kLanes rows at a time: the
+// sums stay in registers while each input column streams by once for all the
+// outputs, as in a BLAS kernel but without its packing.
 template <int kColumns>
 __attribute__((always_inline)) inline void affine_group(double* __restrict out, std::ptrdiff_t out_stride,
                                                         std::ptrdiff_t m, const double* c, const double* a,
