@@ -4,6 +4,8 @@
 
 #include <algorithm>
 #include <cmath>
+#include <optional>
+#include <string>
 
 #include "gipdyn/detail/factor_pair_product.hpp"
 #include "gipdyn/features.hpp"
@@ -432,6 +434,32 @@ TEST(FactorPairProduct, EveryInstructionSetThisCpuRunsGivesThePlainLoopsBits) {
   EXPECT_GE(compared, 14);  // the baseline at least, with and without v, at every length
 }
 
+// Runs `run(isa, out)` (false: the CPU lacks the ISA) from `start` for every
+// ISA, and the dispatched copy (`run(nullopt, out)`): each copy this CPU runs
+// must give `expected` exactly, and one it lacks must leave `start` alone.
+// Returns how many ISAs were compared.
+template <class Run>
+int expect_every_isa_gives(const Eigen::VectorXd& start, const Eigen::VectorXd& expected, const std::string& what,
+                           Run run) {
+  using detail::VectorIsa;
+  int compared = 0;
+  for (const VectorIsa isa : {VectorIsa::kBaseline, VectorIsa::kAvx2, VectorIsa::kAvx512}) {
+    const bool runs = static_cast<int>(isa) <= static_cast<int>(detail::cpu_vector_isa());
+    Eigen::VectorXd out = start;
+    EXPECT_EQ(run(std::optional<VectorIsa>(isa), out), runs) << what;
+    if (!runs) {
+      EXPECT_TRUE(out == start) << "an ISA the CPU lacks must leave the outputs untouched: " << what;
+      continue;
+    }
+    EXPECT_TRUE(out == expected) << detail::vector_isa_name(isa) << ", " << what;
+    ++compared;
+  }
+  Eigen::VectorXd dispatched = start;
+  run(std::optional<VectorIsa>(), dispatched);
+  EXPECT_TRUE(dispatched == expected) << "dispatched, " << what;
+  return compared;
+}
+
 // The acceleration factors of every joint's row at once, in each ISA's copy:
 // the bits of the plain sum in order, for any number of outputs (groups of
 // eight and a remainder) and lengths that leave vector tails.
@@ -453,22 +481,56 @@ TEST(AffineCombinations, EveryInstructionSetThisCpuRunsGivesThePlainSumsBits) {
             for (int d = 0; d < count; ++d) sum = sum + W(d + j * w_stride) * a(d * stride + i);
             expected(j * out_stride + i) = sum;
           }
-        for (const VectorIsa isa : {VectorIsa::kBaseline, VectorIsa::kAvx2, VectorIsa::kAvx512}) {
-          const bool runs = static_cast<int>(isa) <= static_cast<int>(detail::cpu_vector_isa());
-          Eigen::VectorXd out = untouched;
-          ASSERT_EQ(detail::set_affine_combinations(isa, out.data(), out_stride, columns, m, c.data(), a.data(), stride,
-                                                    W.data(), w_stride, count),
-                    runs);
-          ASSERT_TRUE(runs || out == untouched) << "an ISA the CPU lacks must leave the outputs untouched";
-          if (!runs) continue;
-          ASSERT_TRUE(out == expected) << detail::vector_isa_name(isa) << ", " << columns << " outputs, " << count
-                                       << " inputs, m = " << m;
-          ++compared;
-        }
-        Eigen::VectorXd dispatched = untouched;
-        detail::set_affine_combinations(dispatched.data(), out_stride, columns, m, c.data(), a.data(), stride,
-                                        W.data(), w_stride, count);
-        EXPECT_TRUE(dispatched == expected);
+        const std::string what =
+            std::to_string(columns) + " outputs, " + std::to_string(count) + " inputs, m = " + std::to_string(m);
+        compared += expect_every_isa_gives(untouched, expected, what, [&](std::optional<VectorIsa> isa, Eigen::VectorXd& out) {
+          if (!isa) {
+            detail::set_affine_combinations(out.data(), out_stride, columns, m, c.data(), a.data(), stride, W.data(),
+                                            w_stride, count);
+            return true;
+          }
+          return detail::set_affine_combinations(*isa, out.data(), out_stride, columns, m, c.data(), a.data(), stride,
+                                                 W.data(), w_stride, count);
+        });
+      }
+  EXPECT_GE(compared, 5 * 4 * 6);  // the baseline at least, on every shape
+}
+
+// The transposed product behind every joint's affine coefficients, in each
+// ISA's copy: the bits of four lane sums added in lane order, then the rows
+// past the last group of four, for odd and even input counts (pairs and a
+// remainder), groups of six outputs and a remainder, and lengths with tails.
+TEST(ColumnDotProducts, EveryInstructionSetThisCpuRunsGivesTheLaneSumsBits) {
+  using detail::VectorIsa;
+  int compared = 0;
+  for (const int columns : {1, 4, 6, 7, 13})
+    for (const int count : {1, 2, 5, 27})
+      for (const std::ptrdiff_t m : {0, 1, 3, 4, 13, 1001}) {
+        const std::ptrdiff_t stride = m + 5, u_stride = m + 2, out_stride = count + 3;
+        const Eigen::VectorXd a = random_vector(static_cast<int>(stride * count), -2.0, 2.0, 41),
+                              U = random_vector(static_cast<int>(u_stride * columns), -1.5, 1.5, 42),
+                              start = random_vector(static_cast<int>(out_stride * columns), -1.0, 1.0, 43);
+        Eigen::VectorXd expected = start;
+        for (int j = 0; j < columns; ++j)
+          for (int d = 0; d < count; ++d) {
+            double lane[4] = {0.0, 0.0, 0.0, 0.0};
+            const std::ptrdiff_t whole = m - m % 4;
+            for (std::ptrdiff_t i = 0; i < whole; ++i) lane[i % 4] = lane[i % 4] + a(d * stride + i) * U(j * u_stride + i);
+            double total = ((lane[0] + lane[1]) + lane[2]) + lane[3];
+            for (std::ptrdiff_t i = whole; i < m; ++i) total = total + a(d * stride + i) * U(j * u_stride + i);
+            expected(d + j * out_stride) = start(d + j * out_stride) + total;
+          }
+        const std::string what =
+            std::to_string(count) + " inputs, " + std::to_string(columns) + " columns, m = " + std::to_string(m);
+        compared += expect_every_isa_gives(start, expected, what, [&](std::optional<VectorIsa> isa, Eigen::VectorXd& out) {
+          if (!isa) {
+            detail::add_column_dot_products(out.data(), out_stride, count, columns, m, a.data(), stride, U.data(),
+                                            u_stride);
+            return true;
+          }
+          return detail::add_column_dot_products(*isa, out.data(), out_stride, count, columns, m, a.data(), stride,
+                                                 U.data(), u_stride);
+        });
       }
   EXPECT_GE(compared, 5 * 4 * 6);  // the baseline at least, on every shape
 }

@@ -88,7 +88,67 @@ __attribute__((always_inline)) inline void affine_combinations(double* out, std:
   }
 }
 
-// Each ISA's copy of both loops.
+// kInputs of add_column_dot_products' input columns against kColumns of its
+// columns of U, kLanes rows at a time: one lane sum per pair in a register,
+// each U column loaded once for the kInputs inputs. The lanes are then added
+// in lane order, and the rows after the last whole group of lanes one by one.
+template <int kInputs, int kColumns>
+__attribute__((always_inline)) inline void dot_group(double* out, std::ptrdiff_t out_stride, std::ptrdiff_t m,
+                                                     const double* a, std::ptrdiff_t stride, const double* U,
+                                                     std::ptrdiff_t u_stride) {
+  Lanes sum[kInputs][kColumns];
+  for (int d = 0; d < kInputs; ++d)
+    for (int j = 0; j < kColumns; ++j) sum[d][j] = Lanes{};
+  std::ptrdiff_t i = 0;
+  for (; i + kLanes <= m; i += kLanes) {
+    Lanes x[kInputs];
+    for (int d = 0; d < kInputs; ++d) __builtin_memcpy(&x[d], a + d * stride + i, sizeof x[d]);
+    for (int j = 0; j < kColumns; ++j) {
+      Lanes u;
+      __builtin_memcpy(&u, U + j * u_stride + i, sizeof u);
+      for (int d = 0; d < kInputs; ++d) sum[d][j] = sum[d][j] + x[d] * u;
+    }
+  }
+  for (int d = 0; d < kInputs; ++d)
+    for (int j = 0; j < kColumns; ++j) {
+      double total = ((sum[d][j][0] + sum[d][j][1]) + sum[d][j][2]) + sum[d][j][3];
+      for (std::ptrdiff_t r = i; r < m; ++r) total = total + a[d * stride + r] * U[j * u_stride + r];
+      out[d + j * out_stride] = out[d + j * out_stride] + total;
+    }
+}
+
+// Up to six columns of U at a time: with two inputs, twelve sums and three
+// loaded vectors fill an AVX2 CPU's sixteen registers.
+constexpr int kMaxDotColumns = 6;
+
+template <int kInputs>
+__attribute__((always_inline)) inline void dot_inputs(double* out, std::ptrdiff_t out_stride, int columns,
+                                                      std::ptrdiff_t m, const double* a, std::ptrdiff_t stride,
+                                                      const double* U, std::ptrdiff_t u_stride) {
+  for (int j0 = 0; j0 < columns; j0 += kMaxDotColumns) {
+    double* o = out + j0 * out_stride;
+    const double* Uj = U + j0 * u_stride;
+    switch (std::min(kMaxDotColumns, columns - j0)) {
+      case 1: dot_group<kInputs, 1>(o, out_stride, m, a, stride, Uj, u_stride); break;
+      case 2: dot_group<kInputs, 2>(o, out_stride, m, a, stride, Uj, u_stride); break;
+      case 3: dot_group<kInputs, 3>(o, out_stride, m, a, stride, Uj, u_stride); break;
+      case 4: dot_group<kInputs, 4>(o, out_stride, m, a, stride, Uj, u_stride); break;
+      case 5: dot_group<kInputs, 5>(o, out_stride, m, a, stride, Uj, u_stride); break;
+      default: dot_group<kInputs, kMaxDotColumns>(o, out_stride, m, a, stride, Uj, u_stride); break;
+    }
+  }
+}
+
+__attribute__((always_inline)) inline void column_dot_products(double* out, std::ptrdiff_t out_stride, int count,
+                                                               int columns, std::ptrdiff_t m, const double* a,
+                                                               std::ptrdiff_t stride, const double* U,
+                                                               std::ptrdiff_t u_stride) {
+  int d = 0;
+  for (; d + 2 <= count; d += 2) dot_inputs<2>(out + d, out_stride, columns, m, a + d * stride, stride, U, u_stride);
+  if (d < count) dot_inputs<1>(out + d, out_stride, columns, m, a + d * stride, stride, U, u_stride);
+}
+
+// Each ISA's copy of the loops.
 #define GIPDYN_LOOPS(ATTRIBUTE, SUFFIX)                                                                          \
   ATTRIBUTE void factor_pair_##SUFFIX(double* col, const double* u, const double* v, std::ptrdiff_t m,           \
                                       const double* p, const double* q) {                                       \
@@ -98,6 +158,10 @@ __attribute__((always_inline)) inline void affine_combinations(double* out, std:
                                  const double* c, const double* a, std::ptrdiff_t stride, const double* W,       \
                                  std::ptrdiff_t w_stride, int count) {                                          \
     affine_combinations(out, out_stride, columns, m, c, a, stride, W, w_stride, count);                         \
+  }                                                                                                             \
+  ATTRIBUTE void dots_##SUFFIX(double* out, std::ptrdiff_t out_stride, int count, int columns, std::ptrdiff_t m, \
+                               const double* a, std::ptrdiff_t stride, const double* U, std::ptrdiff_t u_stride) { \
+    column_dot_products(out, out_stride, count, columns, m, a, stride, U, u_stride);                            \
   }
 
 GIPDYN_LOOPS(, baseline)
@@ -137,6 +201,17 @@ void run_affine(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int colum
     case VectorIsa::kAvx2: return affine_avx2(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
 #endif
     default: return affine_baseline(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+  }
+}
+
+void run_dots(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int count, int columns, std::ptrdiff_t m,
+              const double* a, std::ptrdiff_t stride, const double* U, std::ptrdiff_t u_stride) {
+  switch (isa) {
+#ifdef GIPDYN_HAVE_WIDE_VECTORS
+    case VectorIsa::kAvx512: return dots_avx512(out, out_stride, count, columns, m, a, stride, U, u_stride);
+    case VectorIsa::kAvx2: return dots_avx2(out, out_stride, count, columns, m, a, stride, U, u_stride);
+#endif
+    default: return dots_baseline(out, out_stride, count, columns, m, a, stride, U, u_stride);
   }
 }
 
@@ -180,6 +255,19 @@ void set_affine_combinations(double* out, std::ptrdiff_t out_stride, int columns
                              const double* a, std::ptrdiff_t stride, const double* W, std::ptrdiff_t w_stride,
                              int count) {
   run_affine(cpu_vector_isa(), out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+}
+
+bool add_column_dot_products(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int count, int columns,
+                             std::ptrdiff_t m, const double* a, std::ptrdiff_t stride, const double* U,
+                             std::ptrdiff_t u_stride) {
+  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
+  run_dots(isa, out, out_stride, count, columns, m, a, stride, U, u_stride);
+  return true;
+}
+
+void add_column_dot_products(double* out, std::ptrdiff_t out_stride, int count, int columns, std::ptrdiff_t m,
+                             const double* a, std::ptrdiff_t stride, const double* U, std::ptrdiff_t u_stride) {
+  run_dots(cpu_vector_isa(), out, out_stride, count, columns, m, a, stride, U, u_stride);
 }
 
 }  // namespace gipdyn::detail

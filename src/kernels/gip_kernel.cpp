@@ -327,7 +327,8 @@ void GipKernel::affine_coefficients(const std::vector<const GipKernel*>& kernels
       k.apply_position([z](int c) { return z[c]; }, Z, i0, m, u);
       coeff(0, j) += u.sum();
     }
-    coeff.block(1, 0, na, J).noalias() += Z.block(i0, a0, m, na).transpose() * U.topRows(m);
+    detail::add_column_dot_products(coeff.data() + 1, coeff.outerStride(), static_cast<int>(na), static_cast<int>(J), m,
+                                    Z.col(a0).data() + i0, Z.outerStride(), U.data(), U.outerStride());  // Z_acc' U
   }
   for (Eigen::Index j = 0; j < J; ++j) {
     const GipKernel& k = *kernels[static_cast<size_t>(j)];

@@ -40,5 +40,16 @@ void set_affine_combinations(double* out, std::ptrdiff_t out_stride, int columns
 bool set_affine_combinations(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m,
                              const double* c, const double* a, std::ptrdiff_t stride, const double* W,
                              std::ptrdiff_t w_stride, int count);
+// out[d + j out_stride] += the dot product of a's column d (a[d stride + i],
+// i < m) with U's column j (U[j u_stride + i]), for d < count and j < columns:
+// a transposed product, which is how the affine coefficients of every
+// joint's GIP prediction are summed. Each dot product runs in four lanes
+// (rows i = l mod 4 in lane l), added in lane order, then the last m mod 4
+// rows in order: the same bits on every ISA. out must not overlap the inputs.
+void add_column_dot_products(double* out, std::ptrdiff_t out_stride, int count, int columns, std::ptrdiff_t m,
+                             const double* a, std::ptrdiff_t stride, const double* U, std::ptrdiff_t u_stride);
+bool add_column_dot_products(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int count, int columns,
+                             std::ptrdiff_t m, const double* a, std::ptrdiff_t stride, const double* U,
+                             std::ptrdiff_t u_stride);
 
 }  // namespace gipdyn::detail
