@@ -181,39 +181,26 @@ VectorIsa detect() {
   return VectorIsa::kBaseline;
 }
 
+// A loop's three copies, in VectorIsa's order (baseline, AVX2, AVX-512);
+// without wide vectors, the baseline copy three times.
+#ifdef GIPDYN_HAVE_WIDE_VECTORS
+#define GIPDYN_COPIES(LOOP) LOOP##_baseline, LOOP##_avx2, LOOP##_avx512
+#else
+#define GIPDYN_COPIES(LOOP) LOOP##_baseline, LOOP##_baseline, LOOP##_baseline
+#endif
+
 // The copy of a loop for an ISA, which the caller knows this CPU runs.
-void run_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m, const double* p,
-                     const double* q) {
+template <class Loop>
+Loop* copy_for(VectorIsa isa, Loop* baseline, Loop* avx2, Loop* avx512) {
   switch (isa) {
-#ifdef GIPDYN_HAVE_WIDE_VECTORS
-    case VectorIsa::kAvx512: return factor_pair_avx512(col, u, v, m, p, q);
-    case VectorIsa::kAvx2: return factor_pair_avx2(col, u, v, m, p, q);
-#endif
-    default: return factor_pair_baseline(col, u, v, m, p, q);
+    case VectorIsa::kAvx512: return avx512;
+    case VectorIsa::kAvx2: return avx2;
+    case VectorIsa::kBaseline: break;
   }
+  return baseline;
 }
 
-void run_affine(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m, const double* c,
-                const double* a, std::ptrdiff_t stride, const double* W, std::ptrdiff_t w_stride, int count) {
-  switch (isa) {
-#ifdef GIPDYN_HAVE_WIDE_VECTORS
-    case VectorIsa::kAvx512: return affine_avx512(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
-    case VectorIsa::kAvx2: return affine_avx2(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
-#endif
-    default: return affine_baseline(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
-  }
-}
-
-void run_dots(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int count, int columns, std::ptrdiff_t m,
-              const double* a, std::ptrdiff_t stride, const double* U, std::ptrdiff_t u_stride) {
-  switch (isa) {
-#ifdef GIPDYN_HAVE_WIDE_VECTORS
-    case VectorIsa::kAvx512: return dots_avx512(out, out_stride, count, columns, m, a, stride, U, u_stride);
-    case VectorIsa::kAvx2: return dots_avx2(out, out_stride, count, columns, m, a, stride, U, u_stride);
-#endif
-    default: return dots_baseline(out, out_stride, count, columns, m, a, stride, U, u_stride);
-  }
-}
+bool runs_on_this_cpu(VectorIsa isa) { return static_cast<int>(isa) <= static_cast<int>(cpu_vector_isa()); }
 
 }  // namespace
 
@@ -233,41 +220,43 @@ const char* vector_isa_name(VectorIsa isa) {
 
 bool multiply_by_factor_pair(VectorIsa isa, double* col, const double* u, const double* v, std::ptrdiff_t m,
                              const double p[3], const double q[3]) {
-  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
-  run_factor_pair(isa, col, u, v, m, p, q);
+  if (!runs_on_this_cpu(isa)) return false;
+  copy_for(isa, GIPDYN_COPIES(factor_pair))(col, u, v, m, p, q);
   return true;
 }
 
 void multiply_by_factor_pair(double* col, const double* u, const double* v, std::ptrdiff_t m, const double p[3],
                              const double q[3]) {
-  run_factor_pair(cpu_vector_isa(), col, u, v, m, p, q);
+  multiply_by_factor_pair(cpu_vector_isa(), col, u, v, m, p, q);
 }
 
 bool set_affine_combinations(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m,
                              const double* c, const double* a, std::ptrdiff_t stride, const double* W,
                              std::ptrdiff_t w_stride, int count) {
-  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
-  run_affine(isa, out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+  if (!runs_on_this_cpu(isa)) return false;
+  copy_for(isa, GIPDYN_COPIES(affine))(out, out_stride, columns, m, c, a, stride, W, w_stride, count);
   return true;
 }
 
 void set_affine_combinations(double* out, std::ptrdiff_t out_stride, int columns, std::ptrdiff_t m, const double* c,
                              const double* a, std::ptrdiff_t stride, const double* W, std::ptrdiff_t w_stride,
                              int count) {
-  run_affine(cpu_vector_isa(), out, out_stride, columns, m, c, a, stride, W, w_stride, count);
+  set_affine_combinations(cpu_vector_isa(), out, out_stride, columns, m, c, a, stride, W, w_stride, count);
 }
 
 bool add_column_dot_products(VectorIsa isa, double* out, std::ptrdiff_t out_stride, int count, int columns,
                              std::ptrdiff_t m, const double* a, std::ptrdiff_t stride, const double* U,
                              std::ptrdiff_t u_stride) {
-  if (static_cast<int>(isa) > static_cast<int>(cpu_vector_isa())) return false;
-  run_dots(isa, out, out_stride, count, columns, m, a, stride, U, u_stride);
+  if (!runs_on_this_cpu(isa)) return false;
+  copy_for(isa, GIPDYN_COPIES(dots))(out, out_stride, count, columns, m, a, stride, U, u_stride);
   return true;
 }
 
 void add_column_dot_products(double* out, std::ptrdiff_t out_stride, int count, int columns, std::ptrdiff_t m,
                              const double* a, std::ptrdiff_t stride, const double* U, std::ptrdiff_t u_stride) {
-  run_dots(cpu_vector_isa(), out, out_stride, count, columns, m, a, stride, U, u_stride);
+  add_column_dot_products(cpu_vector_isa(), out, out_stride, count, columns, m, a, stride, U, u_stride);
 }
+
+#undef GIPDYN_COPIES
 
 }  // namespace gipdyn::detail
